@@ -1,0 +1,327 @@
+//! Diagnostics as plain data, and the source map they point into.
+//!
+//! Front-end passes never fail: they return a value plus a list of
+//! [`Diagnostic`]s. Rendering for people (with codespan-reporting) or as JSON
+//! happens only at the edge, through [`render_text`] and [`to_json`].
+
+use codespan_reporting::diagnostic as cs;
+use codespan_reporting::files::SimpleFiles;
+use codespan_reporting::term;
+use serde::Serialize;
+use std::ops::Range;
+
+/// Index of a source file in a [`SourceMap`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct FileId(pub u32);
+
+/// A byte range in one source file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Span {
+    pub file: FileId,
+    pub start: u32,
+    pub end: u32,
+}
+
+impl Span {
+    pub fn new(file: FileId, start: usize, end: usize) -> Span {
+        Span { file, start: start as u32, end: end as u32 }
+    }
+
+    /// The smallest span covering both (which must be in the same file).
+    pub fn to(self, other: Span) -> Span {
+        Span { file: self.file, start: self.start.min(other.start), end: self.end.max(other.end) }
+    }
+
+    pub fn range(self) -> Range<usize> {
+        self.start as usize..self.end as usize
+    }
+}
+
+/// The source texts of a program, by [`FileId`].
+#[derive(Debug, Clone, Default)]
+pub struct SourceMap {
+    files: Vec<SourceFileText>,
+}
+
+#[derive(Debug, Clone)]
+struct SourceFileText {
+    name: String,
+    text: String,
+    line_starts: Vec<usize>,
+}
+
+impl SourceMap {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
+        let text = text.into();
+        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i + 1)).collect();
+        self.files.push(SourceFileText { name: name.into(), text, line_starts });
+        FileId(self.files.len() as u32 - 1)
+    }
+
+    pub fn name(&self, id: FileId) -> &str {
+        &self.files[id.0 as usize].name
+    }
+
+    pub fn text(&self, id: FileId) -> &str {
+        &self.files[id.0 as usize].text
+    }
+
+    pub fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.files.is_empty()
+    }
+
+    /// The 1-based line and column (in characters) of a byte offset.
+    pub fn line_col(&self, id: FileId, offset: u32) -> (usize, usize) {
+        let file = &self.files[id.0 as usize];
+        let offset = (offset as usize).min(file.text.len());
+        let line = file.line_starts.partition_point(|&s| s <= offset) - 1;
+        let start = file.line_starts[line];
+        let col = file.text.get(start..offset).map_or(offset - start, |s| s.chars().count());
+        (line + 1, col + 1)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    Warning,
+    Error,
+}
+
+/// A secondary location with a message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Label {
+    pub span: Span,
+    pub message: String,
+}
+
+/// One message for the user: a primary location, optional secondary labels
+/// and an optional help line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnostic {
+    pub severity: Severity,
+    pub message: String,
+    pub span: Span,
+    /// Text under the primary caret; often empty.
+    pub primary_label: String,
+    pub labels: Vec<Label>,
+    pub help: Option<String>,
+    pub notes: Vec<String>,
+}
+
+impl Diagnostic {
+    pub fn error(span: Span, message: impl Into<String>) -> Self {
+        Diagnostic {
+            severity: Severity::Error,
+            message: message.into(),
+            span,
+            primary_label: String::new(),
+            labels: Vec::new(),
+            help: None,
+            notes: Vec::new(),
+        }
+    }
+
+    pub fn warning(span: Span, message: impl Into<String>) -> Self {
+        Diagnostic { severity: Severity::Warning, ..Diagnostic::error(span, message) }
+    }
+
+    /// Text under the primary caret.
+    pub fn with_primary(mut self, label: impl Into<String>) -> Self {
+        self.primary_label = label.into();
+        self
+    }
+
+    pub fn with_label(mut self, span: Span, message: impl Into<String>) -> Self {
+        self.labels.push(Label { span, message: message.into() });
+        self
+    }
+
+    pub fn with_help(mut self, help: impl Into<String>) -> Self {
+        self.help = Some(help.into());
+        self
+    }
+
+    pub fn with_note(mut self, note: impl Into<String>) -> Self {
+        self.notes.push(note.into());
+        self
+    }
+
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+/// Whether rendered text uses ANSI colours.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Colors {
+    Never,
+    Always,
+}
+
+/// Renders diagnostics as rustc-style text: `file:line:col`, the source
+/// line, carets, labels, help.
+pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) -> String {
+    let mut files = SimpleFiles::new();
+    for i in 0..sources.len() {
+        let id = FileId(i as u32);
+        files.add(sources.name(id).to_string(), sources.text(id).to_string());
+    }
+    let config = term::Config::default();
+    let mut out: Vec<u8> = Vec::new();
+    for d in diags {
+        let cs_diag = to_codespan(d);
+        // Writing into a Vec cannot fail; a bad span could, and then the
+        // plain one-line form below still tells the user what happened.
+        let ok = match colors {
+            Colors::Never => {
+                let mut w = term::termcolor::NoColor::new(&mut out);
+                term::emit(&mut w, &config, &files, &cs_diag).is_ok()
+            }
+            Colors::Always => {
+                let mut w = term::termcolor::Ansi::new(&mut out);
+                term::emit(&mut w, &config, &files, &cs_diag).is_ok()
+            }
+        };
+        if !ok {
+            let (line, col) = sources.line_col(d.span.file, d.span.start);
+            out.extend(format!("error: {}\n  at {}:{line}:{col}\n", d.message, sources.name(d.span.file)).bytes());
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+fn to_codespan(d: &Diagnostic) -> cs::Diagnostic<usize> {
+    let severity = match d.severity {
+        Severity::Error => cs::Severity::Error,
+        Severity::Warning => cs::Severity::Warning,
+    };
+    let mut labels = vec![cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label)];
+    labels.extend(
+        d.labels.iter().map(|l| cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)),
+    );
+    let mut notes: Vec<String> = d.notes.clone();
+    if let Some(help) = &d.help {
+        notes.push(format!("help: {help}"));
+    }
+    cs::Diagnostic::new(severity).with_message(&d.message).with_labels(labels).with_notes(notes)
+}
+
+/// One diagnostic as the JSON object `--message-format json` prints.
+#[derive(Debug, Serialize)]
+pub struct JsonDiagnostic<'a> {
+    pub severity: Severity,
+    pub message: &'a str,
+    pub file: &'a str,
+    pub line: usize,
+    pub column: usize,
+    pub end_line: usize,
+    pub end_column: usize,
+    pub byte_start: u32,
+    pub byte_end: u32,
+    pub labels: Vec<JsonLabel<'a>>,
+    pub help: Option<&'a str>,
+    pub notes: &'a [String],
+}
+
+#[derive(Debug, Serialize)]
+pub struct JsonLabel<'a> {
+    pub message: &'a str,
+    pub file: &'a str,
+    pub line: usize,
+    pub column: usize,
+    pub byte_start: u32,
+    pub byte_end: u32,
+}
+
+/// The JSON form of one diagnostic, on one line.
+pub fn to_json(sources: &SourceMap, d: &Diagnostic) -> String {
+    let (line, column) = sources.line_col(d.span.file, d.span.start);
+    let (end_line, end_column) = sources.line_col(d.span.file, d.span.end);
+    let labels = d
+        .labels
+        .iter()
+        .map(|l| {
+            let (line, column) = sources.line_col(l.span.file, l.span.start);
+            JsonLabel {
+                message: &l.message,
+                file: sources.name(l.span.file),
+                line,
+                column,
+                byte_start: l.span.start,
+                byte_end: l.span.end,
+            }
+        })
+        .collect();
+    let json = JsonDiagnostic {
+        severity: d.severity,
+        message: &d.message,
+        file: sources.name(d.span.file),
+        line,
+        column,
+        end_line,
+        end_column,
+        byte_start: d.span.start,
+        byte_end: d.span.end,
+        labels,
+        help: d.help.as_deref(),
+        notes: &d.notes,
+    };
+    serde_json::to_string(&json).unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
+}
+
+/// Edit distance, for "did you mean" suggestions.
+fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(row[j + 1] + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// The candidate closest to `name`, if it is close enough to be a likely typo.
+pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    let limit = (name.chars().count() / 3).max(1);
+    candidates
+        .into_iter()
+        .filter(|c| *c != name)
+        .map(|c| (levenshtein(&name.to_lowercase(), &c.to_lowercase()), c))
+        .filter(|(d, _)| *d <= limit)
+        .min_by_key(|(d, c)| (*d, *c))
+        .map(|(_, c)| c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_col_counts_characters() {
+        let mut sm = SourceMap::new();
+        let f = sm.add("a.tsl", "ab\nçd e\n");
+        assert_eq!(sm.line_col(f, 0), (1, 1));
+        assert_eq!(sm.line_col(f, 3), (2, 1));
+        assert_eq!(sm.line_col(f, 6), (2, 3)); // after the two-byte ç and d
+    }
+
+    #[test]
+    fn suggestions_are_close_names_only() {
+        assert_eq!(did_you_mean("normalise", ["normalize", "noise"]), Some("normalize"));
+        assert_eq!(did_you_mean("xyz", ["normalize"]), None);
+    }
+}

@@ -1,0 +1,361 @@
+//! The spanned syntax tree. It knows nothing of types: `check` gives it meaning.
+//!
+//! Invariant: every expression and statement knows its nesting depth, and the
+//! parser refuses trees deeper than [`MAX_NESTING`], so every recursive pass
+//! over the tree (checking, lowering, dropping) runs in bounded stack.
+
+use crate::diag::Span;
+
+/// The deepest nesting of expressions or statements the parser accepts.
+pub const MAX_NESTING: u32 = 256;
+
+/// A name with the span where it is written.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ident {
+    pub name: String,
+    pub span: Span,
+}
+
+/// One parsed `.tsl` file.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SourceFile {
+    pub items: Vec<Item>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Item {
+    /// `import "file.tsl";`
+    Import { path: String, span: Span },
+    /// `float rings(float scale = 8) { ... }`
+    Function(Function),
+    /// `material phong(params) { methods }`: a material model.
+    Material(MaterialDef),
+    /// `material wood = mix(...);` or, with parameters, a texture-tree template
+    /// `material checkered(material a, material b) = mix(checker(), a, b);`
+    MaterialTree(MaterialTree),
+    /// `const float PI = 3.14159;`
+    Const(ConstDef),
+    /// `scene { ... }`
+    Scene(Scene),
+}
+
+/// The written form of a type: a base type, optionally an array of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TypeExpr {
+    pub base: BaseType,
+    /// `float[4]`: the length and the span of `[4]`.
+    pub array_len: Option<(u32, Span)>,
+    pub span: Span,
+}
+
+/// The type keywords.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BaseType {
+    Float,
+    Int,
+    Bool,
+    Color,
+    Vector,
+    Point,
+    Normal,
+    Vec2,
+    Matrix,
+    String,
+    Material,
+    Void,
+}
+
+impl BaseType {
+    pub fn keyword(self) -> &'static str {
+        match self {
+            BaseType::Float => "float",
+            BaseType::Int => "int",
+            BaseType::Bool => "bool",
+            BaseType::Color => "color",
+            BaseType::Vector => "vector",
+            BaseType::Point => "point",
+            BaseType::Normal => "normal",
+            BaseType::Vec2 => "vec2",
+            BaseType::Matrix => "matrix",
+            BaseType::String => "string",
+            BaseType::Material => "material",
+            BaseType::Void => "void",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Param {
+    pub ty: TypeExpr,
+    pub name: Ident,
+    pub default: Option<Expr>,
+    pub span: Span,
+}
+
+/// A function, or a method inside a material definition.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Function {
+    pub ret: TypeExpr,
+    pub name: Ident,
+    pub params: Vec<Param>,
+    pub body: Block,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialDef {
+    pub name: Ident,
+    pub params: Vec<Param>,
+    pub methods: Vec<Function>,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialTree {
+    pub name: Ident,
+    /// `None` for a plain binding `material m = ...;`.
+    pub params: Option<Vec<Param>>,
+    pub body: Expr,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConstDef {
+    pub ty: TypeExpr,
+    pub name: Ident,
+    pub value: Expr,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    pub entries: Vec<SceneEntry>,
+    pub span: Span,
+}
+
+/// `camera { ... }`, `light point { ... }`, `object sphere { ... }` or a
+/// property such as `background rgb(0, 0, 0);`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SceneEntry {
+    Block(SceneBlock),
+    Prop(SceneProp),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneBlock {
+    /// `camera`, `light`, `object`, `render`.
+    pub keyword: Ident,
+    /// `point` in `light point`, `sphere` in `object sphere`.
+    pub kind: Option<Ident>,
+    pub props: Vec<SceneProp>,
+    pub span: Span,
+}
+
+/// `name value;` inside a scene block; the value is optional for flags.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneProp {
+    pub name: Ident,
+    pub value: Option<Expr>,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    pub stmts: Vec<Stmt>,
+    pub span: Span,
+    pub depth: u32,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stmt {
+    pub kind: StmtKind,
+    pub span: Span,
+    pub depth: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AssignOp {
+    Set,
+    Add,
+    Sub,
+    Mul,
+    Div,
+}
+
+impl AssignOp {
+    /// The binary operator a compound assignment applies.
+    pub fn binary(self) -> Option<BinaryOp> {
+        match self {
+            AssignOp::Set => None,
+            AssignOp::Add => Some(BinaryOp::Add),
+            AssignOp::Sub => Some(BinaryOp::Sub),
+            AssignOp::Mul => Some(BinaryOp::Mul),
+            AssignOp::Div => Some(BinaryOp::Div),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum StmtKind {
+    /// `float x = 1;` (a declaration without initialiser starts at zero).
+    Let { ty: TypeExpr, name: Ident, init: Option<Expr> },
+    /// `x = e;`, `c.x += e;`, `a[i] *= e;`
+    Assign { target: Expr, op: AssignOp, value: Expr },
+    Expr(Expr),
+    If { cond: Expr, then_block: Block, else_branch: Option<Box<Stmt>> },
+    /// `for i in lo..hi { ... }`: `i` runs over `lo, lo+1, ..., hi-1`.
+    For { var: Ident, start: Expr, end: Expr, body: Block },
+    /// Parsed so the checker can explain why it is refused.
+    While { cond: Expr, body: Block },
+    Break,
+    Continue,
+    Return(Option<Expr>),
+    Block(Block),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expr {
+    pub kind: ExprKind,
+    pub span: Span,
+    pub depth: u32,
+}
+
+/// A call argument, positional or `name: value`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Arg {
+    pub name: Option<Ident>,
+    pub value: Expr,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum UnaryOp {
+    Neg,
+    Not,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BinaryOp {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Rem,
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    And,
+    Or,
+}
+
+impl BinaryOp {
+    pub fn symbol(self) -> &'static str {
+        match self {
+            BinaryOp::Add => "+",
+            BinaryOp::Sub => "-",
+            BinaryOp::Mul => "*",
+            BinaryOp::Div => "/",
+            BinaryOp::Rem => "%",
+            BinaryOp::Eq => "==",
+            BinaryOp::Ne => "!=",
+            BinaryOp::Lt => "<",
+            BinaryOp::Le => "<=",
+            BinaryOp::Gt => ">",
+            BinaryOp::Ge => ">=",
+            BinaryOp::And => "&&",
+            BinaryOp::Or => "||",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExprKind {
+    Int(i32),
+    Float(f64),
+    Bool(bool),
+    Str(String),
+    Name(String),
+    /// `f(a, name: b)`; also builtins and material instances.
+    Call { callee: Ident, args: Vec<Arg> },
+    /// `vector(1, 0, 0)`, `vec2(u, v)`: a type keyword used as a constructor.
+    Construct { ty: BaseType, ty_span: Span, args: Vec<Arg> },
+    Member { base: Box<Expr>, field: Ident },
+    Index { base: Box<Expr>, index: Box<Expr> },
+    Unary { op: UnaryOp, operand: Box<Expr> },
+    Binary { op: BinaryOp, lhs: Box<Expr>, rhs: Box<Expr> },
+    Ternary { cond: Box<Expr>, then_expr: Box<Expr>, else_expr: Box<Expr> },
+    /// `[a, b, c]`
+    Array(Vec<Expr>),
+    /// `(x, y, z)`: a vector, point or vec2 written as a tuple.
+    Tuple(Vec<Expr>),
+}
+
+impl ExprKind {
+    /// The deepest nesting among the direct children.
+    fn child_depth(&self) -> u32 {
+        let args = |args: &[Arg]| args.iter().map(|a| a.value.depth).max().unwrap_or(0);
+        let exprs = |es: &[Expr]| es.iter().map(|e| e.depth).max().unwrap_or(0);
+        match self {
+            ExprKind::Int(_) | ExprKind::Float(_) | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Name(_) => 0,
+            ExprKind::Call { args: a, .. } | ExprKind::Construct { args: a, .. } => args(a),
+            ExprKind::Member { base, .. } => base.depth,
+            ExprKind::Index { base, index } => base.depth.max(index.depth),
+            ExprKind::Unary { operand, .. } => operand.depth,
+            ExprKind::Binary { lhs, rhs, .. } => lhs.depth.max(rhs.depth),
+            ExprKind::Ternary { cond, then_expr, else_expr } => {
+                cond.depth.max(then_expr.depth).max(else_expr.depth)
+            }
+            ExprKind::Array(es) | ExprKind::Tuple(es) => exprs(es),
+        }
+    }
+}
+
+/// The nesting limit was exceeded at this span.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TooDeep(pub Span);
+
+impl Expr {
+    /// Builds a node, refusing one nested deeper than [`MAX_NESTING`].
+    pub fn new(kind: ExprKind, span: Span) -> Result<Expr, TooDeep> {
+        let depth = kind.child_depth() + 1;
+        if depth > MAX_NESTING {
+            return Err(TooDeep(span));
+        }
+        Ok(Expr { kind, span, depth })
+    }
+}
+
+impl Block {
+    pub fn new(stmts: Vec<Stmt>, span: Span) -> Result<Block, TooDeep> {
+        let depth = stmts.iter().map(|s| s.depth).max().unwrap_or(0) + 1;
+        if depth > MAX_NESTING {
+            return Err(TooDeep(span));
+        }
+        Ok(Block { stmts, span, depth })
+    }
+}
+
+impl Stmt {
+    pub fn new(kind: StmtKind, span: Span) -> Result<Stmt, TooDeep> {
+        let depth = 1 + match &kind {
+            StmtKind::Let { init, .. } => init.as_ref().map_or(0, |e| e.depth),
+            StmtKind::Assign { target, value, .. } => target.depth.max(value.depth),
+            StmtKind::Expr(e) => e.depth,
+            StmtKind::If { cond, then_block, else_branch } => cond
+                .depth
+                .max(then_block.depth)
+                .max(else_branch.as_ref().map_or(0, |s| s.depth)),
+            StmtKind::For { start, end, body, .. } => start.depth.max(end.depth).max(body.depth),
+            StmtKind::While { cond, body } => cond.depth.max(body.depth),
+            StmtKind::Break | StmtKind::Continue => 0,
+            StmtKind::Return(e) => e.as_ref().map_or(0, |e| e.depth),
+            StmtKind::Block(b) => b.depth,
+        };
+        if depth > MAX_NESTING {
+            return Err(TooDeep(span));
+        }
+        Ok(Stmt { kind, span, depth })
+    }
+}
