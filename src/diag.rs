@@ -24,12 +24,20 @@ pub struct Span {
 
 impl Span {
     pub fn new(file: FileId, start: usize, end: usize) -> Span {
-        Span { file, start: start as u32, end: end as u32 }
+        Span {
+            file,
+            start: start as u32,
+            end: end as u32,
+        }
     }
 
     /// The smallest span covering both (which must be in the same file).
     pub fn to(self, other: Span) -> Span {
-        Span { file: self.file, start: self.start.min(other.start), end: self.end.max(other.end) }
+        Span {
+            file: self.file,
+            start: self.start.min(other.start),
+            end: self.end.max(other.end),
+        }
     }
 
     pub fn range(self) -> Range<usize> {
@@ -57,8 +65,14 @@ impl SourceMap {
 
     pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
         let text = text.into();
-        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i + 1)).collect();
-        self.files.push(SourceFileText { name: name.into(), text, line_starts });
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        self.files.push(SourceFileText {
+            name: name.into(),
+            text,
+            line_starts,
+        });
         FileId(self.files.len() as u32 - 1)
     }
 
@@ -84,7 +98,10 @@ impl SourceMap {
         let offset = (offset as usize).min(file.text.len());
         let line = file.line_starts.partition_point(|&s| s <= offset) - 1;
         let start = file.line_starts[line];
-        let col = file.text.get(start..offset).map_or(offset - start, |s| s.chars().count());
+        let col = file
+            .text
+            .get(start..offset)
+            .map_or(offset - start, |s| s.chars().count());
         (line + 1, col + 1)
     }
 }
@@ -131,7 +148,10 @@ impl Diagnostic {
     }
 
     pub fn warning(span: Span, message: impl Into<String>) -> Self {
-        Diagnostic { severity: Severity::Warning, ..Diagnostic::error(span, message) }
+        Diagnostic {
+            severity: Severity::Warning,
+            ..Diagnostic::error(span, message)
+        }
     }
 
     /// Text under the primary caret.
@@ -141,7 +161,10 @@ impl Diagnostic {
     }
 
     pub fn with_label(mut self, span: Span, message: impl Into<String>) -> Self {
-        self.labels.push(Label { span, message: message.into() });
+        self.labels.push(Label {
+            span,
+            message: message.into(),
+        });
         self
     }
 
@@ -193,7 +216,14 @@ pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) ->
         };
         if !ok {
             let (line, col) = sources.line_col(d.span.file, d.span.start);
-            out.extend(format!("error: {}\n  at {}:{line}:{col}\n", d.message, sources.name(d.span.file)).bytes());
+            out.extend(
+                format!(
+                    "error: {}\n  at {}:{line}:{col}\n",
+                    d.message,
+                    sources.name(d.span.file)
+                )
+                .bytes(),
+            );
         }
     }
     String::from_utf8_lossy(&out).into_owned()
@@ -204,15 +234,20 @@ fn to_codespan(d: &Diagnostic) -> cs::Diagnostic<usize> {
         Severity::Error => cs::Severity::Error,
         Severity::Warning => cs::Severity::Warning,
     };
-    let mut labels = vec![cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label)];
-    labels.extend(
-        d.labels.iter().map(|l| cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)),
-    );
+    let mut labels = vec![
+        cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label),
+    ];
+    labels.extend(d.labels.iter().map(|l| {
+        cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)
+    }));
     let mut notes: Vec<String> = d.notes.clone();
     if let Some(help) = &d.help {
         notes.push(format!("help: {help}"));
     }
-    cs::Diagnostic::new(severity).with_message(&d.message).with_labels(labels).with_notes(notes)
+    cs::Diagnostic::new(severity)
+        .with_message(&d.message)
+        .with_labels(labels)
+        .with_notes(notes)
 }
 
 /// One diagnostic as the JSON object `--message-format json` prints.
@@ -275,7 +310,8 @@ pub fn to_json(sources: &SourceMap, d: &Diagnostic) -> String {
         help: d.help.as_deref(),
         notes: &d.notes,
     };
-    serde_json::to_string(&json).unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
+    serde_json::to_string(&json)
+        .unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
 }
 
 /// Edit distance, for "did you mean" suggestions.
@@ -287,7 +323,9 @@ fn levenshtein(a: &str, b: &str) -> usize {
         row[0] = i + 1;
         for (j, &cb) in b.iter().enumerate() {
             let cur = row[j + 1];
-            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(row[j + 1] + 1);
+            row[j + 1] = (prev + usize::from(ca != cb))
+                .min(row[j] + 1)
+                .min(row[j + 1] + 1);
             prev = cur;
         }
     }
@@ -295,7 +333,10 @@ fn levenshtein(a: &str, b: &str) -> usize {
 }
 
 /// The candidate closest to `name`, if it is close enough to be a likely typo.
-pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+pub fn did_you_mean<'a>(
+    name: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
     let limit = (name.chars().count() / 3).max(1);
     candidates
         .into_iter()
@@ -321,7 +362,10 @@ mod tests {
 
     #[test]
     fn suggestions_are_close_names_only() {
-        assert_eq!(did_you_mean("normalise", ["normalize", "noise"]), Some("normalize"));
+        assert_eq!(
+            did_you_mean("normalise", ["normalize", "noise"]),
+            Some("normalize")
+        );
         assert_eq!(did_you_mean("xyz", ["normalize"]), None);
     }
 }

@@ -198,15 +198,35 @@ impl AssignOp {
 #[derive(Debug, Clone, PartialEq)]
 pub enum StmtKind {
     /// `float x = 1;` (a declaration without initialiser starts at zero).
-    Let { ty: TypeExpr, name: Ident, init: Option<Expr> },
+    Let {
+        ty: TypeExpr,
+        name: Ident,
+        init: Option<Expr>,
+    },
     /// `x = e;`, `c.x += e;`, `a[i] *= e;`
-    Assign { target: Expr, op: AssignOp, value: Expr },
+    Assign {
+        target: Expr,
+        op: AssignOp,
+        value: Expr,
+    },
     Expr(Expr),
-    If { cond: Expr, then_block: Block, else_branch: Option<Box<Stmt>> },
+    If {
+        cond: Expr,
+        then_block: Block,
+        else_branch: Option<Box<Stmt>>,
+    },
     /// `for i in lo..hi { ... }`: `i` runs over `lo, lo+1, ..., hi-1`.
-    For { var: Ident, start: Expr, end: Expr, body: Block },
+    For {
+        var: Ident,
+        start: Expr,
+        end: Expr,
+        body: Block,
+    },
     /// Parsed so the checker can explain why it is refused.
-    While { cond: Expr, body: Block },
+    While {
+        cond: Expr,
+        body: Block,
+    },
     Break,
     Continue,
     Return(Option<Expr>),
@@ -278,14 +298,38 @@ pub enum ExprKind {
     Str(String),
     Name(String),
     /// `f(a, name: b)`; also builtins and material instances.
-    Call { callee: Ident, args: Vec<Arg> },
+    Call {
+        callee: Ident,
+        args: Vec<Arg>,
+    },
     /// `vector(1, 0, 0)`, `vec2(u, v)`: a type keyword used as a constructor.
-    Construct { ty: BaseType, ty_span: Span, args: Vec<Arg> },
-    Member { base: Box<Expr>, field: Ident },
-    Index { base: Box<Expr>, index: Box<Expr> },
-    Unary { op: UnaryOp, operand: Box<Expr> },
-    Binary { op: BinaryOp, lhs: Box<Expr>, rhs: Box<Expr> },
-    Ternary { cond: Box<Expr>, then_expr: Box<Expr>, else_expr: Box<Expr> },
+    Construct {
+        ty: BaseType,
+        ty_span: Span,
+        args: Vec<Arg>,
+    },
+    Member {
+        base: Box<Expr>,
+        field: Ident,
+    },
+    Index {
+        base: Box<Expr>,
+        index: Box<Expr>,
+    },
+    Unary {
+        op: UnaryOp,
+        operand: Box<Expr>,
+    },
+    Binary {
+        op: BinaryOp,
+        lhs: Box<Expr>,
+        rhs: Box<Expr>,
+    },
+    Ternary {
+        cond: Box<Expr>,
+        then_expr: Box<Expr>,
+        else_expr: Box<Expr>,
+    },
     /// `[a, b, c]`
     Array(Vec<Expr>),
     /// `(x, y, z)`: a vector, point or vec2 written as a tuple.
@@ -298,15 +342,21 @@ impl ExprKind {
         let args = |args: &[Arg]| args.iter().map(|a| a.value.depth).max().unwrap_or(0);
         let exprs = |es: &[Expr]| es.iter().map(|e| e.depth).max().unwrap_or(0);
         match self {
-            ExprKind::Int(_) | ExprKind::Float(_) | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Name(_) => 0,
+            ExprKind::Int(_)
+            | ExprKind::Float(_)
+            | ExprKind::Bool(_)
+            | ExprKind::Str(_)
+            | ExprKind::Name(_) => 0,
             ExprKind::Call { args: a, .. } | ExprKind::Construct { args: a, .. } => args(a),
             ExprKind::Member { base, .. } => base.depth,
             ExprKind::Index { base, index } => base.depth.max(index.depth),
             ExprKind::Unary { operand, .. } => operand.depth,
             ExprKind::Binary { lhs, rhs, .. } => lhs.depth.max(rhs.depth),
-            ExprKind::Ternary { cond, then_expr, else_expr } => {
-                cond.depth.max(then_expr.depth).max(else_expr.depth)
-            }
+            ExprKind::Ternary {
+                cond,
+                then_expr,
+                else_expr,
+            } => cond.depth.max(then_expr.depth).max(else_expr.depth),
             ExprKind::Array(es) | ExprKind::Tuple(es) => exprs(es),
         }
     }
@@ -343,11 +393,17 @@ impl Stmt {
             StmtKind::Let { init, .. } => init.as_ref().map_or(0, |e| e.depth),
             StmtKind::Assign { target, value, .. } => target.depth.max(value.depth),
             StmtKind::Expr(e) => e.depth,
-            StmtKind::If { cond, then_block, else_branch } => cond
+            StmtKind::If {
+                cond,
+                then_block,
+                else_branch,
+            } => cond
                 .depth
                 .max(then_block.depth)
                 .max(else_branch.as_ref().map_or(0, |s| s.depth)),
-            StmtKind::For { start, end, body, .. } => start.depth.max(end.depth).max(body.depth),
+            StmtKind::For {
+                start, end, body, ..
+            } => start.depth.max(end.depth).max(body.depth),
             StmtKind::While { cond, body } => cond.depth.max(body.depth),
             StmtKind::Break | StmtKind::Continue => 0,
             StmtKind::Return(e) => e.as_ref().map_or(0, |e| e.depth),

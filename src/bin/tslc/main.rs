@@ -1,1 +1,173 @@
-fn main(){}
+//! `tslc`, the TSL command-line compiler.
+//!
+//! Renders the library's diagnostics for people (rustc style, coloured on a
+//! terminal) or as JSON lines for editors and CI. Diagnostics go to stderr;
+//! requested data (JSON messages) to stdout.
+//! Exit codes: 0 clean, 1 errors (or warnings under `-W error`), 2 usage.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use std::io::{IsTerminal, Read, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use tsl::diag::{self, Colors, Severity};
+use tsl::{Checked, LoadOptions};
+
+#[derive(Parser)]
+#[command(name = "tslc", version, about = "The TSL shading language compiler")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Parse and type-check TSL files; exit 0 when clean.
+    Check(CheckArgs),
+}
+
+#[derive(clap::Args)]
+struct CheckArgs {
+    /// Files to check; `-` reads standard input.
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// When to colour diagnostics.
+    #[arg(long, value_enum, default_value_t = ColorChoice::Auto)]
+    color: ColorChoice,
+    /// How to print diagnostics.
+    #[arg(long, value_enum, default_value_t = MessageFormat::Human)]
+    message_format: MessageFormat,
+    /// The file name to report for standard input (also anchors its imports).
+    #[arg(long, value_name = "PATH")]
+    stdin_path: Option<String>,
+    /// Add a directory to the import search path.
+    #[arg(short = 'I', value_name = "DIR")]
+    include: Vec<PathBuf>,
+    /// `-W error` turns warnings into a failure.
+    #[arg(short = 'W', value_name = "LEVEL", value_enum)]
+    warnings: Option<WarningLevel>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ColorChoice {
+    Auto,
+    Always,
+    Never,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum MessageFormat {
+    Human,
+    Json,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum WarningLevel {
+    Error,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    // Checking recurses over the (depth-limited) syntax tree; a generous
+    // stack keeps that safe for every accepted input.
+    let worker = std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(move || match cli.command {
+            Command::Check(args) => check(args),
+        });
+    match worker.map(|w| w.join()) {
+        Ok(Ok(code)) => code,
+        _ => {
+            eprintln!("error: internal compiler error (this is a bug in tslc; please report it)");
+            ExitCode::from(101)
+        }
+    }
+}
+
+fn check(args: CheckArgs) -> ExitCode {
+    let options = LoadOptions {
+        import_paths: args.include.clone(),
+        prelude: true,
+    };
+    let colors = match args.color {
+        ColorChoice::Always => Colors::Always,
+        ColorChoice::Never => Colors::Never,
+        ColorChoice::Auto => {
+            if std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none() {
+                Colors::Always
+            } else {
+                Colors::Never
+            }
+        }
+    };
+    let mut failed = false;
+    let mut stdin_used = false;
+    for file in &args.files {
+        let checked = if file.as_os_str() == "-" {
+            if stdin_used {
+                eprintln!("error: standard input (`-`) can be checked only once");
+                return ExitCode::from(2);
+            }
+            stdin_used = true;
+            let mut text = String::new();
+            let name = args.stdin_path.clone().unwrap_or_else(|| "<stdin>".into());
+            if let Err(e) = std::io::stdin().read_to_string(&mut text) {
+                eprintln!("error: cannot read standard input: {e}");
+                failed = true;
+                continue;
+            }
+            tsl::check_source(&name, &text, &options)
+        } else {
+            tsl::check_file(file, &options)
+        };
+        failed |= report(&checked, &args, colors);
+    }
+    if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// Prints the diagnostics of one file; returns whether it failed.
+fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
+    let sources = &checked.program.loaded.sources;
+    match args.message_format {
+        MessageFormat::Json => {
+            let mut out = std::io::stdout().lock();
+            for d in &checked.diagnostics {
+                // A closed stdout (e.g. piped into `head`) is not our error.
+                let _ = writeln!(out, "{}", diag::to_json(sources, d));
+            }
+        }
+        MessageFormat::Human => {
+            let text = diag::render_text(sources, &checked.diagnostics, colors);
+            let mut err = std::io::stderr().lock();
+            let _ = err.write_all(text.as_bytes());
+            let (errors, warnings) = (
+                checked.count(Severity::Error),
+                checked.count(Severity::Warning),
+            );
+            if errors > 0 {
+                let also = if warnings > 0 {
+                    format!("; {warnings} warning{} emitted", s(warnings))
+                } else {
+                    String::new()
+                };
+                let _ = writeln!(
+                    err,
+                    "error: could not check due to {errors} error{}{also}",
+                    s(errors)
+                );
+            } else if warnings > 0 {
+                let _ = writeln!(err, "warning: {warnings} warning{} emitted", s(warnings));
+            }
+        }
+    }
+    let warnings_fail =
+        args.warnings == Some(WarningLevel::Error) && checked.count(Severity::Warning) > 0;
+    !checked.is_ok() || warnings_fail
+}
+
+fn s(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}

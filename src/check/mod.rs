@@ -1,0 +1,1841 @@
+//! Names, types, the material interface and the generic-color rules.
+//!
+//! `check` takes a loaded program and returns a [`Program`] (the syntax trees
+//! plus a type for every expression) and all diagnostics. It never stops at
+//! the first error: an ill-typed expression gets [`Ty::Error`], which
+//! converts silently to every type, so each mistake is reported once.
+//!
+//! Architecture invariant: checking does no I/O and knows nothing of code
+//! generation. A program without error diagnostics is well typed, recursion
+//! free (shade trees are DAGs) and has only bounded loops.
+
+mod builtins;
+mod interface;
+mod scene;
+mod ty;
+
+pub use builtins::{BUILTINS, Builtin};
+pub use interface::{GLOBALS, INTERFACE, InterfaceMethod, interface_method};
+pub use ty::Ty;
+
+use crate::diag::{Diagnostic, Span, did_you_mean};
+use crate::load::Loaded;
+use crate::syntax::ast::*;
+use builtins::{ArgError, builtin, elementwise, type_builtin, unify};
+use std::collections::HashMap;
+
+/// The most elements an array may have.
+pub const MAX_ARRAY_LEN: u32 = 4096;
+
+/// A checked program: the loaded modules, the global symbols and the type of
+/// every expression, keyed by its span.
+#[derive(Debug, Clone, Default)]
+pub struct Program {
+    pub loaded: Loaded,
+    pub symbols: HashMap<String, Symbol>,
+    pub expr_types: HashMap<Span, Ty>,
+}
+
+/// A global name and the item that defines it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Symbol {
+    pub kind: SymbolKind,
+    pub module: usize,
+    pub item: usize,
+    pub span: Span,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SymbolKind {
+    Function,
+    Material,
+    MaterialTree,
+    Const,
+}
+
+impl SymbolKind {
+    fn describe(self) -> &'static str {
+        match self {
+            SymbolKind::Function => "function",
+            SymbolKind::Material => "material",
+            SymbolKind::MaterialTree => "material tree",
+            SymbolKind::Const => "constant",
+        }
+    }
+}
+
+/// Checks a loaded program.
+pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
+    let mut diags = Vec::new();
+    let symbols = collect_symbols(&loaded, &mut diags);
+    let mut checker = Checker {
+        loaded: &loaded,
+        symbols: &symbols,
+        diags: &mut diags,
+        expr_types: HashMap::new(),
+        graph: HashMap::new(),
+        body: Body::default(),
+    };
+    checker.check_items();
+    checker.report_recursion();
+    let expr_types = std::mem::take(&mut checker.expr_types);
+    (
+        Program {
+            loaded,
+            symbols,
+            expr_types,
+        },
+        diags,
+    )
+}
+
+/// Builds the global namespace. User items shadow prelude items of the same
+/// name; two definitions in the same layer are an error.
+fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<String, Symbol> {
+    let mut symbols: HashMap<String, Symbol> = HashMap::new();
+    let mut from_prelude: HashMap<String, bool> = HashMap::new();
+    for (m, module) in loaded.modules.iter().enumerate() {
+        for (i, item) in module.ast.items.iter().enumerate() {
+            let (kind, name) = match item {
+                Item::Function(f) => (SymbolKind::Function, &f.name),
+                Item::Material(d) => (SymbolKind::Material, &d.name),
+                Item::MaterialTree(t) => (SymbolKind::MaterialTree, &t.name),
+                Item::Const(c) => (SymbolKind::Const, &c.name),
+                Item::Import { .. } | Item::Scene(_) => continue,
+            };
+            if builtin(&name.name).is_some() {
+                diags.push(
+                    Diagnostic::error(
+                        name.span,
+                        format!(
+                            "`{}` is a builtin function and cannot be redefined",
+                            name.name
+                        ),
+                    )
+                    .with_help("choose another name"),
+                );
+                continue;
+            }
+            if interface::global(&name.name).is_some() {
+                diags.push(Diagnostic::error(
+                    name.span,
+                    format!(
+                        "`{}` is a shading global and cannot be redefined",
+                        name.name
+                    ),
+                ));
+                continue;
+            }
+            let symbol = Symbol {
+                kind,
+                module: m,
+                item: i,
+                span: name.span,
+            };
+            match symbols.get(&name.name) {
+                Some(prev) if from_prelude[&name.name] && !module.is_prelude => {
+                    // A user definition shadows the prelude's.
+                    let _ = prev;
+                    symbols.insert(name.name.clone(), symbol);
+                    from_prelude.insert(name.name.clone(), false);
+                }
+                Some(prev) => {
+                    diags.push(
+                        Diagnostic::error(
+                            name.span,
+                            format!("`{}` is defined more than once", name.name),
+                        )
+                        .with_primary(format!("{} redefined here", kind.describe()))
+                        .with_label(
+                            prev.span,
+                            format!("first defined here as a {}", prev.kind.describe()),
+                        ),
+                    );
+                }
+                None => {
+                    symbols.insert(name.name.clone(), symbol);
+                    from_prelude.insert(name.name.clone(), module.is_prelude);
+                }
+            }
+        }
+    }
+    symbols
+}
+
+/// A node of the dependency graph: a global item, or a method of a material.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+enum Node {
+    Item(String),
+    Method(String, &'static str),
+}
+
+impl Node {
+    fn describe(&self) -> String {
+        match self {
+            Node::Item(n) => format!("`{n}`"),
+            Node::Method(m, f) => format!("`{m}.{f}`"),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum LocalKind {
+    Param,
+    Var,
+    LoopVar,
+}
+
+#[derive(Debug, Clone)]
+struct Local {
+    name: String,
+    ty: Ty,
+    span: Span,
+    kind: LocalKind,
+    used: bool,
+}
+
+/// What the body being checked is, which decides what it may see.
+#[derive(Debug, Clone, Default)]
+struct Body {
+    scopes: Vec<Vec<Local>>,
+    ret: Option<Ty>,
+    loops: u32,
+    /// Inside a material definition: its name and the methods it defines.
+    material: Option<(String, Vec<&'static str>)>,
+    globals_allowed: bool,
+    /// Whether material values may appear (material trees only).
+    materials_allowed: bool,
+    node: Option<Node>,
+}
+
+struct Checker<'a> {
+    loaded: &'a Loaded,
+    symbols: &'a HashMap<String, Symbol>,
+    diags: &'a mut Vec<Diagnostic>,
+    expr_types: HashMap<Span, Ty>,
+    /// Dependencies between items, with the span of the first use.
+    graph: HashMap<Node, Vec<(Node, Span)>>,
+    body: Body,
+}
+
+/// A callee's parameter, for binding arguments.
+struct ParamInfo<'p> {
+    name: &'p str,
+    ty: Option<Ty>,
+    required: bool,
+}
+
+impl<'a> Checker<'a> {
+    fn error(&mut self, d: Diagnostic) {
+        self.diags.push(d);
+    }
+
+    fn is_active(&self, m: usize, i: usize, name: &str) -> bool {
+        self.symbols
+            .get(name)
+            .is_some_and(|s| s.module == m && s.item == i)
+    }
+
+    fn check_items(&mut self) {
+        let loaded = self.loaded;
+        let mut scenes: Vec<&Scene> = Vec::new();
+        for (m, module) in loaded.modules.iter().enumerate() {
+            for (i, item) in module.ast.items.iter().enumerate() {
+                match item {
+                    Item::Import { .. } => {}
+                    Item::Function(f) => {
+                        if self.is_active(m, i, &f.name.name) {
+                            self.check_function(f);
+                        }
+                    }
+                    Item::Material(d) => {
+                        if self.is_active(m, i, &d.name.name) {
+                            self.check_material(d);
+                        }
+                    }
+                    Item::MaterialTree(t) => {
+                        if self.is_active(m, i, &t.name.name) {
+                            self.check_tree(t);
+                        }
+                    }
+                    Item::Const(c) => {
+                        if self.is_active(m, i, &c.name.name) {
+                            self.check_const(c);
+                        }
+                    }
+                    Item::Scene(s) => {
+                        if !module.is_prelude {
+                            scenes.push(s);
+                        }
+                    }
+                }
+            }
+        }
+        for extra in scenes.iter().skip(1) {
+            self.error(
+                Diagnostic::error(extra.span, "a program has at most one scene")
+                    .with_label(scenes[0].span, "the first scene is here"),
+            );
+        }
+        for s in scenes {
+            self.body = Body {
+                globals_allowed: false,
+                materials_allowed: true,
+                ..Body::default()
+            };
+            scene::check_scene(self, s);
+        }
+    }
+
+    // ------------------------------------------------------------ items
+
+    fn begin(&mut self, node: Node, globals_allowed: bool, materials_allowed: bool) {
+        self.body = Body {
+            node: Some(node),
+            globals_allowed,
+            materials_allowed,
+            scopes: vec![Vec::new()],
+            ..Body::default()
+        };
+    }
+
+    /// Declares parameters in the current scope, checking their types and
+    /// defaults.
+    fn declare_params(&mut self, params: &[Param], what: &str) {
+        let mut seen: HashMap<&str, Span> = HashMap::new();
+        for p in params {
+            let ty = self.resolve_type(&p.ty, what);
+            if let Some(prev) = seen.insert(&p.name.name, p.name.span) {
+                self.error(
+                    Diagnostic::error(
+                        p.name.span,
+                        format!("parameter `{}` is declared twice", p.name.name),
+                    )
+                    .with_label(prev, "first declared here"),
+                );
+            }
+            if let Some(default) = &p.default {
+                let found = self.expr(default, Some(&ty));
+                self.expect_ty(default, &found, &ty, "the default value");
+            }
+            self.declare(Local {
+                name: p.name.name.clone(),
+                ty,
+                span: p.name.span,
+                kind: LocalKind::Param,
+                used: true,
+            });
+        }
+    }
+
+    fn check_function(&mut self, f: &Function) {
+        self.begin(Node::Item(f.name.name.clone()), true, false);
+        let ret = self.resolve_type(&f.ret, "a function");
+        self.declare_params(&f.params, "a function");
+        self.body.ret = Some(ret.clone());
+        self.block_in_scope(&f.body);
+        self.check_returns(f, &ret);
+        self.end_scope();
+    }
+
+    fn check_returns(&mut self, f: &Function, ret: &Ty) {
+        if *ret != Ty::Void && !ret.is_error() && !block_returns(&f.body) {
+            let end = Span {
+                start: f.body.span.end.saturating_sub(1),
+                ..f.body.span
+            };
+            self.error(
+                Diagnostic::error(
+                    end,
+                    format!("`{}` does not return a value on every path", f.name.name),
+                )
+                .with_primary(format!(
+                    "the end of the body is reachable without a `return` of `{ret}`"
+                ))
+                .with_label(f.ret.span, "the declared return type")
+                .with_help("add a `return` at the end of the function"),
+            );
+        }
+    }
+
+    fn check_material(&mut self, d: &MaterialDef) {
+        let name = d.name.name.clone();
+        self.begin(Node::Item(name.clone()), true, false);
+        self.declare_params(&d.params, "a material's parameter list");
+        let params_scope = self.body.scopes.clone();
+
+        // Which methods the material defines, for sibling calls.
+        let mut defined: Vec<&'static str> = Vec::new();
+        let mut seen: HashMap<&str, Span> = HashMap::new();
+        for m in &d.methods {
+            if let Some(prev) = seen.insert(&m.name.name, m.name.span) {
+                self.error(
+                    Diagnostic::error(
+                        m.name.span,
+                        format!("method `{}` is defined twice", m.name.name),
+                    )
+                    .with_label(prev, "first defined here"),
+                );
+            }
+            match interface_method(&m.name.name) {
+                Some(im) => defined.push(im.name),
+                None => {
+                    let names = INTERFACE.iter().map(|m| m.name);
+                    let mut diag = Diagnostic::error(
+                        m.name.span,
+                        format!(
+                            "`{}` is not a method of the material interface",
+                            m.name.name
+                        ),
+                    );
+                    diag = match did_you_mean(&m.name.name, names) {
+                        Some(s) => diag.with_help(format!("did you mean `{s}`?")),
+                        None => diag.with_help(format!(
+                            "the interface methods are: {}",
+                            INTERFACE
+                                .iter()
+                                .map(|m| m.name)
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        )),
+                    };
+                    self.error(
+                        diag.with_note(
+                            "helper functions go outside the material, at the top level",
+                        ),
+                    );
+                }
+            }
+        }
+        // The item depends on all of its methods; defaults add their own edges.
+        let item = Node::Item(name.clone());
+        for im in INTERFACE {
+            self.edge(
+                item.clone(),
+                Node::Method(name.clone(), im.name),
+                d.name.span,
+            );
+        }
+        if !defined.contains(&"ambient") {
+            self.edge(
+                Node::Method(name.clone(), "ambient"),
+                Node::Method(name.clone(), "diffuse"),
+                d.name.span,
+            );
+        }
+
+        for m in &d.methods {
+            let Some(im) = interface_method(&m.name.name) else {
+                continue;
+            };
+            self.check_method_signature(m, im);
+            self.body = Body {
+                scopes: params_scope.clone(),
+                material: Some((name.clone(), defined.clone())),
+                globals_allowed: true,
+                node: Some(Node::Method(name.clone(), im.name)),
+                ..Body::default()
+            };
+            self.push_scope();
+            for (p, (_, want)) in m.params.iter().zip(im.params) {
+                let ty = want.ty();
+                self.declare(Local {
+                    name: p.name.name.clone(),
+                    ty,
+                    span: p.name.span,
+                    kind: LocalKind::Param,
+                    used: true,
+                });
+            }
+            self.body.ret = Some(im.ret.ty());
+            self.block_in_scope(&m.body);
+            self.check_returns(m, &im.ret.ty());
+            self.end_scope();
+            self.end_scope();
+        }
+    }
+
+    fn check_method_signature(&mut self, m: &Function, im: &InterfaceMethod) {
+        let ret = Ty::from_ast(&m.ret);
+        let params_ok = m.params.len() == im.params.len()
+            && m.params
+                .iter()
+                .zip(im.params)
+                .all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.ty() && p.default.is_none());
+        if ret != im.ret.ty() || !params_ok {
+            let written: Vec<String> = m
+                .params
+                .iter()
+                .map(|p| format!("{} {}", Ty::from_ast(&p.ty), p.name.name))
+                .collect();
+            self.error(
+                Diagnostic::error(m.name.span, format!("method `{}` has the wrong signature", im.name))
+                    .with_primary(format!("found `{} {}({})`", ret, m.name.name, written.join(", ")))
+                    .with_help(format!("the material interface expects `{}`", im.signature()))
+                    .with_note("parameter names are free; the types, their order and the return type are fixed"),
+            );
+        }
+    }
+
+    fn check_tree(&mut self, t: &MaterialTree) {
+        self.begin(Node::Item(t.name.name.clone()), true, true);
+        if let Some(params) = &t.params {
+            self.declare_params(params, "a material tree");
+        }
+        let ty = self.expr(&t.body, Some(&Ty::Material));
+        self.expect_ty(&t.body, &ty, &Ty::Material, "a material tree");
+        self.end_scope();
+    }
+
+    fn check_const(&mut self, c: &ConstDef) {
+        self.begin(Node::Item(c.name.name.clone()), false, false);
+        let ty = self.resolve_type(&c.ty, "a constant");
+        if matches!(ty, Ty::Material) {
+            return;
+        }
+        let found = self.expr(&c.value, Some(&ty));
+        self.expect_ty(&c.value, &found, &ty, "the constant");
+        self.end_scope();
+    }
+
+    /// Resolves a written type, refusing materials outside material trees.
+    fn resolve_type(&mut self, t: &TypeExpr, what: &str) -> Ty {
+        if let Some((n, span)) = t.array_len {
+            if n == 0 || n > MAX_ARRAY_LEN {
+                self.error(Diagnostic::error(
+                    span,
+                    format!("array length must be between 1 and {MAX_ARRAY_LEN}"),
+                ));
+                return Ty::Error;
+            }
+        }
+        if t.base == BaseType::Material && !self.body.materials_allowed {
+            self.error(
+                Diagnostic::error(t.span, format!("`material` values cannot be used in {what}"))
+                    .with_help(
+                        "materials are built by material trees: `material name(material a, float s = 1) = mix(s, a, mirror);`",
+                    ),
+            );
+            return Ty::Error;
+        }
+        if t.base == BaseType::Void && t.array_len.is_some() {
+            self.error(Diagnostic::error(t.span, "there are no arrays of `void`"));
+            return Ty::Error;
+        }
+        Ty::from_ast(t)
+    }
+
+    // ------------------------------------------------------------ scopes
+
+    fn push_scope(&mut self) {
+        self.body.scopes.push(Vec::new());
+    }
+
+    fn end_scope(&mut self) {
+        let Some(scope) = self.body.scopes.pop() else {
+            return;
+        };
+        for l in scope {
+            if l.kind == LocalKind::Var && !l.used && !l.name.starts_with('_') {
+                self.error(
+                    Diagnostic::warning(l.span, format!("unused variable `{}`", l.name)).with_help(
+                        format!("remove it, or name it `_{}` if that is intended", l.name),
+                    ),
+                );
+            }
+        }
+    }
+
+    fn declare(&mut self, local: Local) {
+        let Some(scope) = self.body.scopes.last_mut() else {
+            return;
+        };
+        if let Some(prev) = scope.iter().find(|l| l.name == local.name) {
+            let prev_span = prev.span;
+            self.error(
+                Diagnostic::error(
+                    local.span,
+                    format!("`{}` is already declared in this scope", local.name),
+                )
+                .with_label(prev_span, "previous declaration"),
+            );
+            return;
+        }
+        scope.push(local);
+    }
+
+    fn lookup_local(&mut self, name: &str) -> Option<&mut Local> {
+        self.body
+            .scopes
+            .iter_mut()
+            .rev()
+            .flat_map(|s| s.iter_mut().rev())
+            .find(|l| l.name == name)
+    }
+
+    fn edge(&mut self, from: Node, to: Node, span: Span) {
+        let edges = self.graph.entry(from).or_default();
+        if !edges.iter().any(|(n, _)| *n == to) {
+            edges.push((to, span));
+        }
+    }
+
+    fn use_item(&mut self, name: &str, span: Span) {
+        if let Some(from) = self.body.node.clone() {
+            self.edge(from, Node::Item(name.to_string()), span);
+        }
+    }
+
+    // ------------------------------------------------------------ statements
+
+    fn block_in_scope(&mut self, b: &Block) {
+        for s in &b.stmts {
+            self.stmt(s);
+        }
+    }
+
+    fn block(&mut self, b: &Block) {
+        self.push_scope();
+        self.block_in_scope(b);
+        self.end_scope();
+    }
+
+    fn stmt(&mut self, s: &Stmt) {
+        match &s.kind {
+            StmtKind::Let { ty, name, init } => {
+                let ty = self.resolve_type(ty, "a local variable");
+                if let Some(init) = init {
+                    let found = self.expr(init, Some(&ty));
+                    self.expect_ty(init, &found, &ty, "the initial value");
+                }
+                self.warn_shadowed_global(name);
+                self.declare(Local {
+                    name: name.name.clone(),
+                    ty,
+                    span: name.span,
+                    kind: LocalKind::Var,
+                    used: false,
+                });
+            }
+            StmtKind::Assign { target, op, value } => self.assign(target, *op, value),
+            StmtKind::Expr(e) => {
+                self.expr(e, None);
+                self.error(
+                    Diagnostic::warning(e.span, "this expression has no effect").with_help(
+                        "TSL functions are pure: assign the result to a variable or return it",
+                    ),
+                );
+            }
+            StmtKind::If {
+                cond,
+                then_block,
+                else_branch,
+            } => {
+                self.condition(cond, "an `if` condition");
+                self.block(then_block);
+                if let Some(e) = else_branch {
+                    self.stmt(e);
+                }
+            }
+            StmtKind::For {
+                var,
+                start,
+                end,
+                body,
+            } => {
+                for bound in [start, end] {
+                    let t = self.expr(bound, Some(&Ty::Int));
+                    if !t.is_error() && t != Ty::Int {
+                        self.error(
+                            Diagnostic::error(
+                                bound.span,
+                                format!("loop bounds must be `int`, found `{t}`"),
+                            )
+                            .with_help("convert with int(x)"),
+                        );
+                    }
+                }
+                self.push_scope();
+                self.warn_shadowed_global(var);
+                self.declare(Local {
+                    name: var.name.clone(),
+                    ty: Ty::Int,
+                    span: var.span,
+                    kind: LocalKind::LoopVar,
+                    used: true,
+                });
+                self.body.loops += 1;
+                self.block(body);
+                self.body.loops -= 1;
+                self.end_scope();
+            }
+            StmtKind::While { cond, body } => {
+                self.error(
+                    Diagnostic::error(
+                        s.span.to(cond.span),
+                        "`while` loops are not allowed: a shader must not hang its host",
+                    )
+                    .with_help("loop over a bounded range instead: `for i in 0..n { ... }`"),
+                );
+                self.condition(cond, "a `while` condition");
+                self.body.loops += 1;
+                self.block(body);
+                self.body.loops -= 1;
+            }
+            StmtKind::Break | StmtKind::Continue => {
+                if self.body.loops == 0 {
+                    let what = if matches!(s.kind, StmtKind::Break) {
+                        "break"
+                    } else {
+                        "continue"
+                    };
+                    self.error(Diagnostic::error(
+                        s.span,
+                        format!("`{what}` outside of a loop"),
+                    ));
+                }
+            }
+            StmtKind::Return(value) => self.ret(s.span, value.as_ref()),
+            StmtKind::Block(b) => self.block(b),
+        }
+    }
+
+    fn warn_shadowed_global(&mut self, name: &Ident) {
+        if interface::global(&name.name).is_some() {
+            self.error(
+                Diagnostic::warning(
+                    name.span,
+                    format!(
+                        "`{}` shadows the shading global of the same name",
+                        name.name
+                    ),
+                )
+                .with_help("rename the variable to keep the global visible"),
+            );
+        }
+    }
+
+    fn condition(&mut self, cond: &Expr, what: &str) {
+        let t = self.expr(cond, Some(&Ty::Bool));
+        if !t.is_error() && t != Ty::Bool {
+            let mut d = Diagnostic::error(cond.span, format!("{what} must be `bool`, found `{t}`"));
+            if t.is_numeric() {
+                d = d.with_help("numbers are not truth values: compare explicitly, e.g. `x != 0`");
+            }
+            self.error(d);
+        }
+    }
+
+    fn ret(&mut self, span: Span, value: Option<&Expr>) {
+        let Some(want) = self.body.ret.clone() else {
+            self.error(Diagnostic::error(span, "`return` outside of a function"));
+            return;
+        };
+        match (value, &want) {
+            (None, Ty::Void) => {}
+            (None, want) => {
+                self.error(Diagnostic::error(
+                    span,
+                    format!("`return` needs a value of type `{want}`"),
+                ));
+            }
+            (Some(v), Ty::Void) => {
+                self.expr(v, None);
+                self.error(Diagnostic::error(
+                    v.span,
+                    "a `void` function cannot return a value",
+                ));
+            }
+            (Some(v), want) => {
+                let found = self.expr(v, Some(want));
+                self.expect_ty(v, &found, want, "the return value");
+            }
+        }
+    }
+
+    fn assign(&mut self, target: &Expr, op: AssignOp, value: &Expr) {
+        let Some(target_ty) = self.lvalue(target) else {
+            self.expr(value, None);
+            return;
+        };
+        let found = self.expr(value, Some(&target_ty));
+        match op.binary() {
+            None => self.expect_ty(value, &found, &target_ty, "the assigned value"),
+            Some(bop) => match binary_type(bop, &target_ty, &found) {
+                Ok(result) if result.converts_to(&target_ty) => {}
+                Ok(result) => self.error(Diagnostic::error(
+                    value.span,
+                    format!("`{target_ty} {}= {found}` gives `{result}`, which cannot be stored in `{target_ty}`", bop.symbol()),
+                )),
+                Err((message, help)) => {
+                    let mut d = Diagnostic::error(value.span, message);
+                    if let Some(h) = help {
+                        d = d.with_help(h);
+                    }
+                    self.error(d);
+                }
+            },
+        }
+    }
+
+    /// Checks an assignment target and returns its type.
+    fn lvalue(&mut self, e: &Expr) -> Option<Ty> {
+        match &e.kind {
+            ExprKind::Name(name) => {
+                if let Some(local) = self.lookup_local(name) {
+                    let (kind, ty) = (local.kind.clone(), local.ty.clone());
+                    if kind == LocalKind::LoopVar {
+                        self.error(
+                            Diagnostic::error(
+                                e.span,
+                                format!("cannot assign to the loop variable `{name}`"),
+                            )
+                            .with_help("copy it into a local variable first"),
+                        );
+                        return None;
+                    }
+                    self.expr_types.insert(e.span, ty.clone());
+                    return Some(ty);
+                }
+                let msg = if interface::global(name).is_some() {
+                    format!("cannot assign to `{name}`: shading globals are read-only")
+                } else if self
+                    .symbols
+                    .get(name)
+                    .is_some_and(|s| s.kind == SymbolKind::Const)
+                {
+                    format!("cannot assign to the constant `{name}`")
+                } else {
+                    self.expr(e, None);
+                    return None;
+                };
+                self.error(
+                    Diagnostic::error(e.span, msg)
+                        .with_help("declare a local copy: `vector p = P;`"),
+                );
+                None
+            }
+            ExprKind::Member { base, .. } | ExprKind::Index { base, .. } => {
+                self.lvalue(base)?;
+                let t = self.expr(e, None);
+                (!t.is_error()).then_some(t)
+            }
+            _ => {
+                self.expr(e, None);
+                self.error(Diagnostic::error(
+                    e.span,
+                    "this expression cannot be assigned to",
+                ));
+                None
+            }
+        }
+    }
+
+    // ------------------------------------------------------------ expressions
+
+    fn expect_ty(&mut self, e: &Expr, found: &Ty, want: &Ty, what: &str) {
+        if found.converts_to(want) {
+            return;
+        }
+        let mut d = Diagnostic::error(
+            e.span,
+            format!("mismatched types: expected `{want}`, found `{found}`"),
+        )
+        .with_primary(format!("{what} must be `{want}`"));
+        if *want == Ty::Color && found.is_numeric() {
+            d = d.with_help(
+                "a number is not a color: write gray(x) for a uniform color, or rgb(r, g, b)",
+            );
+        } else if *found == Ty::Color && (want.is_numeric() || want.is_triple()) {
+            d = d.with_help(
+                "a color hides its representation (RGB or spectral samples): convert explicitly with brightness(c) or to_rgb(c)",
+            );
+        } else if *want == Ty::Int && *found == Ty::Float {
+            d = d.with_help("convert explicitly with int(x), which truncates");
+        }
+        self.error(d);
+    }
+
+    /// Types an expression, recording the result. `expected` guides tuples
+    /// and array literals and is otherwise only a hint.
+    fn expr(&mut self, e: &Expr, expected: Option<&Ty>) -> Ty {
+        let ty = self.expr_inner(e, expected);
+        self.expr_types.insert(e.span, ty.clone());
+        ty
+    }
+
+    fn expr_inner(&mut self, e: &Expr, expected: Option<&Ty>) -> Ty {
+        match &e.kind {
+            ExprKind::Int(_) => Ty::Int,
+            ExprKind::Float(_) => Ty::Float,
+            ExprKind::Bool(_) => Ty::Bool,
+            ExprKind::Str(_) => Ty::String,
+            ExprKind::Name(name) => self.name(name, e.span),
+            ExprKind::Call { callee, args } => self.call(callee, args, e.span),
+            ExprKind::Construct { ty, ty_span, args } => {
+                self.construct(*ty, *ty_span, args, e.span)
+            }
+            ExprKind::Member { base, field } => self.member(base, field),
+            ExprKind::Index { base, index } => self.index(base, index),
+            ExprKind::Unary { op, operand } => {
+                let t = self.expr(operand, None);
+                match (op, &t) {
+                    (_, Ty::Error) => Ty::Error,
+                    (UnaryOp::Neg, t) if t.is_numeric() || t.is_float_like() => {
+                        if t.is_triple() {
+                            Ty::Vector
+                        } else {
+                            t.clone()
+                        }
+                    }
+                    (UnaryOp::Not, Ty::Bool) => Ty::Bool,
+                    (UnaryOp::Neg, Ty::Color) => {
+                        self.error(
+                            Diagnostic::error(e.span, "a color cannot be negated")
+                                .with_help("the generic color interface has no negative light; scale by a factor instead"),
+                        );
+                        Ty::Error
+                    }
+                    (op, t) => {
+                        let sym = if *op == UnaryOp::Neg { "-" } else { "!" };
+                        self.error(Diagnostic::error(
+                            e.span,
+                            format!("cannot apply unary `{sym}` to `{t}`"),
+                        ));
+                        Ty::Error
+                    }
+                }
+            }
+            ExprKind::Binary { op, lhs, rhs } => {
+                let l = self.expr(lhs, None);
+                let r = self.expr(rhs, None);
+                match binary_type(*op, &l, &r) {
+                    Ok(t) => t,
+                    Err((message, help)) => {
+                        let mut d = Diagnostic::error(e.span, message)
+                            .with_label(lhs.span, format!("`{l}`"))
+                            .with_label(rhs.span, format!("`{r}`"));
+                        if let Some(h) = help {
+                            d = d.with_help(h);
+                        }
+                        self.error(d);
+                        Ty::Error
+                    }
+                }
+            }
+            ExprKind::Ternary {
+                cond,
+                then_expr,
+                else_expr,
+            } => {
+                self.condition(cond, "the condition of `?:`");
+                let a = self.expr(then_expr, expected);
+                let b = self.expr(else_expr, expected);
+                match unify(&a, &b) {
+                    Some(t) => t,
+                    None => {
+                        self.error(
+                            Diagnostic::error(
+                                e.span,
+                                format!(
+                                    "the branches of `?:` have different types: `{a}` and `{b}`"
+                                ),
+                            )
+                            .with_label(then_expr.span, format!("`{a}`"))
+                            .with_label(else_expr.span, format!("`{b}`")),
+                        );
+                        Ty::Error
+                    }
+                }
+            }
+            ExprKind::Array(items) => self.array(items, e.span, expected),
+            ExprKind::Tuple(items) => self.tuple(items, e.span, expected),
+        }
+    }
+
+    fn name(&mut self, name: &str, span: Span) -> Ty {
+        if let Some(local) = self.lookup_local(name) {
+            local.used = true;
+            return local.ty.clone();
+        }
+        if let Some(t) = interface::global(name) {
+            if !self.body.globals_allowed {
+                self.error(
+                    Diagnostic::error(span, format!("the shading global `{name}` cannot be used here"))
+                        .with_help("constants and scene values are fixed before shading starts; use a function instead"),
+                );
+                return Ty::Error;
+            }
+            return t;
+        }
+        if let Some(sym) = self.symbols.get(name).copied() {
+            self.use_item(name, span);
+            return match sym.kind {
+                SymbolKind::Const => self.const_type(sym),
+                SymbolKind::MaterialTree | SymbolKind::Material => {
+                    let needs_args = match self.item(sym) {
+                        Item::MaterialTree(t) => t
+                            .params
+                            .as_ref()
+                            .map(|ps| required_params(ps))
+                            .unwrap_or_default(),
+                        Item::Material(d) => required_params(&d.params),
+                        _ => Vec::new(),
+                    };
+                    if !needs_args.is_empty() {
+                        self.error(
+                            Diagnostic::error(
+                                span,
+                                format!("`{name}` needs arguments: {}", needs_args.join(", ")),
+                            )
+                            .with_help(format!("call it: `{name}(...)`")),
+                        );
+                        return Ty::Error;
+                    }
+                    self.material_value(span)
+                }
+                SymbolKind::Function => {
+                    self.error(
+                        Diagnostic::error(span, format!("`{name}` is a function, not a value"))
+                            .with_help(format!("call it: `{name}()`")),
+                    );
+                    Ty::Error
+                }
+            };
+        }
+        if builtin(name).is_some() {
+            self.error(
+                Diagnostic::error(span, format!("`{name}` is a builtin function, not a value"))
+                    .with_help(format!("call it: `{name}(...)`")),
+            );
+            return Ty::Error;
+        }
+        self.unknown(name, span, "value");
+        Ty::Error
+    }
+
+    /// A material value where one appears; outside material trees that is
+    /// an error.
+    fn material_value(&mut self, span: Span) -> Ty {
+        if self.body.materials_allowed {
+            Ty::Material
+        } else {
+            self.error(
+                Diagnostic::error(
+                    span,
+                    "a material cannot be used inside a function or material method",
+                )
+                .with_help("build texture trees at the top level: `material name = mix(...);`"),
+            );
+            Ty::Error
+        }
+    }
+
+    fn item(&self, sym: Symbol) -> &'a Item {
+        &self.loaded.modules[sym.module].ast.items[sym.item]
+    }
+
+    fn const_type(&mut self, sym: Symbol) -> Ty {
+        match self.item(sym) {
+            Item::Const(c) => Ty::from_ast(&c.ty),
+            _ => Ty::Error,
+        }
+    }
+
+    /// Reports an unknown name with the closest known one.
+    fn unknown(&mut self, name: &str, span: Span, what: &str) {
+        let mut candidates: Vec<&str> = Vec::new();
+        for scope in &self.body.scopes {
+            candidates.extend(scope.iter().map(|l| l.name.as_str()));
+        }
+        if self.body.globals_allowed {
+            candidates.extend(GLOBALS.iter().map(|g| g.0));
+        }
+        candidates.extend(self.symbols.keys().map(String::as_str));
+        if what == "function" {
+            candidates.extend(BUILTINS.iter().map(|b| b.name));
+            if let Some((_, _)) = &self.body.material {
+                candidates.extend(INTERFACE.iter().map(|m| m.name));
+            }
+        }
+        let mut d = Diagnostic::error(span, format!("cannot find {what} `{name}` in this scope"));
+        if let Some(s) = did_you_mean(name, candidates) {
+            d = d.with_help(format!("did you mean `{s}`?"));
+        } else if interface_method(name).is_some() {
+            d = d.with_help("interface methods can be called only inside a material definition");
+        }
+        self.error(d);
+    }
+
+    /// Matches call arguments to parameters. Returns, per parameter, the
+    /// argument bound to it, or `None` when the call is malformed.
+    fn bind_args<'e>(
+        &mut self,
+        callee: &str,
+        params: &[ParamInfo<'_>],
+        args: &'e [Arg],
+        span: Span,
+    ) -> Option<Vec<Option<&'e Expr>>> {
+        let mut bound: Vec<Option<&Expr>> = vec![None; params.len()];
+        let mut ok = true;
+        let mut seen_named = false;
+        for (i, arg) in args.iter().enumerate() {
+            match &arg.name {
+                None => {
+                    if seen_named {
+                        self.error(
+                            Diagnostic::error(
+                                arg.value.span,
+                                "positional argument after a named one",
+                            )
+                            .with_help("put positional arguments first"),
+                        );
+                        ok = false;
+                    } else if i >= params.len() {
+                        let n = params.len();
+                        self.error(
+                            Diagnostic::error(
+                                arg.value.span,
+                                format!(
+                                    "`{callee}` takes {n} argument{}, but {} were given",
+                                    plural(n),
+                                    args.len()
+                                ),
+                            )
+                            .with_label(span, "in this call"),
+                        );
+                        return None;
+                    } else {
+                        bound[i] = Some(&arg.value);
+                    }
+                }
+                Some(name) => {
+                    seen_named = true;
+                    match params.iter().position(|p| p.name == name.name) {
+                        Some(p) if bound[p].is_some() => {
+                            self.error(Diagnostic::error(
+                                name.span,
+                                format!("argument `{}` is given twice", name.name),
+                            ));
+                            ok = false;
+                        }
+                        Some(p) => bound[p] = Some(&arg.value),
+                        None => {
+                            let mut d = Diagnostic::error(
+                                name.span,
+                                format!("`{callee}` has no parameter named `{}`", name.name),
+                            );
+                            d = match did_you_mean(&name.name, params.iter().map(|p| p.name)) {
+                                Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                                None => d.with_help(format!(
+                                    "its parameters are: {}",
+                                    params.iter().map(|p| p.name).collect::<Vec<_>>().join(", ")
+                                )),
+                            };
+                            self.error(d);
+                            ok = false;
+                        }
+                    }
+                }
+            }
+        }
+        let missing: Vec<&str> = params
+            .iter()
+            .zip(&bound)
+            .filter(|(p, b)| p.required && b.is_none())
+            .map(|(p, _)| p.name)
+            .collect();
+        if !missing.is_empty() {
+            self.error(
+                Diagnostic::error(
+                    span,
+                    format!(
+                        "missing argument{} to `{callee}`: {}",
+                        plural(missing.len()),
+                        missing.join(", ")
+                    ),
+                )
+                .with_help(format!(
+                    "`{callee}` takes {} argument{}",
+                    params.len(),
+                    plural(params.len())
+                )),
+            );
+            ok = false;
+        }
+        ok.then_some(bound)
+    }
+
+    fn call(&mut self, callee: &Ident, args: &[Arg], span: Span) -> Ty {
+        let name = callee.name.as_str();
+        // 1. A sibling method inside a material.
+        if let Some((material, _defined)) = self.body.material.clone() {
+            if let Some(im) = interface_method(name) {
+                let params: Vec<ParamInfo> = im
+                    .params
+                    .iter()
+                    .map(|(n, t)| ParamInfo {
+                        name: n,
+                        ty: Some(t.ty()),
+                        required: true,
+                    })
+                    .collect();
+                if let Some(from) = self.body.node.clone() {
+                    self.edge(from, Node::Method(material, im.name), callee.span);
+                }
+                self.typed_args(name, &params, args, span);
+                return im.ret.ty();
+            }
+        }
+        // 2. A local of that name.
+        if self.lookup_local(name).is_some() {
+            self.error(Diagnostic::error(
+                callee.span,
+                format!("`{name}` is a variable, not a function"),
+            ));
+            self.untyped_args(args);
+            return Ty::Error;
+        }
+        // 3. A user or prelude item.
+        if let Some(sym) = self.symbols.get(name).copied() {
+            self.use_item(name, callee.span);
+            let item = self.item(sym);
+            let (params, ret): (&[Param], Ty) = match item {
+                Item::Function(f) => (&f.params, Ty::from_ast(&f.ret)),
+                Item::Material(d) => (&d.params, Ty::Material),
+                Item::MaterialTree(t) => match &t.params {
+                    Some(ps) => (ps, Ty::Material),
+                    None => {
+                        self.error(
+                            Diagnostic::error(
+                                span,
+                                format!("`{name}` is a material tree without parameters"),
+                            )
+                            .with_help(format!("use it without parentheses: `{name}`")),
+                        );
+                        self.untyped_args(args);
+                        return Ty::Error;
+                    }
+                },
+                _ => {
+                    self.error(Diagnostic::error(
+                        callee.span,
+                        format!("`{name}` is a constant, not a function"),
+                    ));
+                    self.untyped_args(args);
+                    return Ty::Error;
+                }
+            };
+            let infos: Vec<ParamInfo> = params
+                .iter()
+                .map(|p| ParamInfo {
+                    name: &p.name.name,
+                    ty: Some(Ty::from_ast(&p.ty)),
+                    required: p.default.is_none(),
+                })
+                .collect();
+            self.typed_args(name, &infos, args, span);
+            return if ret == Ty::Material {
+                self.material_value(span)
+            } else {
+                ret
+            };
+        }
+        // 4. A builtin.
+        if let Some(b) = builtin(name) {
+            return self.builtin_call(b, args, span);
+        }
+        self.unknown(name, callee.span, "function");
+        self.untyped_args(args);
+        Ty::Error
+    }
+
+    fn untyped_args(&mut self, args: &[Arg]) {
+        for a in args {
+            self.expr(&a.value, None);
+        }
+    }
+
+    fn typed_args(&mut self, callee: &str, params: &[ParamInfo], args: &[Arg], span: Span) {
+        let Some(bound) = self.bind_args(callee, params, args, span) else {
+            self.untyped_args(args);
+            return;
+        };
+        for (p, arg) in params.iter().zip(bound) {
+            if let (Some(arg), Some(want)) = (arg, &p.ty) {
+                let found = self.expr(arg, Some(want));
+                self.expect_ty(arg, &found, want, &format!("argument `{}`", p.name));
+            }
+        }
+    }
+
+    fn builtin_call(&mut self, b: &Builtin, args: &[Arg], span: Span) -> Ty {
+        let params: Vec<ParamInfo> = b
+            .params
+            .iter()
+            .map(|p| match p.strip_suffix('?') {
+                Some(n) => ParamInfo {
+                    name: n,
+                    ty: None,
+                    required: false,
+                },
+                None => ParamInfo {
+                    name: p,
+                    ty: None,
+                    required: true,
+                },
+            })
+            .collect();
+        let Some(bound) = self.bind_args(b.name, &params, args, span) else {
+            self.untyped_args(args);
+            return Ty::Error;
+        };
+        let mut tys: Vec<Option<Ty>> = Vec::with_capacity(bound.len());
+        for arg in &bound {
+            tys.push(arg.map(|a| self.expr(a, None)));
+        }
+        if matches!(b.name, "mix" | "blend" | "select" | "bump" | "transform")
+            || (b.name == "scale" && bound[1].is_some())
+        {
+            // Texture-tree nodes over materials are material values.
+            if tys
+                .iter()
+                .flatten()
+                .any(|t| *t == Ty::Material || matches!(t, Ty::Array(e, _) if **e == Ty::Material))
+                && !self.body.materials_allowed
+            {
+                return self.material_value(span);
+            }
+        }
+        let result = match type_builtin(b.name, &tys) {
+            Ok(t) => t,
+            Err(ArgError { arg, message, help }) => {
+                let at = arg
+                    .and_then(|i| bound.get(i).copied().flatten())
+                    .map_or(span, |e| e.span);
+                let mut d =
+                    Diagnostic::error(at, message).with_note(format!("expected {}", b.synopsis));
+                if at != span {
+                    d = d.with_label(span, format!("in this call to `{}`", b.name));
+                }
+                if let Some(h) = help {
+                    d = d.with_help(h);
+                }
+                self.error(d);
+                return Ty::Error;
+            }
+        };
+        match b.name {
+            "mix" => {
+                if let Some(only) = bound[3] {
+                    self.check_only(only);
+                }
+            }
+            "spectrum" => {
+                if let Some(samples) = bound[0] {
+                    self.check_spectrum(samples);
+                }
+            }
+            _ => {}
+        }
+        result
+    }
+
+    /// `mix(t, a, b, only: "method")` names an interface method.
+    fn check_only(&mut self, only: &Expr) {
+        match &only.kind {
+            ExprKind::Str(s) if interface_method(s).is_some() => {}
+            ExprKind::Str(s) => {
+                let mut d = Diagnostic::error(
+                    only.span,
+                    format!("`{s}` is not a method of the material interface"),
+                );
+                if let Some(m) = did_you_mean(s, INTERFACE.iter().map(|m| m.name)) {
+                    d = d.with_help(format!("did you mean `{m}`?"));
+                }
+                self.error(d);
+            }
+            _ => self.error(
+                Diagnostic::error(
+                    only.span,
+                    "`only:` must be a string literal naming an interface method",
+                )
+                .with_help("for example `only: \"refraction_index\"`"),
+            ),
+        }
+    }
+
+    /// Literal spectra: wavelengths increase and lie in the visible-ish range.
+    fn check_spectrum(&mut self, samples: &Expr) {
+        let ExprKind::Array(items) = &samples.kind else {
+            return;
+        };
+        if items.len() < 2 {
+            self.error(
+                Diagnostic::error(samples.span, "a spectrum needs at least two samples")
+                    .with_help("for a constant spectrum use gray(value)"),
+            );
+        }
+        let mut prev: Option<f64> = None;
+        for item in items {
+            let ExprKind::Tuple(pair) = &item.kind else {
+                continue;
+            };
+            let Some(nm) = pair.first().and_then(const_number) else {
+                continue;
+            };
+            if !(300.0..=1000.0).contains(&nm) {
+                self.error(
+                    Diagnostic::error(
+                        pair[0].span,
+                        format!("wavelength {nm} nm is outside 300..1000 nm"),
+                    )
+                    .with_help("spectrum samples are (wavelength in nanometres, value)"),
+                );
+            }
+            if let Some(p) = prev {
+                if nm <= p {
+                    self.error(Diagnostic::error(
+                        pair[0].span,
+                        format!("wavelengths must increase: {nm} nm follows {p} nm"),
+                    ));
+                }
+            }
+            prev = Some(nm);
+        }
+    }
+
+    fn construct(&mut self, ty: BaseType, ty_span: Span, args: &[Arg], span: Span) -> Ty {
+        for a in args {
+            if let Some(n) = &a.name {
+                self.error(Diagnostic::error(
+                    n.span,
+                    "type constructors take positional arguments only",
+                ));
+            }
+        }
+        let tys: Vec<Ty> = args.iter().map(|a| self.expr(&a.value, None)).collect();
+        let result = Ty::from_base(ty);
+        let (counts, elem): (&[usize], Ty) = match ty {
+            BaseType::Color => {
+                self.error(
+                    Diagnostic::error(ty_span, "colors have no component constructor")
+                        .with_help("a color hides its representation: build one with rgb(r, g, b), hsv(h, s, v), xyz(x, y, z), gray(v), black() or spectrum([...])"),
+                );
+                return Ty::Error;
+            }
+            BaseType::Vector | BaseType::Point | BaseType::Normal => (&[1, 3], Ty::Float),
+            BaseType::Vec2 => (&[1, 2], Ty::Float),
+            BaseType::Float | BaseType::Int => (&[1], Ty::Float),
+            BaseType::Matrix => (&[0, 1, 12], Ty::Float),
+            _ => (&[], Ty::Error),
+        };
+        if !counts.contains(&tys.len()) {
+            let want: Vec<String> = counts.iter().map(|c| c.to_string()).collect();
+            self.error(
+                Diagnostic::error(span, format!("`{}(...)` takes {} arguments, found {}", ty.keyword(), want.join(" or "), tys.len()))
+                    .with_help(match ty {
+                        BaseType::Matrix => "matrix() is the identity, matrix(s) scales, matrix(12 floats) gives the three rows of an affine transform",
+                        BaseType::Vec2 => "vec2(s) repeats s; vec2(a, b) sets both",
+                        _ => "vector(s) repeats s; vector(x, y, z) sets each",
+                    }),
+            );
+            return Ty::Error;
+        }
+        for (a, t) in args.iter().zip(&tys) {
+            let ok = if matches!(ty, BaseType::Float | BaseType::Int) {
+                t.is_numeric() || t.is_error()
+            } else {
+                t.converts_to(&elem)
+            };
+            if !ok {
+                let mut d =
+                    Diagnostic::error(a.value.span, format!("expected a number, found `{t}`"));
+                if *t == Ty::Color {
+                    d = d.with_help(
+                        "a color has no components: use to_rgb(c) for an explicit conversion",
+                    );
+                }
+                self.error(d);
+                return Ty::Error;
+            }
+        }
+        result
+    }
+
+    fn member(&mut self, base: &Expr, field: &Ident) -> Ty {
+        let t = self.expr(base, None);
+        let fields: &[&str] = match &t {
+            Ty::Error => return Ty::Error,
+            t if t.is_triple() => &["x", "y", "z"],
+            Ty::Vec2 => &["x", "y"],
+            Ty::Color => {
+                self.error(
+                    Diagnostic::error(field.span, format!("cannot read component `{}` of a color", field.name))
+                        .with_label(base.span, "this is a `color`")
+                        .with_help("a color hides its representation (RGB or N spectral samples), so shaders run unchanged in both renderers: use brightness(c) for a scalar or to_rgb(c) for an explicit conversion"),
+                );
+                return Ty::Error;
+            }
+            _ => &[],
+        };
+        if fields.contains(&field.name.as_str()) {
+            return Ty::Float;
+        }
+        let mut d = Diagnostic::error(field.span, format!("`{t}` has no field `{}`", field.name));
+        if !fields.is_empty() {
+            d = d.with_help(format!("the fields of `{t}` are {}", fields.join(", ")));
+        }
+        self.error(d);
+        Ty::Error
+    }
+
+    fn index(&mut self, base: &Expr, index: &Expr) -> Ty {
+        let t = self.expr(base, None);
+        let i = self.expr(index, Some(&Ty::Int));
+        if !i.is_error() && i != Ty::Int {
+            self.error(
+                Diagnostic::error(index.span, format!("an index must be `int`, found `{i}`"))
+                    .with_help("convert with int(x)"),
+            );
+        }
+        let (elem, len) = match &t {
+            Ty::Error => return Ty::Error,
+            Ty::Array(e, n) => ((**e).clone(), *n),
+            t if t.is_triple() => (Ty::Float, 3),
+            Ty::Vec2 => (Ty::Float, 2),
+            Ty::Color => {
+                self.error(
+                    Diagnostic::error(index.span, "cannot index a color")
+                        .with_label(base.span, "this is a `color`")
+                        .with_help("a color hides its representation (RGB or N spectral samples): use brightness(c) or to_rgb(c)"),
+                );
+                return Ty::Error;
+            }
+            t => {
+                self.error(Diagnostic::error(
+                    base.span,
+                    format!("`{t}` cannot be indexed"),
+                ));
+                return Ty::Error;
+            }
+        };
+        if let Some(k) = const_int(index) {
+            if k < 0 || k >= i64::from(len) {
+                self.error(
+                    Diagnostic::error(index.span, format!("index {k} is out of bounds"))
+                        .with_label(base.span, format!("this has {len} elements")),
+                );
+            }
+        }
+        elem
+    }
+
+    fn array(&mut self, items: &[Expr], span: Span, expected: Option<&Ty>) -> Ty {
+        let want_elem = match expected {
+            Some(Ty::Array(e, n)) => {
+                if items.len() != *n as usize {
+                    self.error(Diagnostic::error(
+                        span,
+                        format!("expected an array of {n} items, found {}", items.len()),
+                    ));
+                }
+                Some((**e).clone())
+            }
+            _ => None,
+        };
+        if items.is_empty() {
+            if want_elem.is_none() {
+                self.error(Diagnostic::error(
+                    span,
+                    "cannot infer the type of an empty array",
+                ));
+            }
+            return Ty::Error;
+        }
+        if items.len() > MAX_ARRAY_LEN as usize {
+            self.error(Diagnostic::error(
+                span,
+                format!("an array has at most {MAX_ARRAY_LEN} items"),
+            ));
+            return Ty::Error;
+        }
+        let mut elem: Option<Ty> = None;
+        for item in items {
+            let t = self.expr(item, want_elem.as_ref());
+            elem = match elem {
+                None => Some(t),
+                Some(prev) => {
+                    match unify(&prev, &t) {
+                        Some(u) => Some(u),
+                        None => {
+                            self.error(
+                            Diagnostic::error(item.span, format!("array items must share one type: expected `{prev}`, found `{t}`")),
+                        );
+                            Some(Ty::Error)
+                        }
+                    }
+                }
+            };
+        }
+        let elem = elem.unwrap_or(Ty::Error);
+        if elem == Ty::Material && !self.body.materials_allowed {
+            return self.material_value(span);
+        }
+        if let Ty::Array(..) = elem {
+            self.error(Diagnostic::error(
+                span,
+                "arrays of arrays are not supported",
+            ));
+            return Ty::Error;
+        }
+        Ty::Array(Box::new(elem), items.len() as u32)
+    }
+
+    fn tuple(&mut self, items: &[Expr], span: Span, expected: Option<&Ty>) -> Ty {
+        let result = match (expected, items.len()) {
+            (Some(t), 3) if t.is_triple() => t.clone(),
+            (Some(Ty::Vec2), 2) => Ty::Vec2,
+            (_, 3) => Ty::Vector,
+            (_, 2) => Ty::Vec2,
+            (_, n) => {
+                self.error(
+                    Diagnostic::error(span, format!("a tuple of {n} values has no type"))
+                        .with_help(
+                            "tuples of two numbers are vec2, of three numbers vector/point/normal",
+                        ),
+                );
+                self.untyped_exprs(items);
+                return Ty::Error;
+            }
+        };
+        for item in items {
+            let t = self.expr(item, Some(&Ty::Float));
+            if !t.converts_to(&Ty::Float) {
+                self.error(Diagnostic::error(
+                    item.span,
+                    format!("tuple items must be numbers, found `{t}`"),
+                ));
+            }
+        }
+        result
+    }
+
+    fn untyped_exprs(&mut self, items: &[Expr]) {
+        for item in items {
+            self.expr(item, None);
+        }
+    }
+
+    // ------------------------------------------------------------ recursion
+
+    /// Shade trees are DAGs: any cycle among functions, materials, methods,
+    /// trees and constants is an error, reported once per cycle.
+    fn report_recursion(&mut self) {
+        let mut nodes: Vec<Node> = self.graph.keys().cloned().collect();
+        nodes.sort();
+        let mut state: HashMap<Node, u8> = HashMap::new();
+        for start in nodes {
+            if state.contains_key(&start) {
+                continue;
+            }
+            let mut stack: Vec<(Node, usize, Option<Span>)> = vec![(start.clone(), 0, None)];
+            state.insert(start, 1);
+            while let Some((node, next, _)) = stack.last().cloned() {
+                let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+                if let Some((to, span)) = out.get(next).cloned() {
+                    stack.last_mut().map(|top| top.1 += 1);
+                    match state.get(&to).copied().unwrap_or(0) {
+                        0 => {
+                            state.insert(to.clone(), 1);
+                            stack.push((to, 0, Some(span)));
+                        }
+                        1 => {
+                            let pos = stack.iter().position(|(n, _, _)| *n == to).unwrap_or(0);
+                            let mut path: Vec<String> =
+                                stack[pos..].iter().map(|(n, _, _)| n.describe()).collect();
+                            path.push(to.describe());
+                            let msg = if path.len() == 2 {
+                                format!("{} calls itself: recursion is not allowed", to.describe())
+                            } else {
+                                "recursion is not allowed: these definitions call each other"
+                                    .to_string()
+                            };
+                            self.diags.push(
+                                Diagnostic::error(span, msg)
+                                    .with_note(format!("cycle: {}", path.join(" -> ")))
+                                    .with_help("shade trees are acyclic so every shader terminates; compute iteratively with a `for` loop"),
+                            );
+                        }
+                        _ => {}
+                    }
+                } else {
+                    state.insert(node, 2);
+                    stack.pop();
+                }
+            }
+        }
+    }
+}
+
+/// The type of `l op r`, or a message and help line.
+fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<String>)> {
+    use BinaryOp::*;
+    if l.is_error() || r.is_error() {
+        return Ok(if matches!(op, Eq | Ne | Lt | Le | Gt | Ge | And | Or) {
+            Ty::Bool
+        } else {
+            Ty::Error
+        });
+    }
+    let sym = op.symbol();
+    let plain = |m: String| Err((m, None));
+    let color_help = "a color hides its representation (RGB or spectral samples)";
+    match op {
+        And | Or => {
+            if *l == Ty::Bool && *r == Ty::Bool {
+                Ok(Ty::Bool)
+            } else {
+                Err((
+                    format!("`{sym}` needs two `bool`s, found `{l}` and `{r}`"),
+                    Some("compare numbers explicitly, e.g. `x != 0`".into()),
+                ))
+            }
+        }
+        Lt | Le | Gt | Ge => {
+            if l.is_numeric() && r.is_numeric() {
+                Ok(Ty::Bool)
+            } else if *l == Ty::Color || *r == Ty::Color {
+                Err((
+                    format!("colors cannot be ordered with `{sym}`"),
+                    Some(format!(
+                        "{color_help}: compare brightness(a) {sym} brightness(b)"
+                    )),
+                ))
+            } else {
+                plain(format!("cannot compare `{l}` {sym} `{r}`"))
+            }
+        }
+        Eq | Ne => {
+            if (l.is_numeric() && r.is_numeric()) || (*l == Ty::Bool && *r == Ty::Bool) {
+                Ok(Ty::Bool)
+            } else if *l == Ty::Color || *r == Ty::Color {
+                Err((
+                    format!("colors cannot be compared with `{sym}`"),
+                    Some(format!(
+                        "{color_help}: compare brightness(a) and brightness(b)"
+                    )),
+                ))
+            } else if elementwise(l, r).is_some() && l.is_float_like() && r.is_float_like() {
+                Ok(Ty::Bool)
+            } else {
+                plain(format!("cannot compare `{l}` {sym} `{r}`"))
+            }
+        }
+        Add | Sub | Mul | Div | Rem => {
+            if *l == Ty::Color || *r == Ty::Color {
+                return color_arith(op, l, r);
+            }
+            if *l == Ty::Matrix || *r == Ty::Matrix {
+                return if op == Mul && l == r {
+                    Ok(Ty::Matrix)
+                } else {
+                    Err((
+                        format!("cannot apply `{sym}` to `{l}` and `{r}`"),
+                        Some("matrices compose with `*`; apply one with transform_point, transform_vector or transform_normal".into()),
+                    ))
+                };
+            }
+            match elementwise(l, r) {
+                Some(t) => Ok(t),
+                None => {
+                    let help = (*l == Ty::Material || *r == Ty::Material).then(|| {
+                        "combine materials with texture-tree nodes: mix, blend, select, scale"
+                            .to_string()
+                    });
+                    Err((format!("cannot apply `{sym}` to `{l}` and `{r}`"), help))
+                }
+            }
+        }
+    }
+}
+
+/// The generic color interface: `+` and `*` between colors, `*` and `/` by a
+/// float, `/` between colors. Nothing else.
+fn color_arith(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<String>)> {
+    use BinaryOp::*;
+    let (lc, rc) = (*l == Ty::Color, *r == Ty::Color);
+    let ok = match op {
+        Add => lc && rc,
+        Mul => (lc && rc) || (lc && r.is_numeric()) || (l.is_numeric() && rc),
+        Div => lc && (rc || r.is_numeric()),
+        _ => false,
+    };
+    if ok {
+        return Ok(Ty::Color);
+    }
+    let sym = op.symbol();
+    let help = match op {
+        Sub => "colors have no subtraction in the generic color interface (it offers +, *, scaling, / and pow); to attenuate, scale: c * (1 - w)".to_string(),
+        Add if l.is_numeric() || r.is_numeric() => "a number is not a color: write gray(x) for a uniform color".to_string(),
+        Div if l.is_numeric() => "a number cannot be divided by a color; divide two colors, or scale by 1 / x".to_string(),
+        _ => "colors support `+` and `*` with colors, `*` and `/` by a float, and `/` between colors".to_string(),
+    };
+    Err((
+        format!("cannot apply `{sym}` to `{l}` and `{r}`"),
+        Some(help),
+    ))
+}
+
+fn required_params(params: &[Param]) -> Vec<String> {
+    params
+        .iter()
+        .filter(|p| p.default.is_none())
+        .map(|p| p.name.name.clone())
+        .collect()
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+fn const_number(e: &Expr) -> Option<f64> {
+    match &e.kind {
+        ExprKind::Int(i) => Some(f64::from(*i)),
+        ExprKind::Float(f) => Some(*f),
+        ExprKind::Unary {
+            op: UnaryOp::Neg,
+            operand,
+        } => const_number(operand).map(|v| -v),
+        _ => None,
+    }
+}
+
+fn const_int(e: &Expr) -> Option<i64> {
+    match &e.kind {
+        ExprKind::Int(i) => Some(i64::from(*i)),
+        ExprKind::Unary {
+            op: UnaryOp::Neg,
+            operand,
+        } => const_int(operand).map(|v| -v),
+        _ => None,
+    }
+}
+
+/// Whether every path through the block ends in `return`.
+fn block_returns(b: &Block) -> bool {
+    b.stmts.iter().any(stmt_returns)
+}
+
+fn stmt_returns(s: &Stmt) -> bool {
+    match &s.kind {
+        StmtKind::Return(_) => true,
+        StmtKind::Block(b) => block_returns(b),
+        StmtKind::If {
+            then_block,
+            else_branch: Some(e),
+            ..
+        } => block_returns(then_block) && stmt_returns(e),
+        _ => false,
+    }
+}

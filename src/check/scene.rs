@@ -1,0 +1,466 @@
+//! The `scene { ... }` block: which blocks, kinds and properties exist, and
+//! the type each property takes. Rendering gives them meaning later; here
+//! they are only checked.
+
+use super::{Checker, Ty};
+use crate::diag::{Diagnostic, did_you_mean};
+use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
+use std::collections::HashMap;
+
+/// What a property's value must be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Want {
+    /// A float that must be positive when written as a literal.
+    Positive,
+    Float,
+    /// An int that must be positive when written as a literal.
+    Count,
+    Int,
+    Color,
+    Point,
+    Vector,
+    Matrix,
+    String,
+    Material,
+    ColorOrString,
+    FloatOrVector,
+    /// One of a fixed set of string literals.
+    Choice(&'static [&'static str]),
+}
+
+impl Want {
+    fn describe(self) -> String {
+        match self {
+            Want::Positive => "a positive float".into(),
+            Want::Float => "a float".into(),
+            Want::Count => "a positive int".into(),
+            Want::Int => "an int".into(),
+            Want::Color => "a color".into(),
+            Want::Point => "a point such as (0, 1, 0)".into(),
+            Want::Vector => "a vector such as (0, 1, 0)".into(),
+            Want::Matrix => "a matrix".into(),
+            Want::String => "a string".into(),
+            Want::Material => "a material".into(),
+            Want::ColorOrString => "a color or an image file name".into(),
+            Want::FloatOrVector => "a float or a vector".into(),
+            Want::Choice(c) => format!(
+                "one of {}",
+                c.iter()
+                    .map(|s| format!("\"{s}\""))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Prop {
+    name: &'static str,
+    want: Want,
+    required: bool,
+    /// Transforms may be given several times; they apply in order.
+    repeats: bool,
+}
+
+const fn req(name: &'static str, want: Want) -> Prop {
+    Prop {
+        name,
+        want,
+        required: true,
+        repeats: false,
+    }
+}
+const fn opt(name: &'static str, want: Want) -> Prop {
+    Prop {
+        name,
+        want,
+        required: false,
+        repeats: false,
+    }
+}
+const fn many(name: &'static str, want: Want) -> Prop {
+    Prop {
+        name,
+        want,
+        required: false,
+        repeats: true,
+    }
+}
+
+const TOP: &[Prop] = &[opt("background", Want::ColorOrString)];
+
+const CAMERA: &[Prop] = &[
+    req("from", Want::Point),
+    req("to", Want::Point),
+    opt("up", Want::Vector),
+    opt("fov", Want::Positive),
+    opt("aperture", Want::Float),
+    opt("focus", Want::Positive),
+];
+
+const RENDER: &[Prop] = &[
+    opt("width", Want::Count),
+    opt("height", Want::Count),
+    opt("spp", Want::Count),
+    opt("max_depth", Want::Count),
+    opt("seed", Want::Int),
+    opt("integrator", Want::Choice(&["whitted", "path"])),
+];
+
+const LIGHTS: &[(&str, &[Prop])] = &[
+    (
+        "point",
+        &[req("at", Want::Point), req("power", Want::Color)],
+    ),
+    (
+        "spot",
+        &[
+            req("at", Want::Point),
+            req("to", Want::Point),
+            req("power", Want::Color),
+            opt("cone", Want::Positive),
+            opt("falloff", Want::Float),
+        ],
+    ),
+    (
+        "directional",
+        &[
+            req("direction", Want::Vector),
+            req("irradiance", Want::Color),
+        ],
+    ),
+    (
+        "rect",
+        &[
+            req("corner", Want::Point),
+            req("edge1", Want::Vector),
+            req("edge2", Want::Vector),
+            req("power", Want::Color),
+        ],
+    ),
+    (
+        "sphere",
+        &[
+            req("center", Want::Point),
+            req("radius", Want::Positive),
+            req("power", Want::Color),
+        ],
+    ),
+];
+
+/// Properties every object takes besides its shape's own.
+const OBJECT_COMMON: &[Prop] = &[
+    req("material", Want::Material),
+    many("translate", Want::Vector),
+    many("rotate", Want::Vector),
+    many("scale", Want::FloatOrVector),
+    many("transform", Want::Matrix),
+];
+
+const SHAPES: &[(&str, &[Prop])] = &[
+    (
+        "sphere",
+        &[req("center", Want::Point), req("radius", Want::Positive)],
+    ),
+    (
+        "plane",
+        &[
+            req("point", Want::Point),
+            req("normal", Want::Vector),
+            opt("tile", Want::Positive),
+        ],
+    ),
+    (
+        "disk",
+        &[
+            req("center", Want::Point),
+            req("normal", Want::Vector),
+            req("radius", Want::Positive),
+        ],
+    ),
+    ("box", &[req("min", Want::Point), req("max", Want::Point)]),
+    (
+        "cylinder",
+        &[
+            req("base", Want::Point),
+            opt("axis", Want::Vector),
+            req("radius", Want::Positive),
+            req("height", Want::Positive),
+        ],
+    ),
+    ("mesh", &[req("file", Want::String)]),
+];
+
+const BLOCKS: &[&str] = &["camera", "render", "light", "object"];
+
+pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
+    let mut cameras = Vec::new();
+    let mut renders = Vec::new();
+    let mut top_props: Vec<&SceneProp> = Vec::new();
+    for entry in &scene.entries {
+        match entry {
+            SceneEntry::Prop(p) => top_props.push(p),
+            SceneEntry::Block(b) => match b.keyword.name.as_str() {
+                "camera" => {
+                    no_kind(cx, b);
+                    cameras.push(b);
+                    check_props(cx, b.props.iter().collect(), CAMERA, &[], "the camera", b);
+                }
+                "render" => {
+                    no_kind(cx, b);
+                    renders.push(b);
+                    check_props(
+                        cx,
+                        b.props.iter().collect(),
+                        RENDER,
+                        &[],
+                        "render settings",
+                        b,
+                    );
+                }
+                "light" => {
+                    if let Some(props) = kind_props(cx, b, LIGHTS, "light") {
+                        check_props(cx, b.props.iter().collect(), props, &[], "this light", b);
+                    }
+                }
+                "object" => {
+                    if let Some(props) = kind_props(cx, b, SHAPES, "shape") {
+                        check_props(
+                            cx,
+                            b.props.iter().collect(),
+                            props,
+                            OBJECT_COMMON,
+                            "this object",
+                            b,
+                        );
+                    }
+                }
+                other => {
+                    let mut d =
+                        Diagnostic::error(b.keyword.span, format!("unknown scene block `{other}`"));
+                    d = match did_you_mean(other, BLOCKS.iter().copied()) {
+                        Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                        None => d.with_help(format!("scene blocks are: {}", BLOCKS.join(", "))),
+                    };
+                    cx.error(d);
+                }
+            },
+        }
+    }
+    check_prop_list(cx, &top_props, TOP, &[]);
+    if cameras.is_empty() {
+        cx.error(
+            Diagnostic::error(scene.span, "the scene has no camera")
+                .with_help("add `camera { from (0, 1, -4); to (0, 1, 0); fov 40; }`"),
+        );
+    }
+    for (what, blocks) in [("camera", &cameras), ("render block", &renders)] {
+        for extra in blocks.iter().skip(1) {
+            cx.error(
+                Diagnostic::error(extra.keyword.span, format!("a scene has one {what}"))
+                    .with_label(blocks[0].keyword.span, "the first is here"),
+            );
+        }
+    }
+}
+
+fn no_kind(cx: &mut Checker<'_>, b: &SceneBlock) {
+    if let Some(kind) = &b.kind {
+        cx.error(Diagnostic::error(
+            kind.span,
+            format!("`{}` takes no kind", b.keyword.name),
+        ));
+    }
+}
+
+fn kind_props(
+    cx: &mut Checker<'_>,
+    b: &SceneBlock,
+    kinds: &[(&'static str, &'static [Prop])],
+    what: &str,
+) -> Option<&'static [Prop]> {
+    let names: Vec<&str> = kinds.iter().map(|k| k.0).collect();
+    let Some(kind) = &b.kind else {
+        cx.error(
+            Diagnostic::error(
+                b.keyword.span,
+                format!("`{}` needs a {what} kind", b.keyword.name),
+            )
+            .with_help(format!(
+                "write `{} {} {{ ... }}`; kinds: {}",
+                b.keyword.name,
+                names[0],
+                names.join(", ")
+            )),
+        );
+        return None;
+    };
+    if let Some((_, props)) = kinds.iter().find(|k| k.0 == kind.name) {
+        return Some(props);
+    }
+    let mut d = Diagnostic::error(kind.span, format!("unknown {what} `{}`", kind.name));
+    d = match did_you_mean(&kind.name, names.iter().copied()) {
+        Some(s) => d.with_help(format!("did you mean `{s}`?")),
+        None => d.with_help(format!("{what}s are: {}", names.join(", "))),
+    };
+    cx.error(d);
+    None
+}
+
+fn check_props(
+    cx: &mut Checker<'_>,
+    props: Vec<&SceneProp>,
+    own: &[Prop],
+    common: &[Prop],
+    what: &str,
+    b: &SceneBlock,
+) {
+    let given = check_prop_list(cx, &props, own, common);
+    for p in own.iter().chain(common) {
+        if p.required && !given.contains_key(p.name) {
+            cx.error(
+                Diagnostic::error(b.span, format!("{what} is missing `{}`", p.name))
+                    .with_primary(format!("`{}` takes {}", p.name, p.want.describe()))
+                    .with_help(format!("add `{} ...;` inside the block", p.name)),
+            );
+        }
+    }
+}
+
+/// Checks each property against the schema; returns the names given.
+fn check_prop_list<'p>(
+    cx: &mut Checker<'_>,
+    props: &[&'p SceneProp],
+    own: &[Prop],
+    common: &[Prop],
+) -> HashMap<&'p str, &'p SceneProp> {
+    let mut given: HashMap<&str, &SceneProp> = HashMap::new();
+    for p in props {
+        let name = p.name.name.as_str();
+        let Some(spec) = own.iter().chain(common).find(|s| s.name == name) else {
+            let names: Vec<&str> = own.iter().chain(common).map(|s| s.name).collect();
+            let mut d = Diagnostic::error(p.name.span, format!("unknown property `{name}`"));
+            d = match did_you_mean(name, names.iter().copied()) {
+                Some(s) => d.with_help(format!("did you mean `{s}`?")),
+                None if names.is_empty() => d,
+                None => d.with_help(format!("properties here: {}", names.join(", "))),
+            };
+            cx.error(d);
+            if let Some(v) = &p.value {
+                cx.body.globals_allowed = true;
+                cx.body.materials_allowed = true;
+                cx.expr(v, None);
+            }
+            continue;
+        };
+        if let Some(prev) = given.insert(name, p) {
+            if !spec.repeats {
+                cx.error(
+                    Diagnostic::error(p.name.span, format!("`{name}` is given twice"))
+                        .with_label(prev.name.span, "first given here"),
+                );
+            }
+        }
+        let Some(value) = &p.value else {
+            cx.error(
+                Diagnostic::error(p.span, format!("`{name}` needs a value"))
+                    .with_help(format!("`{name}` takes {}", spec.want.describe())),
+            );
+            continue;
+        };
+        check_value(cx, value, spec);
+    }
+    given
+}
+
+fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
+    // Materials are evaluated per hit point, so they may read the globals;
+    // everything else is fixed before rendering starts.
+    cx.body.globals_allowed = spec.want == Want::Material;
+    cx.body.materials_allowed = spec.want == Want::Material;
+    let expected = match spec.want {
+        Want::Positive | Want::Float => Some(Ty::Float),
+        Want::Count | Want::Int => Some(Ty::Int),
+        Want::Color => Some(Ty::Color),
+        Want::Point => Some(Ty::Point),
+        Want::Vector => Some(Ty::Vector),
+        Want::Matrix => Some(Ty::Matrix),
+        Want::String | Want::Choice(_) => Some(Ty::String),
+        Want::Material => Some(Ty::Material),
+        Want::ColorOrString | Want::FloatOrVector => None,
+    };
+    let found = cx.expr(value, expected.as_ref());
+    let ok = match spec.want {
+        Want::ColorOrString => found == Ty::Color || found == Ty::String || found.is_error(),
+        Want::FloatOrVector => {
+            found.converts_to(&Ty::Float) || found.is_triple() || found.is_error()
+        }
+        _ => expected.as_ref().is_none_or(|t| found.converts_to(t)),
+    };
+    if !ok {
+        let mut d = Diagnostic::error(
+            value.span,
+            format!(
+                "`{}` takes {}, found `{found}`",
+                spec.name,
+                spec.want.describe()
+            ),
+        );
+        if spec.want == Want::Color && found.is_numeric() {
+            d = d.with_help("a number is not a color: write gray(x) or rgb(r, g, b)");
+        }
+        cx.error(d);
+        return;
+    }
+    match spec.want {
+        Want::Positive | Want::Count => {
+            if let Some(v) = literal_number(value) {
+                if v <= 0.0 {
+                    cx.error(Diagnostic::error(
+                        value.span,
+                        format!("`{}` must be positive, found {v}", spec.name),
+                    ));
+                }
+            }
+        }
+        Want::Choice(choices) => match &value.kind {
+            ExprKind::Str(s) if choices.contains(&s.as_str()) => {}
+            ExprKind::Str(s) => {
+                let mut d = Diagnostic::error(value.span, format!("unknown {} \"{s}\"", spec.name))
+                    .with_note(format!("expected {}", spec.want.describe()));
+                if let Some(m) = did_you_mean(s, choices.iter().copied()) {
+                    d = d.with_help(format!("did you mean \"{m}\"?"));
+                }
+                cx.error(d);
+            }
+            _ => cx.error(Diagnostic::error(
+                value.span,
+                format!("`{}` takes {}", spec.name, spec.want.describe()),
+            )),
+        },
+        _ => {}
+    }
+    if spec.name == "fov" {
+        if let Some(v) = literal_number(value) {
+            if v >= 180.0 {
+                cx.error(Diagnostic::error(
+                    value.span,
+                    format!("a field of view of {v} degrees is not below 180"),
+                ));
+            }
+        }
+    }
+}
+
+fn literal_number(e: &Expr) -> Option<f64> {
+    match &e.kind {
+        ExprKind::Int(i) => Some(f64::from(*i)),
+        ExprKind::Float(f) => Some(*f),
+        ExprKind::Unary {
+            op: UnaryOp::Neg,
+            operand,
+        } => literal_number(operand).map(|v| -v),
+        _ => None,
+    }
+}

@@ -1,0 +1,323 @@
+//! Loading a program: the root source, everything it imports, and the
+//! prelude (the standard library in `stdlib/`, embedded in the binary).
+//!
+//! All file-system access of the front end happens here. Every failure (a
+//! missing or unreadable file, a directory, invalid UTF-8, an empty file, an
+//! import cycle) becomes a located diagnostic; loading itself never fails.
+
+use crate::diag::{Diagnostic, FileId, SourceMap, Span};
+use crate::syntax::{self, ast};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// The standard library, compiled into every program as its prelude.
+pub const PRELUDE: &[(&str, &str)] = &[
+    ("stdlib/math.tsl", include_str!("../stdlib/math.tsl")),
+    (
+        "stdlib/materials.tsl",
+        include_str!("../stdlib/materials.tsl"),
+    ),
+    (
+        "stdlib/generators.tsl",
+        include_str!("../stdlib/generators.tsl"),
+    ),
+];
+
+/// Where imports are searched and whether the prelude is loaded.
+#[derive(Debug, Clone)]
+pub struct LoadOptions {
+    /// Directories searched (after the importing file's own) for `import`.
+    pub import_paths: Vec<PathBuf>,
+    pub prelude: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        LoadOptions {
+            import_paths: Vec::new(),
+            prelude: true,
+        }
+    }
+}
+
+/// One parsed source file of a program.
+#[derive(Debug, Clone)]
+pub struct Module {
+    pub file: FileId,
+    pub ast: ast::SourceFile,
+    pub is_prelude: bool,
+}
+
+/// A loaded program: its sources and parsed modules, prelude first.
+#[derive(Debug, Clone, Default)]
+pub struct Loaded {
+    pub sources: SourceMap,
+    pub modules: Vec<Module>,
+}
+
+/// Loads a program whose root source text is given (from a file, standard
+/// input or a host). `name` is shown in diagnostics and, when it is a path,
+/// anchors relative imports.
+pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
+    let mut loader = Loader {
+        loaded: Loaded::default(),
+        diags: Vec::new(),
+        by_path: HashMap::new(),
+        options,
+    };
+    if options.prelude {
+        for (name, text) in PRELUDE {
+            let file = loader.loaded.sources.add(*name, *text);
+            let (ast, diags) = syntax::parse(file, text);
+            loader.diags.extend(diags);
+            loader.loaded.modules.push(Module {
+                file,
+                ast,
+                is_prelude: true,
+            });
+        }
+    }
+    let root = loader.add_text(name, text, Path::new(name).canonicalize().ok());
+    loader.resolve_imports(root);
+    (loader.loaded, loader.diags)
+}
+
+/// Loads a program from a file on disk.
+pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
+    match read_source(path) {
+        Ok(text) => load_source(&path.display().to_string(), &text, options),
+        Err(ReadError {
+            message,
+            bad_utf8_at,
+        }) => {
+            // The diagnostic needs a file to point into: the readable prefix.
+            let mut loaded = Loaded::default();
+            let shown = match bad_utf8_at {
+                Some(_) => {
+                    String::from_utf8_lossy(&std::fs::read(path).unwrap_or_default()).into_owned()
+                }
+                None => String::new(),
+            };
+            let file = loaded.sources.add(path.display().to_string(), shown);
+            let at = bad_utf8_at.unwrap_or(0);
+            (
+                loaded,
+                vec![Diagnostic::error(Span::new(file, at, at), message)],
+            )
+        }
+    }
+}
+
+struct ReadError {
+    message: String,
+    bad_utf8_at: Option<usize>,
+}
+
+fn read_source(path: &Path) -> Result<String, ReadError> {
+    let plain = |message: String| ReadError {
+        message,
+        bad_utf8_at: None,
+    };
+    if path.is_dir() {
+        return Err(plain(format!(
+            "`{}` is a directory, not a .tsl file",
+            path.display()
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(|e| {
+        plain(format!(
+            "cannot read `{}`: {}",
+            path.display(),
+            io_reason(&e)
+        ))
+    })?;
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        ReadError {
+            message: format!(
+                "`{}` is not valid UTF-8 (bad byte at offset {at})",
+                path.display()
+            ),
+            bad_utf8_at: Some(at),
+        }
+    })
+}
+
+fn io_reason(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file".into(),
+        std::io::ErrorKind::PermissionDenied => "permission denied".into(),
+        _ => e.to_string(),
+    }
+}
+
+struct Loader<'o> {
+    loaded: Loaded,
+    diags: Vec<Diagnostic>,
+    /// Canonical path to module index, so each file is loaded once.
+    by_path: HashMap<PathBuf, usize>,
+    options: &'o LoadOptions,
+}
+
+impl Loader<'_> {
+    fn add_text(&mut self, name: &str, text: &str, canonical: Option<PathBuf>) -> usize {
+        let file = self.loaded.sources.add(name, text);
+        if text.trim().is_empty() {
+            self.diags.push(
+                Diagnostic::error(Span::new(file, 0, 0), "the file is empty")
+                    .with_help("a .tsl file holds functions, materials, material trees or a scene"),
+            );
+        }
+        let (ast, diags) = syntax::parse(file, text);
+        self.diags.extend(diags);
+        self.loaded.modules.push(Module {
+            file,
+            ast,
+            is_prelude: false,
+        });
+        let index = self.loaded.modules.len() - 1;
+        if let Some(p) = canonical {
+            self.by_path.insert(p, index);
+        }
+        index
+    }
+
+    /// Loads every import reachable from `root`, breadth first, and reports
+    /// import cycles. Iterative, so long import chains cannot overflow.
+    fn resolve_imports(&mut self, root: usize) {
+        let mut edges: Vec<(usize, usize, Span)> = Vec::new();
+        let mut queue = vec![root];
+        while let Some(index) = queue.pop() {
+            let module = &self.loaded.modules[index];
+            let file = module.file;
+            let imports: Vec<(String, Span)> = module
+                .ast
+                .items
+                .iter()
+                .filter_map(|i| match i {
+                    ast::Item::Import { path, span } => Some((path.clone(), *span)),
+                    _ => None,
+                })
+                .collect();
+            let base = Path::new(self.loaded.sources.name(file))
+                .parent()
+                .map(Path::to_path_buf);
+            for (path, span) in imports {
+                let Some(found) = self.find_import(base.as_deref(), &path) else {
+                    let searched = self.searched(base.as_deref());
+                    self.diags.push(
+                        Diagnostic::error(span, format!("cannot find imported file `{path}`"))
+                            .with_help(format!("searched {searched}; add a directory with -I")),
+                    );
+                    continue;
+                };
+                let canonical = found.canonicalize().unwrap_or_else(|_| found.clone());
+                let target = match self.by_path.get(&canonical) {
+                    Some(&t) => t,
+                    None => match read_source(&found) {
+                        Ok(text) => {
+                            let t =
+                                self.add_text(&found.display().to_string(), &text, Some(canonical));
+                            queue.push(t);
+                            t
+                        }
+                        Err(e) => {
+                            self.diags.push(Diagnostic::error(span, e.message));
+                            continue;
+                        }
+                    },
+                };
+                edges.push((index, target, span));
+            }
+        }
+        self.report_cycles(&edges);
+    }
+
+    fn find_import(&self, base: Option<&Path>, path: &str) -> Option<PathBuf> {
+        let direct = Path::new(path);
+        if direct.is_absolute() {
+            return direct.is_file().then(|| direct.to_path_buf());
+        }
+        base.into_iter()
+            .chain(self.options.import_paths.iter().map(PathBuf::as_path))
+            .map(|dir| dir.join(path))
+            .find(|p| p.is_file())
+            .or_else(|| (base.is_none() && direct.is_file()).then(|| direct.to_path_buf()))
+    }
+
+    fn searched(&self, base: Option<&Path>) -> String {
+        let mut dirs: Vec<String> = base
+            .iter()
+            .map(|b| format!("`{}`", display_dir(b)))
+            .collect();
+        dirs.extend(
+            self.options
+                .import_paths
+                .iter()
+                .map(|d| format!("`{}`", display_dir(d))),
+        );
+        if dirs.is_empty() {
+            "the current directory".into()
+        } else {
+            dirs.join(", ")
+        }
+    }
+
+    /// Finds cycles in the import graph with an iterative depth-first search
+    /// and reports each once, at the import that closes it.
+    fn report_cycles(&mut self, edges: &[(usize, usize, Span)]) {
+        let n = self.loaded.modules.len();
+        let mut out: Vec<Vec<(usize, Span)>> = vec![Vec::new(); n];
+        for &(from, to, span) in edges {
+            out[from].push((to, span));
+        }
+        // 0 = unvisited, 1 = on the stack, 2 = done.
+        let mut state = vec![0u8; n];
+        for start in 0..n {
+            if state[start] != 0 {
+                continue;
+            }
+            let mut stack: Vec<(usize, usize)> = vec![(start, 0)];
+            state[start] = 1;
+            while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+                if let Some(&(to, span)) = out[node].get(*next) {
+                    *next += 1;
+                    match state[to] {
+                        0 => {
+                            state[to] = 1;
+                            stack.push((to, 0));
+                        }
+                        1 => {
+                            let pos = stack.iter().position(|&(m, _)| m == to).unwrap_or(0);
+                            let mut names: Vec<&str> = stack[pos..]
+                                .iter()
+                                .map(|&(m, _)| {
+                                    self.loaded.sources.name(self.loaded.modules[m].file)
+                                })
+                                .collect();
+                            names.push(self.loaded.sources.name(self.loaded.modules[to].file));
+                            self.diags.push(
+                                Diagnostic::error(span, "import cycle")
+                                    .with_primary("this import closes the cycle")
+                                    .with_note(format!("cycle: {}", names.join(" -> ")))
+                                    .with_help("move what both files need into a third file that both import"),
+                            );
+                        }
+                        _ => {}
+                    }
+                } else {
+                    state[node] = 2;
+                    stack.pop();
+                }
+            }
+        }
+    }
+}
+
+fn display_dir(p: &Path) -> String {
+    if p.as_os_str().is_empty() {
+        ".".into()
+    } else {
+        p.display().to_string()
+    }
+}
