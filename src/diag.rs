@@ -24,20 +24,12 @@ pub struct Span {
 
 impl Span {
     pub fn new(file: FileId, start: usize, end: usize) -> Span {
-        Span {
-            file,
-            start: start as u32,
-            end: end as u32,
-        }
+        Span { file, start: start as u32, end: end as u32 }
     }
 
     /// The smallest span covering both (which must be in the same file).
     pub fn to(self, other: Span) -> Span {
-        Span {
-            file: self.file,
-            start: self.start.min(other.start),
-            end: self.end.max(other.end),
-        }
+        Span { file: self.file, start: self.start.min(other.start), end: self.end.max(other.end) }
     }
 
     pub fn range(self) -> Range<usize> {
@@ -65,14 +57,8 @@ impl SourceMap {
 
     pub fn add(&mut self, name: impl Into<String>, text: impl Into<String>) -> FileId {
         let text = text.into();
-        let line_starts = std::iter::once(0)
-            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
-            .collect();
-        self.files.push(SourceFileText {
-            name: name.into(),
-            text,
-            line_starts,
-        });
+        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i + 1)).collect();
+        self.files.push(SourceFileText { name: name.into(), text, line_starts });
         FileId(self.files.len() as u32 - 1)
     }
 
@@ -98,10 +84,7 @@ impl SourceMap {
         let offset = (offset as usize).min(file.text.len());
         let line = file.line_starts.partition_point(|&s| s <= offset) - 1;
         let start = file.line_starts[line];
-        let col = file
-            .text
-            .get(start..offset)
-            .map_or(offset - start, |s| s.chars().count());
+        let col = file.text.get(start..offset).map_or(offset - start, |s| s.chars().count());
         (line + 1, col + 1)
     }
 }
@@ -148,10 +131,7 @@ impl Diagnostic {
     }
 
     pub fn warning(span: Span, message: impl Into<String>) -> Self {
-        Diagnostic {
-            severity: Severity::Warning,
-            ..Diagnostic::error(span, message)
-        }
+        Diagnostic { severity: Severity::Warning, ..Diagnostic::error(span, message) }
     }
 
     /// Text under the primary caret.
@@ -161,10 +141,7 @@ impl Diagnostic {
     }
 
     pub fn with_label(mut self, span: Span, message: impl Into<String>) -> Self {
-        self.labels.push(Label {
-            span,
-            message: message.into(),
-        });
+        self.labels.push(Label { span, message: message.into() });
         self
     }
 
@@ -216,14 +193,7 @@ pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) ->
         };
         if !ok {
             let (line, col) = sources.line_col(d.span.file, d.span.start);
-            out.extend(
-                format!(
-                    "error: {}\n  at {}:{line}:{col}\n",
-                    d.message,
-                    sources.name(d.span.file)
-                )
-                .bytes(),
-            );
+            out.extend(format!("error: {}\n  at {}:{line}:{col}\n", d.message, sources.name(d.span.file)).bytes());
         }
     }
     String::from_utf8_lossy(&out).into_owned()
@@ -234,20 +204,15 @@ fn to_codespan(d: &Diagnostic) -> cs::Diagnostic<usize> {
         Severity::Error => cs::Severity::Error,
         Severity::Warning => cs::Severity::Warning,
     };
-    let mut labels = vec![
-        cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label),
-    ];
-    labels.extend(d.labels.iter().map(|l| {
-        cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)
-    }));
+    let mut labels = vec![cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label)];
+    labels.extend(
+        d.labels.iter().map(|l| cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)),
+    );
     let mut notes: Vec<String> = d.notes.clone();
     if let Some(help) = &d.help {
         notes.push(format!("help: {help}"));
     }
-    cs::Diagnostic::new(severity)
-        .with_message(&d.message)
-        .with_labels(labels)
-        .with_notes(notes)
+    cs::Diagnostic::new(severity).with_message(&d.message).with_labels(labels).with_notes(notes)
 }
 
 /// One diagnostic as the JSON object `--message-format json` prints.
@@ -310,8 +275,7 @@ pub fn to_json(sources: &SourceMap, d: &Diagnostic) -> String {
         help: d.help.as_deref(),
         notes: &d.notes,
     };
-    serde_json::to_string(&json)
-        .unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
+    serde_json::to_string(&json).unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
 }
 
 /// Edit distance, for "did you mean" suggestions.
@@ -323,9 +287,7 @@ fn levenshtein(a: &str, b: &str) -> usize {
         row[0] = i + 1;
         for (j, &cb) in b.iter().enumerate() {
             let cur = row[j + 1];
-            row[j + 1] = (prev + usize::from(ca != cb))
-                .min(row[j] + 1)
-                .min(row[j + 1] + 1);
+            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(row[j + 1] + 1);
             prev = cur;
         }
     }
@@ -333,11 +295,11 @@ fn levenshtein(a: &str, b: &str) -> usize {
 }
 
 /// The candidate closest to `name`, if it is close enough to be a likely typo.
-pub fn did_you_mean<'a>(
-    name: &str,
-    candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
-    let limit = (name.chars().count() / 3).max(1);
+pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    // Very short names are one edit away from everything: only a change of
+    // case (distance 0 once lowercased) is a likely typo there.
+    let len = name.chars().count();
+    let limit = if len < 3 { 0 } else { (len / 3).max(1) };
     candidates
         .into_iter()
         .filter(|c| *c != name)
@@ -362,10 +324,9 @@ mod tests {
 
     #[test]
     fn suggestions_are_close_names_only() {
-        assert_eq!(
-            did_you_mean("normalise", ["normalize", "noise"]),
-            Some("normalize")
-        );
+        assert_eq!(did_you_mean("normalise", ["normalize", "noise"]), Some("normalize"));
         assert_eq!(did_you_mean("xyz", ["normalize"]), None);
+        assert_eq!(did_you_mean("z", ["N", "P"]), None);
+        assert_eq!(did_you_mean("n", ["N", "P"]), Some("N"));
     }
 }

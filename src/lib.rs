@@ -16,15 +16,7 @@
 //! let checked = tsl::check_source("wood.tsl", src, &tsl::LoadOptions::default());
 //! assert!(checked.is_ok(), "{}", checked.render_diagnostics());
 //! ```
-#![cfg_attr(
-    not(test),
-    warn(
-        clippy::panic,
-        clippy::print_stdout,
-        clippy::print_stderr,
-        clippy::todo
-    )
-)]
+#![cfg_attr(not(test), warn(clippy::panic, clippy::print_stdout, clippy::print_stderr, clippy::todo))]
 
 pub mod check;
 pub mod diag;
@@ -51,19 +43,12 @@ impl Checked {
     }
 
     pub fn count(&self, severity: Severity) -> usize {
-        self.diagnostics
-            .iter()
-            .filter(|d| d.severity == severity)
-            .count()
+        self.diagnostics.iter().filter(|d| d.severity == severity).count()
     }
 
     /// The diagnostics as rustc-style text without colours.
     pub fn render_diagnostics(&self) -> String {
-        diag::render_text(
-            &self.program.loaded.sources,
-            &self.diagnostics,
-            Colors::Never,
-        )
+        diag::render_text(&self.program.loaded.sources, &self.diagnostics, Colors::Never)
     }
 }
 
@@ -87,15 +72,9 @@ fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>) -> Checked {
         diagnostics.extend(more);
         program
     } else {
-        check::Program {
-            loaded,
-            ..Default::default()
-        }
+        check::Program { loaded, ..Default::default() }
     };
     diagnostics.sort_by_key(|d| (d.span.file, d.span.start, d.span.end));
     diagnostics.dedup();
-    Checked {
-        program,
-        diagnostics,
-    }
+    Checked { program, diagnostics }
 }

@@ -13,14 +13,8 @@ use std::path::{Path, PathBuf};
 /// The standard library, compiled into every program as its prelude.
 pub const PRELUDE: &[(&str, &str)] = &[
     ("stdlib/math.tsl", include_str!("../stdlib/math.tsl")),
-    (
-        "stdlib/materials.tsl",
-        include_str!("../stdlib/materials.tsl"),
-    ),
-    (
-        "stdlib/generators.tsl",
-        include_str!("../stdlib/generators.tsl"),
-    ),
+    ("stdlib/materials.tsl", include_str!("../stdlib/materials.tsl")),
+    ("stdlib/generators.tsl", include_str!("../stdlib/generators.tsl")),
 ];
 
 /// Where imports are searched and whether the prelude is loaded.
@@ -33,10 +27,7 @@ pub struct LoadOptions {
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions {
-            import_paths: Vec::new(),
-            prelude: true,
-        }
+        LoadOptions { import_paths: Vec::new(), prelude: true }
     }
 }
 
@@ -59,22 +50,13 @@ pub struct Loaded {
 /// input or a host). `name` is shown in diagnostics and, when it is a path,
 /// anchors relative imports.
 pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
-    let mut loader = Loader {
-        loaded: Loaded::default(),
-        diags: Vec::new(),
-        by_path: HashMap::new(),
-        options,
-    };
+    let mut loader = Loader { loaded: Loaded::default(), diags: Vec::new(), by_path: HashMap::new(), options };
     if options.prelude {
         for (name, text) in PRELUDE {
             let file = loader.loaded.sources.add(*name, *text);
             let (ast, diags) = syntax::parse(file, text);
             loader.diags.extend(diags);
-            loader.loaded.modules.push(Module {
-                file,
-                ast,
-                is_prelude: true,
-            });
+            loader.loaded.modules.push(Module { file, ast, is_prelude: true });
         }
     }
     let root = loader.add_text(name, text, Path::new(name).canonicalize().ok());
@@ -86,24 +68,16 @@ pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Ve
 pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
     match read_source(path) {
         Ok(text) => load_source(&path.display().to_string(), &text, options),
-        Err(ReadError {
-            message,
-            bad_utf8_at,
-        }) => {
+        Err(ReadError { message, bad_utf8_at }) => {
             // The diagnostic needs a file to point into: the readable prefix.
             let mut loaded = Loaded::default();
             let shown = match bad_utf8_at {
-                Some(_) => {
-                    String::from_utf8_lossy(&std::fs::read(path).unwrap_or_default()).into_owned()
-                }
+                Some(_) => String::from_utf8_lossy(&std::fs::read(path).unwrap_or_default()).into_owned(),
                 None => String::new(),
             };
             let file = loaded.sources.add(path.display().to_string(), shown);
             let at = bad_utf8_at.unwrap_or(0);
-            (
-                loaded,
-                vec![Diagnostic::error(Span::new(file, at, at), message)],
-            )
+            (loaded, vec![Diagnostic::error(Span::new(file, at, at), message)])
         }
     }
 }
@@ -114,30 +88,16 @@ struct ReadError {
 }
 
 fn read_source(path: &Path) -> Result<String, ReadError> {
-    let plain = |message: String| ReadError {
-        message,
-        bad_utf8_at: None,
-    };
+    let plain = |message: String| ReadError { message, bad_utf8_at: None };
     if path.is_dir() {
-        return Err(plain(format!(
-            "`{}` is a directory, not a .tsl file",
-            path.display()
-        )));
+        return Err(plain(format!("`{}` is a directory, not a .tsl file", path.display())));
     }
-    let bytes = std::fs::read(path).map_err(|e| {
-        plain(format!(
-            "cannot read `{}`: {}",
-            path.display(),
-            io_reason(&e)
-        ))
-    })?;
+    let bytes =
+        std::fs::read(path).map_err(|e| plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))))?;
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         ReadError {
-            message: format!(
-                "`{}` is not valid UTF-8 (bad byte at offset {at})",
-                path.display()
-            ),
+            message: format!("`{}` is not valid UTF-8 (bad byte at offset {at})", path.display()),
             bad_utf8_at: Some(at),
         }
     })
@@ -170,11 +130,7 @@ impl Loader<'_> {
         }
         let (ast, diags) = syntax::parse(file, text);
         self.diags.extend(diags);
-        self.loaded.modules.push(Module {
-            file,
-            ast,
-            is_prelude: false,
-        });
+        self.loaded.modules.push(Module { file, ast, is_prelude: false });
         let index = self.loaded.modules.len() - 1;
         if let Some(p) = canonical {
             self.by_path.insert(p, index);
@@ -199,9 +155,7 @@ impl Loader<'_> {
                     _ => None,
                 })
                 .collect();
-            let base = Path::new(self.loaded.sources.name(file))
-                .parent()
-                .map(Path::to_path_buf);
+            let base = Path::new(self.loaded.sources.name(file)).parent().map(Path::to_path_buf);
             for (path, span) in imports {
                 let Some(found) = self.find_import(base.as_deref(), &path) else {
                     let searched = self.searched(base.as_deref());
@@ -216,8 +170,7 @@ impl Loader<'_> {
                     Some(&t) => t,
                     None => match read_source(&found) {
                         Ok(text) => {
-                            let t =
-                                self.add_text(&found.display().to_string(), &text, Some(canonical));
+                            let t = self.add_text(&found.display().to_string(), &text, Some(canonical));
                             queue.push(t);
                             t
                         }
@@ -246,21 +199,9 @@ impl Loader<'_> {
     }
 
     fn searched(&self, base: Option<&Path>) -> String {
-        let mut dirs: Vec<String> = base
-            .iter()
-            .map(|b| format!("`{}`", display_dir(b)))
-            .collect();
-        dirs.extend(
-            self.options
-                .import_paths
-                .iter()
-                .map(|d| format!("`{}`", display_dir(d))),
-        );
-        if dirs.is_empty() {
-            "the current directory".into()
-        } else {
-            dirs.join(", ")
-        }
+        let mut dirs: Vec<String> = base.iter().map(|b| format!("`{}`", display_dir(b))).collect();
+        dirs.extend(self.options.import_paths.iter().map(|d| format!("`{}`", display_dir(d))));
+        if dirs.is_empty() { "the current directory".into() } else { dirs.join(", ") }
     }
 
     /// Finds cycles in the import graph with an iterative depth-first search
@@ -291,9 +232,7 @@ impl Loader<'_> {
                             let pos = stack.iter().position(|&(m, _)| m == to).unwrap_or(0);
                             let mut names: Vec<&str> = stack[pos..]
                                 .iter()
-                                .map(|&(m, _)| {
-                                    self.loaded.sources.name(self.loaded.modules[m].file)
-                                })
+                                .map(|&(m, _)| self.loaded.sources.name(self.loaded.modules[m].file))
                                 .collect();
                             names.push(self.loaded.sources.name(self.loaded.modules[to].file));
                             self.diags.push(
@@ -315,9 +254,5 @@ impl Loader<'_> {
 }
 
 fn display_dir(p: &Path) -> String {
-    if p.as_os_str().is_empty() {
-        ".".into()
-    } else {
-        p.display().to_string()
-    }
+    if p.as_os_str().is_empty() { ".".into() } else { p.display().to_string() }
 }

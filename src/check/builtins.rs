@@ -15,17 +15,13 @@ pub struct Builtin {
 }
 
 const fn b(name: &'static str, params: &'static [&'static str], synopsis: &'static str) -> Builtin {
-    Builtin {
-        name,
-        params,
-        synopsis,
-    }
+    Builtin { name, params, synopsis }
 }
 
 /// Elementwise unary math over float, vec2 and triples.
 const UNARY_MATH: &[&str] = &[
-    "abs", "sign", "floor", "ceil", "fract", "round", "sqrt", "exp", "log", "sin", "cos", "tan",
-    "asin", "acos", "atan", "radians", "degrees",
+    "abs", "sign", "floor", "ceil", "fract", "round", "sqrt", "exp", "log", "sin", "cos", "tan", "asin", "acos",
+    "atan", "radians", "degrees",
 ];
 
 pub const BUILTINS: &[Builtin] = &[
@@ -47,146 +43,46 @@ pub const BUILTINS: &[Builtin] = &[
     b("radians", &["degrees"], "radians(T degrees) -> T"),
     b("degrees", &["radians"], "degrees(T radians) -> T"),
     b("atan2", &["y", "x"], "atan2(float y, float x) -> float"),
-    b(
-        "pow",
-        &["x", "e"],
-        "pow(float x, float e) -> float | pow(color c, float e) -> color",
-    ),
+    b("pow", &["x", "e"], "pow(float x, float e) -> float | pow(color c, float e) -> color"),
     b("min", &["a", "b"], "min(T a, T|float b) -> T"),
     b("max", &["a", "b"], "max(T a, T|float b) -> T"),
     b("mod", &["a", "b"], "mod(T a, T|float b) -> T"),
-    b(
-        "clamp",
-        &["x", "lo", "hi"],
-        "clamp(T x, T|float lo, T|float hi) -> T",
-    ),
+    b("clamp", &["x", "lo", "hi"], "clamp(T x, T|float lo, T|float hi) -> T"),
     b("step", &["edge", "x"], "step(T|float edge, T x) -> T"),
-    b(
-        "smoothstep",
-        &["e0", "e1", "x"],
-        "smoothstep(T|float e0, T|float e1, T x) -> T",
-    ),
+    b("smoothstep", &["e0", "e1", "x"], "smoothstep(T|float e0, T|float e1, T x) -> T"),
     b("dot", &["a", "b"], "dot(vector a, vector b) -> float"),
     b("cross", &["a", "b"], "cross(vector a, vector b) -> vector"),
     b("length", &["v"], "length(vector v) -> float"),
-    b(
-        "distance",
-        &["a", "b"],
-        "distance(point a, point b) -> float",
-    ),
+    b("distance", &["a", "b"], "distance(point a, point b) -> float"),
     b("normalize", &["v"], "normalize(vector v) -> vector"),
-    b(
-        "reflect",
-        &["i", "n"],
-        "reflect(vector i, normal n) -> vector",
-    ),
-    b(
-        "refract",
-        &["i", "n", "eta"],
-        "refract(vector i, normal n, float eta) -> vector",
-    ),
-    b(
-        "faceforward",
-        &["n", "i"],
-        "faceforward(normal n, vector i) -> normal",
-    ),
-    b(
-        "noise",
-        &["p"],
-        "noise(float|vec2|point p) -> float in [-1, 1]",
-    ),
-    b(
-        "pnoise",
-        &["p", "period"],
-        "pnoise(T p, T period) -> float in [-1, 1]",
-    ),
-    b(
-        "cellnoise",
-        &["p"],
-        "cellnoise(float|vec2|point p) -> float in [0, 1)",
-    ),
-    b(
-        "rgb",
-        &["r", "g", "b"],
-        "rgb(float r, float g, float b) -> color",
-    ),
-    b(
-        "hsv",
-        &["h", "s", "v"],
-        "hsv(float h, float s, float v) -> color",
-    ),
-    b(
-        "xyz",
-        &["x", "y", "z"],
-        "xyz(float x, float y, float z) -> color",
-    ),
+    b("reflect", &["i", "n"], "reflect(vector i, normal n) -> vector"),
+    b("refract", &["i", "n", "eta"], "refract(vector i, normal n, float eta) -> vector"),
+    b("faceforward", &["n", "i"], "faceforward(normal n, vector i) -> normal"),
+    b("noise", &["p"], "noise(float|vec2|point p) -> float in [-1, 1]"),
+    b("pnoise", &["p", "period"], "pnoise(T p, T period) -> float in [-1, 1]"),
+    b("cellnoise", &["p"], "cellnoise(float|vec2|point p) -> float in [0, 1)"),
+    b("rgb", &["r", "g", "b"], "rgb(float r, float g, float b) -> color"),
+    b("hsv", &["h", "s", "v"], "hsv(float h, float s, float v) -> color"),
+    b("xyz", &["x", "y", "z"], "xyz(float x, float y, float z) -> color"),
     b("gray", &["value"], "gray(float value) -> color"),
     b("black", &[], "black() -> color"),
-    b(
-        "spectrum",
-        &["samples"],
-        "spectrum(vec2[n] samples) -> color, samples as (nm, value)",
-    ),
+    b("spectrum", &["samples"], "spectrum(vec2[n] samples) -> color, samples as (nm, value)"),
     b("brightness", &["c"], "brightness(color c) -> float"),
     b("to_rgb", &["c"], "to_rgb(color c) -> vector"),
     b("to_xyz", &["c"], "to_xyz(color c) -> vector"),
-    b(
-        "translate",
-        &["offset"],
-        "translate(vector offset) -> matrix",
-    ),
-    b(
-        "rotate",
-        &["degrees", "axis"],
-        "rotate(float degrees, vector axis) -> matrix",
-    ),
+    b("translate", &["offset"], "translate(vector offset) -> matrix"),
+    b("rotate", &["degrees", "axis"], "rotate(float degrees, vector axis) -> matrix"),
     b("inverse", &["m"], "inverse(matrix m) -> matrix"),
-    b(
-        "transform_point",
-        &["m", "p"],
-        "transform_point(matrix m, point p) -> point",
-    ),
-    b(
-        "transform_vector",
-        &["m", "v"],
-        "transform_vector(matrix m, vector v) -> vector",
-    ),
-    b(
-        "transform_normal",
-        &["m", "n"],
-        "transform_normal(matrix m, normal n) -> normal",
-    ),
+    b("transform_point", &["m", "p"], "transform_point(matrix m, point p) -> point"),
+    b("transform_vector", &["m", "v"], "transform_vector(matrix m, vector v) -> vector"),
+    b("transform_normal", &["m", "n"], "transform_normal(matrix m, normal n) -> normal"),
     // Texture-tree nodes and their scalar/color forms.
-    b(
-        "mix",
-        &["t", "a", "b", "only?"],
-        "mix(float t, T a, T b) -> T, T a float, vec2, triple, color or material",
-    ),
-    b(
-        "blend",
-        &["t", "items", "spline?"],
-        "blend(float t, T[n] items, bool spline = false) -> T",
-    ),
-    b(
-        "select",
-        &["index", "items"],
-        "select(int index, T[n] items) -> T",
-    ),
-    b(
-        "bump",
-        &["height", "amount", "m"],
-        "bump(float height, float amount, material m) -> material",
-    ),
-    b(
-        "scale",
-        &["c", "m?"],
-        "scale(color c, material m) -> material | scale(vector|float s) -> matrix",
-    ),
-    b(
-        "transform",
-        &["xform", "m"],
-        "transform(matrix xform, material m) -> material",
-    ),
+    b("mix", &["t", "a", "b", "only?"], "mix(float t, T a, T b) -> T, T a float, vec2, triple, color or material"),
+    b("blend", &["t", "items", "spline?"], "blend(float t, T[n] items, bool spline = false) -> T"),
+    b("select", &["index", "items"], "select(int index, T[n] items) -> T"),
+    b("bump", &["height", "amount", "m"], "bump(float height, float amount, material m) -> material"),
+    b("scale", &["c", "m?"], "scale(color c, material m) -> material | scale(vector|float s) -> matrix"),
+    b("transform", &["xform", "m"], "transform(matrix xform, material m) -> material"),
 ];
 
 pub fn builtin(name: &str) -> Option<&'static Builtin> {
@@ -202,15 +98,12 @@ pub struct ArgError {
 }
 
 fn err(arg: usize, message: String) -> ArgError {
-    ArgError {
-        arg: Some(arg),
-        message,
-        help: None,
-    }
+    ArgError { arg: Some(arg), message, help: None }
 }
 
 fn color_component_help() -> String {
-    "a color hides its representation (RGB or spectral samples): use brightness(c) or to_rgb(c) to get numbers out".into()
+    "a color hides its representation (RGB or spectral samples): use brightness(c) or to_rgb(c) to get numbers out"
+        .into()
 }
 
 /// The result of elementwise arithmetic between `a` and `b`, where a float
@@ -244,10 +137,7 @@ fn expect(args: &[Option<Ty>], i: usize, want: &Ty) -> Result<(), ArgError> {
         Some(t) if !t.converts_to(want) => {
             let mut e = err(i, format!("expected `{want}`, found `{t}`"));
             if *want == Ty::Color && t.is_numeric() {
-                e.help = Some(
-                    "a number is not a color: write gray(x) for a uniform color, or rgb(r, g, b)"
-                        .into(),
-                );
+                e.help = Some("a number is not a color: write gray(x) for a uniform color, or rgb(r, g, b)".into());
             } else if t == &Ty::Color {
                 e.help = Some(color_component_help());
             }
@@ -267,10 +157,7 @@ fn array_elem(args: &[Option<Ty>], i: usize, what: &str) -> Result<Ty, ArgError>
         Ty::Array(e, n) if n > 0 => Ok(*e),
         Ty::Array(_, _) => Err(err(i, format!("{what} needs at least one item"))),
         Ty::Error => Ok(Ty::Error),
-        t => Err(err(
-            i,
-            format!("expected an array such as `[a, b, c]`, found `{t}`"),
-        )),
+        t => Err(err(i, format!("expected an array such as `[a, b, c]`, found `{t}`"))),
     }
 }
 
@@ -295,11 +182,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         }
         "pow" => {
             expect(args, 1, &Ty::Float)?;
-            if a0 == Ty::Color {
-                Ok(Ty::Color)
-            } else {
-                unary("a float, vec2, vector or color")
-            }
+            if a0 == Ty::Color { Ok(Ty::Color) } else { unary("a float, vec2, vector or color") }
         }
         "min" | "max" | "mod" | "clamp" => {
             let t = unary("a float, vec2 or vector")?;
@@ -309,25 +192,12 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
                     return Err(err(i, format!("expected `{t}` or `float`, found `{ai}`")));
                 }
             }
-            Ok(
-                if a0 == Ty::Int && args[1..].iter().all(|x| x.as_ref() == Some(&Ty::Int)) {
-                    Ty::Int
-                } else {
-                    t
-                },
-            )
+            Ok(if a0 == Ty::Int && args[1..].iter().all(|x| x.as_ref() == Some(&Ty::Int)) { Ty::Int } else { t })
         }
         "step" | "smoothstep" => {
             let last = args.len() - 1;
-            let t = genf(&arg(args, last)).ok_or_else(|| {
-                err(
-                    last,
-                    format!(
-                        "expected a float, vec2 or vector, found `{}`",
-                        arg(args, last)
-                    ),
-                )
-            })?;
+            let t = genf(&arg(args, last))
+                .ok_or_else(|| err(last, format!("expected a float, vec2 or vector, found `{}`", arg(args, last))))?;
             for i in 0..last {
                 let ai = arg(args, i);
                 if !(ai.converts_to(&t) || ai.is_numeric()) {
@@ -376,10 +246,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             let t = unary("a float, vec2 or point")?;
             let a1 = arg(args, 1);
             if !(a1.converts_to(&t) || (t != Ty::Float && a1.is_numeric())) {
-                return Err(err(
-                    1,
-                    format!("the period must be `{t}` like the point, found `{a1}`"),
-                ));
+                return Err(err(1, format!("the period must be `{t}` like the point, found `{a1}`")));
             }
             Ok(Ty::Float)
         }
@@ -399,9 +266,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             if !e.converts_to(&Ty::Vec2) {
                 return Err(ArgError {
                     arg: Some(0),
-                    message: format!(
-                        "expected samples `(wavelength_nm, value)` as vec2, found `{e}` items"
-                    ),
+                    message: format!("expected samples `(wavelength_nm, value)` as vec2, found `{e}` items"),
                     help: Some("write spectrum([(400, 0.2), (550, 0.5), (700, 0.9)])".into()),
                 });
             }
@@ -409,11 +274,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         }
         "brightness" | "to_rgb" | "to_xyz" => {
             expect(args, 0, &Ty::Color)?;
-            Ok(if name == "brightness" {
-                Ty::Float
-            } else {
-                Ty::Vector
-            })
+            Ok(if name == "brightness" { Ty::Float } else { Ty::Vector })
         }
         "translate" => {
             expect(args, 0, &Ty::Vector)?;
@@ -440,22 +301,15 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         "mix" => {
             expect(args, 0, &Ty::Float)?;
             let (a, b) = (arg(args, 1), arg(args, 2));
-            let t = unify(&a, &b).ok_or_else(|| {
-                err(
-                    2,
-                    format!("`mix` blends two values of one type: `{a}` and `{b}`"),
-                )
-            })?;
+            let t =
+                unify(&a, &b).ok_or_else(|| err(2, format!("`mix` blends two values of one type: `{a}` and `{b}`")))?;
             if !(t.is_float_like() || matches!(t, Ty::Color | Ty::Material | Ty::Error)) {
                 return Err(err(1, format!("`mix` cannot blend `{t}`")));
             }
             if args.get(3).is_some_and(|o| o.is_some()) {
                 expect(args, 3, &Ty::String)?;
                 if !matches!(t, Ty::Material | Ty::Error) {
-                    return Err(err(
-                        3,
-                        "`only:` selects an interface method, so it needs materials".into(),
-                    ));
+                    return Err(err(3, "`only:` selects an interface method, so it needs materials".into()));
                 }
             }
             Ok(t)
@@ -471,8 +325,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         }
         "select" => {
             expect(args, 0, &Ty::Int).map_err(|mut e| {
-                e.help =
-                    Some("the index is an int such as `face`; convert a float with int(x)".into());
+                e.help = Some("the index is an int such as `face`; convert a float with int(x)".into());
                 e
             })?;
             array_elem(args, 1, "`select`")
@@ -493,13 +346,8 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             } else {
                 Err(ArgError {
                     arg: Some(0),
-                    message: format!(
-                        "`scale` takes a color and a material, or a float or vector; found `{a0}`"
-                    ),
-                    help: Some(
-                        "scale(c, m) weights a material by a color; scale(s) builds a matrix"
-                            .into(),
-                    ),
+                    message: format!("`scale` takes a color and a material, or a float or vector; found `{a0}`"),
+                    help: Some("scale(c, m) weights a material by a color; scale(s) builds a matrix".into()),
                 })
             }
         }
@@ -508,11 +356,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             expect(args, 1, &Ty::Material)?;
             Ok(Ty::Material)
         }
-        _ => Err(ArgError {
-            arg: None,
-            message: format!("no typing rule for builtin `{name}`"),
-            help: None,
-        }),
+        _ => Err(ArgError { arg: None, message: format!("no typing rule for builtin `{name}`"), help: None }),
     }
 }
 
@@ -523,9 +367,7 @@ pub fn unify(a: &Ty, b: &Ty) -> Option<Ty> {
         (x, y) if x == y => Some(x.clone()),
         (x, y) if x.is_numeric() && y.is_numeric() => Some(Ty::Float),
         (x, y) if x.is_triple() && y.is_triple() => Some(Ty::Vector),
-        (Ty::Array(x, n), Ty::Array(y, m)) if n == m => {
-            unify(x, y).map(|t| Ty::Array(Box::new(t), *n))
-        }
+        (Ty::Array(x, n), Ty::Array(y, m)) if n == m => unify(x, y).map(|t| Ty::Array(Box::new(t), *n)),
         _ => None,
     }
 }
@@ -555,20 +397,11 @@ mod tests {
         assert_eq!(ty("floor", &[Ty::Point]).unwrap(), Ty::Point);
         assert_eq!(ty("pow", &[Ty::Color, Ty::Float]).unwrap(), Ty::Color);
         assert!(ty("abs", &[Ty::Color]).unwrap_err().help.is_some());
-        assert_eq!(
-            ty("mix", &[Ty::Float, Ty::Material, Ty::Material]).unwrap(),
-            Ty::Material
-        );
-        assert_eq!(
-            ty("mix", &[Ty::Float, Ty::Int, Ty::Float]).unwrap(),
-            Ty::Float
-        );
+        assert_eq!(ty("mix", &[Ty::Float, Ty::Material, Ty::Material]).unwrap(), Ty::Material);
+        assert_eq!(ty("mix", &[Ty::Float, Ty::Int, Ty::Float]).unwrap(), Ty::Float);
         assert!(ty("mix", &[Ty::Float, Ty::Color, Ty::Float]).is_err());
         assert_eq!(ty("scale", &[Ty::Float]).unwrap(), Ty::Matrix);
-        assert_eq!(
-            ty("select", &[Ty::Int, Ty::Array(Box::new(Ty::Color), 3)]).unwrap(),
-            Ty::Color
-        );
+        assert_eq!(ty("select", &[Ty::Int, Ty::Array(Box::new(Ty::Color), 3)]).unwrap(), Ty::Color);
         assert_eq!(ty("min", &[Ty::Int, Ty::Int]).unwrap(), Ty::Int);
         assert_eq!(elementwise(&Ty::Point, &Ty::Float), Some(Ty::Vector));
         assert_eq!(elementwise(&Ty::Color, &Ty::Float), None);

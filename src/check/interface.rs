@@ -46,30 +46,16 @@ pub const INTERFACE: &[InterfaceMethod] = &[
     InterfaceMethod {
         name: "reflection",
         ret: Ty2::Color,
-        params: &[
-            ("wi", Ty2::Vector),
-            ("light", Ty2::Color),
-            ("wo", Ty2::Vector),
-        ],
+        params: &[("wi", Ty2::Vector), ("light", Ty2::Color), ("wo", Ty2::Vector)],
         default: "black()",
     },
     InterfaceMethod {
         name: "refraction",
         ret: Ty2::Color,
-        params: &[
-            ("wi", Ty2::Vector),
-            ("light", Ty2::Color),
-            ("eta", Ty2::Color),
-            ("wo", Ty2::Vector),
-        ],
+        params: &[("wi", Ty2::Vector), ("light", Ty2::Color), ("eta", Ty2::Color), ("wo", Ty2::Vector)],
         default: "black()",
     },
-    InterfaceMethod {
-        name: "refraction_index",
-        ret: Ty2::Color,
-        params: &[],
-        default: "gray(1)",
-    },
+    InterfaceMethod { name: "refraction_index", ret: Ty2::Color, params: &[], default: "gray(1)" },
     InterfaceMethod {
         name: "reflection_dir",
         ret: Ty2::Vector,
@@ -82,12 +68,7 @@ pub const INTERFACE: &[InterfaceMethod] = &[
         params: &[("wo", Ty2::Vector), ("eta", Ty2::Color)],
         default: "vector(0) (no refraction)",
     },
-    InterfaceMethod {
-        name: "emission",
-        ret: Ty2::Color,
-        params: &[("wo", Ty2::Vector)],
-        default: "black()",
-    },
+    InterfaceMethod { name: "emission", ret: Ty2::Color, params: &[("wo", Ty2::Vector)], default: "black()" },
     InterfaceMethod {
         name: "ambient",
         ret: Ty2::Color,
@@ -100,24 +81,9 @@ pub const INTERFACE: &[InterfaceMethod] = &[
         params: &[("light", Ty2::Color), ("distance", Ty2::Float)],
         default: "light (nothing is absorbed)",
     },
-    InterfaceMethod {
-        name: "normal",
-        ret: Ty2::Normal,
-        params: &[],
-        default: "N",
-    },
-    InterfaceMethod {
-        name: "diffuse",
-        ret: Ty2::Color,
-        params: &[],
-        default: "black()",
-    },
-    InterfaceMethod {
-        name: "opaque",
-        ret: Ty2::Bool,
-        params: &[],
-        default: "true",
-    },
+    InterfaceMethod { name: "normal", ret: Ty2::Normal, params: &[], default: "N" },
+    InterfaceMethod { name: "diffuse", ret: Ty2::Color, params: &[], default: "black()" },
+    InterfaceMethod { name: "opaque", ret: Ty2::Bool, params: &[], default: "true" },
 ];
 
 pub fn interface_method(name: &str) -> Option<&'static InterfaceMethod> {
@@ -127,11 +93,7 @@ pub fn interface_method(name: &str) -> Option<&'static InterfaceMethod> {
 impl InterfaceMethod {
     /// The signature as it would be written in TSL.
     pub fn signature(&self) -> String {
-        let params: Vec<String> = self
-            .params
-            .iter()
-            .map(|(n, t)| format!("{} {n}", t.ty()))
-            .collect();
+        let params: Vec<String> = self.params.iter().map(|(n, t)| format!("{} {n}", t.ty())).collect();
         format!("{} {}({})", self.ret.ty(), self.name, params.join(", "))
     }
 }

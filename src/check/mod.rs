@@ -79,14 +79,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.check_items();
     checker.report_recursion();
     let expr_types = std::mem::take(&mut checker.expr_types);
-    (
-        Program {
-            loaded,
-            symbols,
-            expr_types,
-        },
-        diags,
-    )
+    (Program { loaded, symbols, expr_types }, diags)
 }
 
 /// Builds the global namespace. User items shadow prelude items of the same
@@ -107,10 +100,7 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<Stri
                 diags.push(
                     Diagnostic::error(
                         name.span,
-                        format!(
-                            "`{}` is a builtin function and cannot be redefined",
-                            name.name
-                        ),
+                        format!("`{}` is a builtin function and cannot be redefined", name.name),
                     )
                     .with_help("choose another name"),
                 );
@@ -119,19 +109,11 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<Stri
             if interface::global(&name.name).is_some() {
                 diags.push(Diagnostic::error(
                     name.span,
-                    format!(
-                        "`{}` is a shading global and cannot be redefined",
-                        name.name
-                    ),
+                    format!("`{}` is a shading global and cannot be redefined", name.name),
                 ));
                 continue;
             }
-            let symbol = Symbol {
-                kind,
-                module: m,
-                item: i,
-                span: name.span,
-            };
+            let symbol = Symbol { kind, module: m, item: i, span: name.span };
             match symbols.get(&name.name) {
                 Some(prev) if from_prelude[&name.name] && !module.is_prelude => {
                     // A user definition shadows the prelude's.
@@ -141,15 +123,9 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<Stri
                 }
                 Some(prev) => {
                     diags.push(
-                        Diagnostic::error(
-                            name.span,
-                            format!("`{}` is defined more than once", name.name),
-                        )
-                        .with_primary(format!("{} redefined here", kind.describe()))
-                        .with_label(
-                            prev.span,
-                            format!("first defined here as a {}", prev.kind.describe()),
-                        ),
+                        Diagnostic::error(name.span, format!("`{}` is defined more than once", name.name))
+                            .with_primary(format!("{} redefined here", kind.describe()))
+                            .with_label(prev.span, format!("first defined here as a {}", prev.kind.describe())),
                     );
                 }
                 None => {
@@ -231,9 +207,7 @@ impl<'a> Checker<'a> {
     }
 
     fn is_active(&self, m: usize, i: usize, name: &str) -> bool {
-        self.symbols
-            .get(name)
-            .is_some_and(|s| s.module == m && s.item == i)
+        self.symbols.get(name).is_some_and(|s| s.module == m && s.item == i)
     }
 
     fn check_items(&mut self) {
@@ -278,11 +252,7 @@ impl<'a> Checker<'a> {
             );
         }
         for s in scenes {
-            self.body = Body {
-                globals_allowed: false,
-                materials_allowed: true,
-                ..Body::default()
-            };
+            self.body = Body { globals_allowed: false, materials_allowed: true, ..Body::default() };
             scene::check_scene(self, s);
         }
     }
@@ -290,13 +260,8 @@ impl<'a> Checker<'a> {
     // ------------------------------------------------------------ items
 
     fn begin(&mut self, node: Node, globals_allowed: bool, materials_allowed: bool) {
-        self.body = Body {
-            node: Some(node),
-            globals_allowed,
-            materials_allowed,
-            scopes: vec![Vec::new()],
-            ..Body::default()
-        };
+        self.body =
+            Body { node: Some(node), globals_allowed, materials_allowed, scopes: vec![Vec::new()], ..Body::default() };
     }
 
     /// Declares parameters in the current scope, checking their types and
@@ -307,11 +272,8 @@ impl<'a> Checker<'a> {
             let ty = self.resolve_type(&p.ty, what);
             if let Some(prev) = seen.insert(&p.name.name, p.name.span) {
                 self.error(
-                    Diagnostic::error(
-                        p.name.span,
-                        format!("parameter `{}` is declared twice", p.name.name),
-                    )
-                    .with_label(prev, "first declared here"),
+                    Diagnostic::error(p.name.span, format!("parameter `{}` is declared twice", p.name.name))
+                        .with_label(prev, "first declared here"),
                 );
             }
             if let Some(default) = &p.default {
@@ -340,20 +302,12 @@ impl<'a> Checker<'a> {
 
     fn check_returns(&mut self, f: &Function, ret: &Ty) {
         if *ret != Ty::Void && !ret.is_error() && !block_returns(&f.body) {
-            let end = Span {
-                start: f.body.span.end.saturating_sub(1),
-                ..f.body.span
-            };
+            let end = Span { start: f.body.span.end.saturating_sub(1), ..f.body.span };
             self.error(
-                Diagnostic::error(
-                    end,
-                    format!("`{}` does not return a value on every path", f.name.name),
-                )
-                .with_primary(format!(
-                    "the end of the body is reachable without a `return` of `{ret}`"
-                ))
-                .with_label(f.ret.span, "the declared return type")
-                .with_help("add a `return` at the end of the function"),
+                Diagnostic::error(end, format!("`{}` does not return a value on every path", f.name.name))
+                    .with_primary(format!("the end of the body is reachable without a `return` of `{ret}`"))
+                    .with_label(f.ret.span, "the declared return type")
+                    .with_help("add a `return` at the end of the function"),
             );
         }
     }
@@ -370,11 +324,8 @@ impl<'a> Checker<'a> {
         for m in &d.methods {
             if let Some(prev) = seen.insert(&m.name.name, m.name.span) {
                 self.error(
-                    Diagnostic::error(
-                        m.name.span,
-                        format!("method `{}` is defined twice", m.name.name),
-                    )
-                    .with_label(prev, "first defined here"),
+                    Diagnostic::error(m.name.span, format!("method `{}` is defined twice", m.name.name))
+                        .with_label(prev, "first defined here"),
                 );
             }
             match interface_method(&m.name.name) {
@@ -383,45 +334,26 @@ impl<'a> Checker<'a> {
                     let names = INTERFACE.iter().map(|m| m.name);
                     let mut diag = Diagnostic::error(
                         m.name.span,
-                        format!(
-                            "`{}` is not a method of the material interface",
-                            m.name.name
-                        ),
+                        format!("`{}` is not a method of the material interface", m.name.name),
                     );
                     diag = match did_you_mean(&m.name.name, names) {
                         Some(s) => diag.with_help(format!("did you mean `{s}`?")),
                         None => diag.with_help(format!(
                             "the interface methods are: {}",
-                            INTERFACE
-                                .iter()
-                                .map(|m| m.name)
-                                .collect::<Vec<_>>()
-                                .join(", ")
+                            INTERFACE.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
                         )),
                     };
-                    self.error(
-                        diag.with_note(
-                            "helper functions go outside the material, at the top level",
-                        ),
-                    );
+                    self.error(diag.with_note("helper functions go outside the material, at the top level"));
                 }
             }
         }
         // The item depends on all of its methods; defaults add their own edges.
         let item = Node::Item(name.clone());
         for im in INTERFACE {
-            self.edge(
-                item.clone(),
-                Node::Method(name.clone(), im.name),
-                d.name.span,
-            );
+            self.edge(item.clone(), Node::Method(name.clone(), im.name), d.name.span);
         }
         if !defined.contains(&"ambient") {
-            self.edge(
-                Node::Method(name.clone(), "ambient"),
-                Node::Method(name.clone(), "diffuse"),
-                d.name.span,
-            );
+            self.edge(Node::Method(name.clone(), "ambient"), Node::Method(name.clone(), "diffuse"), d.name.span);
         }
 
         for m in &d.methods {
@@ -458,16 +390,10 @@ impl<'a> Checker<'a> {
     fn check_method_signature(&mut self, m: &Function, im: &InterfaceMethod) {
         let ret = Ty::from_ast(&m.ret);
         let params_ok = m.params.len() == im.params.len()
-            && m.params
-                .iter()
-                .zip(im.params)
-                .all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.ty() && p.default.is_none());
+            && m.params.iter().zip(im.params).all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.ty() && p.default.is_none());
         if ret != im.ret.ty() || !params_ok {
-            let written: Vec<String> = m
-                .params
-                .iter()
-                .map(|p| format!("{} {}", Ty::from_ast(&p.ty), p.name.name))
-                .collect();
+            let written: Vec<String> =
+                m.params.iter().map(|p| format!("{} {}", Ty::from_ast(&p.ty), p.name.name)).collect();
             self.error(
                 Diagnostic::error(m.name.span, format!("method `{}` has the wrong signature", im.name))
                     .with_primary(format!("found `{} {}({})`", ret, m.name.name, written.join(", ")))
@@ -500,22 +426,16 @@ impl<'a> Checker<'a> {
 
     /// Resolves a written type, refusing materials outside material trees.
     fn resolve_type(&mut self, t: &TypeExpr, what: &str) -> Ty {
-        if let Some((n, span)) = t.array_len {
-            if n == 0 || n > MAX_ARRAY_LEN {
-                self.error(Diagnostic::error(
-                    span,
-                    format!("array length must be between 1 and {MAX_ARRAY_LEN}"),
-                ));
-                return Ty::Error;
-            }
+        if let Some((n, span)) = t.array_len
+            && (n == 0 || n > MAX_ARRAY_LEN)
+        {
+            self.error(Diagnostic::error(span, format!("array length must be between 1 and {MAX_ARRAY_LEN}")));
+            return Ty::Error;
         }
         if t.base == BaseType::Material && !self.body.materials_allowed {
-            self.error(
-                Diagnostic::error(t.span, format!("`material` values cannot be used in {what}"))
-                    .with_help(
-                        "materials are built by material trees: `material name(material a, float s = 1) = mix(s, a, mirror);`",
-                    ),
-            );
+            self.error(Diagnostic::error(t.span, format!("`material` values cannot be used in {what}")).with_help(
+                "materials are built by material trees: `material name(material a, float s = 1) = mix(s, a, mirror);`",
+            ));
             return Ty::Error;
         }
         if t.base == BaseType::Void && t.array_len.is_some() {
@@ -538,9 +458,8 @@ impl<'a> Checker<'a> {
         for l in scope {
             if l.kind == LocalKind::Var && !l.used && !l.name.starts_with('_') {
                 self.error(
-                    Diagnostic::warning(l.span, format!("unused variable `{}`", l.name)).with_help(
-                        format!("remove it, or name it `_{}` if that is intended", l.name),
-                    ),
+                    Diagnostic::warning(l.span, format!("unused variable `{}`", l.name))
+                        .with_help(format!("remove it, or name it `_{}` if that is intended", l.name)),
                 );
             }
         }
@@ -553,11 +472,8 @@ impl<'a> Checker<'a> {
         if let Some(prev) = scope.iter().find(|l| l.name == local.name) {
             let prev_span = prev.span;
             self.error(
-                Diagnostic::error(
-                    local.span,
-                    format!("`{}` is already declared in this scope", local.name),
-                )
-                .with_label(prev_span, "previous declaration"),
+                Diagnostic::error(local.span, format!("`{}` is already declared in this scope", local.name))
+                    .with_label(prev_span, "previous declaration"),
             );
             return;
         }
@@ -565,12 +481,7 @@ impl<'a> Checker<'a> {
     }
 
     fn lookup_local(&mut self, name: &str) -> Option<&mut Local> {
-        self.body
-            .scopes
-            .iter_mut()
-            .rev()
-            .flat_map(|s| s.iter_mut().rev())
-            .find(|l| l.name == name)
+        self.body.scopes.iter_mut().rev().flat_map(|s| s.iter_mut().rev()).find(|l| l.name == name)
     }
 
     fn edge(&mut self, from: Node, to: Node, span: Span) {
@@ -609,49 +520,30 @@ impl<'a> Checker<'a> {
                     self.expect_ty(init, &found, &ty, "the initial value");
                 }
                 self.warn_shadowed_global(name);
-                self.declare(Local {
-                    name: name.name.clone(),
-                    ty,
-                    span: name.span,
-                    kind: LocalKind::Var,
-                    used: false,
-                });
+                self.declare(Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Var, used: false });
             }
             StmtKind::Assign { target, op, value } => self.assign(target, *op, value),
             StmtKind::Expr(e) => {
                 self.expr(e, None);
                 self.error(
-                    Diagnostic::warning(e.span, "this expression has no effect").with_help(
-                        "TSL functions are pure: assign the result to a variable or return it",
-                    ),
+                    Diagnostic::warning(e.span, "this expression has no effect")
+                        .with_help("TSL functions are pure: assign the result to a variable or return it"),
                 );
             }
-            StmtKind::If {
-                cond,
-                then_block,
-                else_branch,
-            } => {
+            StmtKind::If { cond, then_block, else_branch } => {
                 self.condition(cond, "an `if` condition");
                 self.block(then_block);
                 if let Some(e) = else_branch {
                     self.stmt(e);
                 }
             }
-            StmtKind::For {
-                var,
-                start,
-                end,
-                body,
-            } => {
+            StmtKind::For { var, start, end, body } => {
                 for bound in [start, end] {
                     let t = self.expr(bound, Some(&Ty::Int));
                     if !t.is_error() && t != Ty::Int {
                         self.error(
-                            Diagnostic::error(
-                                bound.span,
-                                format!("loop bounds must be `int`, found `{t}`"),
-                            )
-                            .with_help("convert with int(x)"),
+                            Diagnostic::error(bound.span, format!("loop bounds must be `int`, found `{t}`"))
+                                .with_help("convert with int(x)"),
                         );
                     }
                 }
@@ -684,15 +576,8 @@ impl<'a> Checker<'a> {
             }
             StmtKind::Break | StmtKind::Continue => {
                 if self.body.loops == 0 {
-                    let what = if matches!(s.kind, StmtKind::Break) {
-                        "break"
-                    } else {
-                        "continue"
-                    };
-                    self.error(Diagnostic::error(
-                        s.span,
-                        format!("`{what}` outside of a loop"),
-                    ));
+                    let what = if matches!(s.kind, StmtKind::Break) { "break" } else { "continue" };
+                    self.error(Diagnostic::error(s.span, format!("`{what}` outside of a loop")));
                 }
             }
             StmtKind::Return(value) => self.ret(s.span, value.as_ref()),
@@ -703,14 +588,8 @@ impl<'a> Checker<'a> {
     fn warn_shadowed_global(&mut self, name: &Ident) {
         if interface::global(&name.name).is_some() {
             self.error(
-                Diagnostic::warning(
-                    name.span,
-                    format!(
-                        "`{}` shadows the shading global of the same name",
-                        name.name
-                    ),
-                )
-                .with_help("rename the variable to keep the global visible"),
+                Diagnostic::warning(name.span, format!("`{}` shadows the shading global of the same name", name.name))
+                    .with_help("rename the variable to keep the global visible"),
             );
         }
     }
@@ -734,17 +613,11 @@ impl<'a> Checker<'a> {
         match (value, &want) {
             (None, Ty::Void) => {}
             (None, want) => {
-                self.error(Diagnostic::error(
-                    span,
-                    format!("`return` needs a value of type `{want}`"),
-                ));
+                self.error(Diagnostic::error(span, format!("`return` needs a value of type `{want}`")));
             }
             (Some(v), Ty::Void) => {
                 self.expr(v, None);
-                self.error(Diagnostic::error(
-                    v.span,
-                    "a `void` function cannot return a value",
-                ));
+                self.error(Diagnostic::error(v.span, "a `void` function cannot return a value"));
             }
             (Some(v), want) => {
                 let found = self.expr(v, Some(want));
@@ -765,7 +638,10 @@ impl<'a> Checker<'a> {
                 Ok(result) if result.converts_to(&target_ty) => {}
                 Ok(result) => self.error(Diagnostic::error(
                     value.span,
-                    format!("`{target_ty} {}= {found}` gives `{result}`, which cannot be stored in `{target_ty}`", bop.symbol()),
+                    format!(
+                        "`{target_ty} {}= {found}` gives `{result}`, which cannot be stored in `{target_ty}`",
+                        bop.symbol()
+                    ),
                 )),
                 Err((message, help)) => {
                     let mut d = Diagnostic::error(value.span, message);
@@ -786,11 +662,8 @@ impl<'a> Checker<'a> {
                     let (kind, ty) = (local.kind.clone(), local.ty.clone());
                     if kind == LocalKind::LoopVar {
                         self.error(
-                            Diagnostic::error(
-                                e.span,
-                                format!("cannot assign to the loop variable `{name}`"),
-                            )
-                            .with_help("copy it into a local variable first"),
+                            Diagnostic::error(e.span, format!("cannot assign to the loop variable `{name}`"))
+                                .with_help("copy it into a local variable first"),
                         );
                         return None;
                     }
@@ -799,20 +672,13 @@ impl<'a> Checker<'a> {
                 }
                 let msg = if interface::global(name).is_some() {
                     format!("cannot assign to `{name}`: shading globals are read-only")
-                } else if self
-                    .symbols
-                    .get(name)
-                    .is_some_and(|s| s.kind == SymbolKind::Const)
-                {
+                } else if self.symbols.get(name).is_some_and(|s| s.kind == SymbolKind::Const) {
                     format!("cannot assign to the constant `{name}`")
                 } else {
                     self.expr(e, None);
                     return None;
                 };
-                self.error(
-                    Diagnostic::error(e.span, msg)
-                        .with_help("declare a local copy: `vector p = P;`"),
-                );
+                self.error(Diagnostic::error(e.span, msg).with_help("declare a local copy: `vector p = P;`"));
                 None
             }
             ExprKind::Member { base, .. } | ExprKind::Index { base, .. } => {
@@ -822,10 +688,7 @@ impl<'a> Checker<'a> {
             }
             _ => {
                 self.expr(e, None);
-                self.error(Diagnostic::error(
-                    e.span,
-                    "this expression cannot be assigned to",
-                ));
+                self.error(Diagnostic::error(e.span, "this expression cannot be assigned to"));
                 None
             }
         }
@@ -837,15 +700,10 @@ impl<'a> Checker<'a> {
         if found.converts_to(want) {
             return;
         }
-        let mut d = Diagnostic::error(
-            e.span,
-            format!("mismatched types: expected `{want}`, found `{found}`"),
-        )
-        .with_primary(format!("{what} must be `{want}`"));
+        let mut d = Diagnostic::error(e.span, format!("mismatched types: expected `{want}`, found `{found}`"))
+            .with_primary(format!("{what} must be `{want}`"));
         if *want == Ty::Color && found.is_numeric() {
-            d = d.with_help(
-                "a number is not a color: write gray(x) for a uniform color, or rgb(r, g, b)",
-            );
+            d = d.with_help("a number is not a color: write gray(x) for a uniform color, or rgb(r, g, b)");
         } else if *found == Ty::Color && (want.is_numeric() || want.is_triple()) {
             d = d.with_help(
                 "a color hides its representation (RGB or spectral samples): convert explicitly with brightness(c) or to_rgb(c)",
@@ -872,9 +730,7 @@ impl<'a> Checker<'a> {
             ExprKind::Str(_) => Ty::String,
             ExprKind::Name(name) => self.name(name, e.span),
             ExprKind::Call { callee, args } => self.call(callee, args, e.span),
-            ExprKind::Construct { ty, ty_span, args } => {
-                self.construct(*ty, *ty_span, args, e.span)
-            }
+            ExprKind::Construct { ty, ty_span, args } => self.construct(*ty, *ty_span, args, e.span),
             ExprKind::Member { base, field } => self.member(base, field),
             ExprKind::Index { base, index } => self.index(base, index),
             ExprKind::Unary { op, operand } => {
@@ -891,17 +747,15 @@ impl<'a> Checker<'a> {
                     (UnaryOp::Not, Ty::Bool) => Ty::Bool,
                     (UnaryOp::Neg, Ty::Color) => {
                         self.error(
-                            Diagnostic::error(e.span, "a color cannot be negated")
-                                .with_help("the generic color interface has no negative light; scale by a factor instead"),
+                            Diagnostic::error(e.span, "a color cannot be negated").with_help(
+                                "the generic color interface has no negative light; scale by a factor instead",
+                            ),
                         );
                         Ty::Error
                     }
                     (op, t) => {
                         let sym = if *op == UnaryOp::Neg { "-" } else { "!" };
-                        self.error(Diagnostic::error(
-                            e.span,
-                            format!("cannot apply unary `{sym}` to `{t}`"),
-                        ));
+                        self.error(Diagnostic::error(e.span, format!("cannot apply unary `{sym}` to `{t}`")));
                         Ty::Error
                     }
                 }
@@ -923,11 +777,7 @@ impl<'a> Checker<'a> {
                     }
                 }
             }
-            ExprKind::Ternary {
-                cond,
-                then_expr,
-                else_expr,
-            } => {
+            ExprKind::Ternary { cond, then_expr, else_expr } => {
                 self.condition(cond, "the condition of `?:`");
                 let a = self.expr(then_expr, expected);
                 let b = self.expr(else_expr, expected);
@@ -937,9 +787,7 @@ impl<'a> Checker<'a> {
                         self.error(
                             Diagnostic::error(
                                 e.span,
-                                format!(
-                                    "the branches of `?:` have different types: `{a}` and `{b}`"
-                                ),
+                                format!("the branches of `?:` have different types: `{a}` and `{b}`"),
                             )
                             .with_label(then_expr.span, format!("`{a}`"))
                             .with_label(else_expr.span, format!("`{b}`")),
@@ -961,8 +809,9 @@ impl<'a> Checker<'a> {
         if let Some(t) = interface::global(name) {
             if !self.body.globals_allowed {
                 self.error(
-                    Diagnostic::error(span, format!("the shading global `{name}` cannot be used here"))
-                        .with_help("constants and scene values are fixed before shading starts; use a function instead"),
+                    Diagnostic::error(span, format!("the shading global `{name}` cannot be used here")).with_help(
+                        "constants and scene values are fixed before shading starts; use a function instead",
+                    ),
                 );
                 return Ty::Error;
             }
@@ -974,21 +823,14 @@ impl<'a> Checker<'a> {
                 SymbolKind::Const => self.const_type(sym),
                 SymbolKind::MaterialTree | SymbolKind::Material => {
                     let needs_args = match self.item(sym) {
-                        Item::MaterialTree(t) => t
-                            .params
-                            .as_ref()
-                            .map(|ps| required_params(ps))
-                            .unwrap_or_default(),
+                        Item::MaterialTree(t) => t.params.as_ref().map(|ps| required_params(ps)).unwrap_or_default(),
                         Item::Material(d) => required_params(&d.params),
                         _ => Vec::new(),
                     };
                     if !needs_args.is_empty() {
                         self.error(
-                            Diagnostic::error(
-                                span,
-                                format!("`{name}` needs arguments: {}", needs_args.join(", ")),
-                            )
-                            .with_help(format!("call it: `{name}(...)`")),
+                            Diagnostic::error(span, format!("`{name}` needs arguments: {}", needs_args.join(", ")))
+                                .with_help(format!("call it: `{name}(...)`")),
                         );
                         return Ty::Error;
                     }
@@ -1021,11 +863,8 @@ impl<'a> Checker<'a> {
             Ty::Material
         } else {
             self.error(
-                Diagnostic::error(
-                    span,
-                    "a material cannot be used inside a function or material method",
-                )
-                .with_help("build texture trees at the top level: `material name = mix(...);`"),
+                Diagnostic::error(span, "a material cannot be used inside a function or material method")
+                    .with_help("build texture trees at the top level: `material name = mix(...);`"),
             );
             Ty::Error
         }
@@ -1084,11 +923,8 @@ impl<'a> Checker<'a> {
                 None => {
                     if seen_named {
                         self.error(
-                            Diagnostic::error(
-                                arg.value.span,
-                                "positional argument after a named one",
-                            )
-                            .with_help("put positional arguments first"),
+                            Diagnostic::error(arg.value.span, "positional argument after a named one")
+                                .with_help("put positional arguments first"),
                         );
                         ok = false;
                     } else if i >= params.len() {
@@ -1096,11 +932,7 @@ impl<'a> Checker<'a> {
                         self.error(
                             Diagnostic::error(
                                 arg.value.span,
-                                format!(
-                                    "`{callee}` takes {n} argument{}, but {} were given",
-                                    plural(n),
-                                    args.len()
-                                ),
+                                format!("`{callee}` takes {n} argument{}, but {} were given", plural(n), args.len()),
                             )
                             .with_label(span, "in this call"),
                         );
@@ -1139,21 +971,13 @@ impl<'a> Checker<'a> {
                 }
             }
         }
-        let missing: Vec<&str> = params
-            .iter()
-            .zip(&bound)
-            .filter(|(p, b)| p.required && b.is_none())
-            .map(|(p, _)| p.name)
-            .collect();
+        let missing: Vec<&str> =
+            params.iter().zip(&bound).filter(|(p, b)| p.required && b.is_none()).map(|(p, _)| p.name).collect();
         if !missing.is_empty() {
             self.error(
                 Diagnostic::error(
                     span,
-                    format!(
-                        "missing argument{} to `{callee}`: {}",
-                        plural(missing.len()),
-                        missing.join(", ")
-                    ),
+                    format!("missing argument{} to `{callee}`: {}", plural(missing.len()), missing.join(", ")),
                 )
                 .with_help(format!(
                     "`{callee}` takes {} argument{}",
@@ -1169,30 +993,20 @@ impl<'a> Checker<'a> {
     fn call(&mut self, callee: &Ident, args: &[Arg], span: Span) -> Ty {
         let name = callee.name.as_str();
         // 1. A sibling method inside a material.
-        if let Some((material, _defined)) = self.body.material.clone() {
-            if let Some(im) = interface_method(name) {
-                let params: Vec<ParamInfo> = im
-                    .params
-                    .iter()
-                    .map(|(n, t)| ParamInfo {
-                        name: n,
-                        ty: Some(t.ty()),
-                        required: true,
-                    })
-                    .collect();
-                if let Some(from) = self.body.node.clone() {
-                    self.edge(from, Node::Method(material, im.name), callee.span);
-                }
-                self.typed_args(name, &params, args, span);
-                return im.ret.ty();
+        if let Some((material, _defined)) = self.body.material.clone()
+            && let Some(im) = interface_method(name)
+        {
+            let params: Vec<ParamInfo> =
+                im.params.iter().map(|(n, t)| ParamInfo { name: n, ty: Some(t.ty()), required: true }).collect();
+            if let Some(from) = self.body.node.clone() {
+                self.edge(from, Node::Method(material, im.name), callee.span);
             }
+            self.typed_args(name, &params, args, span);
+            return im.ret.ty();
         }
         // 2. A local of that name.
         if self.lookup_local(name).is_some() {
-            self.error(Diagnostic::error(
-                callee.span,
-                format!("`{name}` is a variable, not a function"),
-            ));
+            self.error(Diagnostic::error(callee.span, format!("`{name}` is a variable, not a function")));
             self.untyped_args(args);
             return Ty::Error;
         }
@@ -1207,39 +1021,25 @@ impl<'a> Checker<'a> {
                     Some(ps) => (ps, Ty::Material),
                     None => {
                         self.error(
-                            Diagnostic::error(
-                                span,
-                                format!("`{name}` is a material tree without parameters"),
-                            )
-                            .with_help(format!("use it without parentheses: `{name}`")),
+                            Diagnostic::error(span, format!("`{name}` is a material tree without parameters"))
+                                .with_help(format!("use it without parentheses: `{name}`")),
                         );
                         self.untyped_args(args);
                         return Ty::Error;
                     }
                 },
                 _ => {
-                    self.error(Diagnostic::error(
-                        callee.span,
-                        format!("`{name}` is a constant, not a function"),
-                    ));
+                    self.error(Diagnostic::error(callee.span, format!("`{name}` is a constant, not a function")));
                     self.untyped_args(args);
                     return Ty::Error;
                 }
             };
             let infos: Vec<ParamInfo> = params
                 .iter()
-                .map(|p| ParamInfo {
-                    name: &p.name.name,
-                    ty: Some(Ty::from_ast(&p.ty)),
-                    required: p.default.is_none(),
-                })
+                .map(|p| ParamInfo { name: &p.name.name, ty: Some(Ty::from_ast(&p.ty)), required: p.default.is_none() })
                 .collect();
             self.typed_args(name, &infos, args, span);
-            return if ret == Ty::Material {
-                self.material_value(span)
-            } else {
-                ret
-            };
+            return if ret == Ty::Material { self.material_value(span) } else { ret };
         }
         // 4. A builtin.
         if let Some(b) = builtin(name) {
@@ -1274,16 +1074,8 @@ impl<'a> Checker<'a> {
             .params
             .iter()
             .map(|p| match p.strip_suffix('?') {
-                Some(n) => ParamInfo {
-                    name: n,
-                    ty: None,
-                    required: false,
-                },
-                None => ParamInfo {
-                    name: p,
-                    ty: None,
-                    required: true,
-                },
+                Some(n) => ParamInfo { name: n, ty: None, required: false },
+                None => ParamInfo { name: p, ty: None, required: true },
             })
             .collect();
         let Some(bound) = self.bind_args(b.name, &params, args, span) else {
@@ -1298,10 +1090,7 @@ impl<'a> Checker<'a> {
             || (b.name == "scale" && bound[1].is_some())
         {
             // Texture-tree nodes over materials are material values.
-            if tys
-                .iter()
-                .flatten()
-                .any(|t| *t == Ty::Material || matches!(t, Ty::Array(e, _) if **e == Ty::Material))
+            if tys.iter().flatten().any(|t| *t == Ty::Material || matches!(t, Ty::Array(e, _) if **e == Ty::Material))
                 && !self.body.materials_allowed
             {
                 return self.material_value(span);
@@ -1310,11 +1099,8 @@ impl<'a> Checker<'a> {
         let result = match type_builtin(b.name, &tys) {
             Ok(t) => t,
             Err(ArgError { arg, message, help }) => {
-                let at = arg
-                    .and_then(|i| bound.get(i).copied().flatten())
-                    .map_or(span, |e| e.span);
-                let mut d =
-                    Diagnostic::error(at, message).with_note(format!("expected {}", b.synopsis));
+                let at = arg.and_then(|i| bound.get(i).copied().flatten()).map_or(span, |e| e.span);
+                let mut d = Diagnostic::error(at, message).with_note(format!("expected {}", b.synopsis));
                 if at != span {
                     d = d.with_label(span, format!("in this call to `{}`", b.name));
                 }
@@ -1346,21 +1132,15 @@ impl<'a> Checker<'a> {
         match &only.kind {
             ExprKind::Str(s) if interface_method(s).is_some() => {}
             ExprKind::Str(s) => {
-                let mut d = Diagnostic::error(
-                    only.span,
-                    format!("`{s}` is not a method of the material interface"),
-                );
+                let mut d = Diagnostic::error(only.span, format!("`{s}` is not a method of the material interface"));
                 if let Some(m) = did_you_mean(s, INTERFACE.iter().map(|m| m.name)) {
                     d = d.with_help(format!("did you mean `{m}`?"));
                 }
                 self.error(d);
             }
             _ => self.error(
-                Diagnostic::error(
-                    only.span,
-                    "`only:` must be a string literal naming an interface method",
-                )
-                .with_help("for example `only: \"refraction_index\"`"),
+                Diagnostic::error(only.span, "`only:` must be a string literal naming an interface method")
+                    .with_help("for example `only: \"refraction_index\"`"),
             ),
         }
     }
@@ -1386,20 +1166,17 @@ impl<'a> Checker<'a> {
             };
             if !(300.0..=1000.0).contains(&nm) {
                 self.error(
-                    Diagnostic::error(
-                        pair[0].span,
-                        format!("wavelength {nm} nm is outside 300..1000 nm"),
-                    )
-                    .with_help("spectrum samples are (wavelength in nanometres, value)"),
+                    Diagnostic::error(pair[0].span, format!("wavelength {nm} nm is outside 300..1000 nm"))
+                        .with_help("spectrum samples are (wavelength in nanometres, value)"),
                 );
             }
-            if let Some(p) = prev {
-                if nm <= p {
-                    self.error(Diagnostic::error(
-                        pair[0].span,
-                        format!("wavelengths must increase: {nm} nm follows {p} nm"),
-                    ));
-                }
+            if let Some(p) = prev
+                && nm <= p
+            {
+                self.error(Diagnostic::error(
+                    pair[0].span,
+                    format!("wavelengths must increase: {nm} nm follows {p} nm"),
+                ));
             }
             prev = Some(nm);
         }
@@ -1408,10 +1185,7 @@ impl<'a> Checker<'a> {
     fn construct(&mut self, ty: BaseType, ty_span: Span, args: &[Arg], span: Span) -> Ty {
         for a in args {
             if let Some(n) = &a.name {
-                self.error(Diagnostic::error(
-                    n.span,
-                    "type constructors take positional arguments only",
-                ));
+                self.error(Diagnostic::error(n.span, "type constructors take positional arguments only"));
             }
         }
         let tys: Vec<Ty> = args.iter().map(|a| self.expr(&a.value, None)).collect();
@@ -1449,12 +1223,9 @@ impl<'a> Checker<'a> {
                 t.converts_to(&elem)
             };
             if !ok {
-                let mut d =
-                    Diagnostic::error(a.value.span, format!("expected a number, found `{t}`"));
+                let mut d = Diagnostic::error(a.value.span, format!("expected a number, found `{t}`"));
                 if *t == Ty::Color {
-                    d = d.with_help(
-                        "a color has no components: use to_rgb(c) for an explicit conversion",
-                    );
+                    d = d.with_help("a color has no components: use to_rgb(c) for an explicit conversion");
                 }
                 self.error(d);
                 return Ty::Error;
@@ -1513,20 +1284,17 @@ impl<'a> Checker<'a> {
                 return Ty::Error;
             }
             t => {
-                self.error(Diagnostic::error(
-                    base.span,
-                    format!("`{t}` cannot be indexed"),
-                ));
+                self.error(Diagnostic::error(base.span, format!("`{t}` cannot be indexed")));
                 return Ty::Error;
             }
         };
-        if let Some(k) = const_int(index) {
-            if k < 0 || k >= i64::from(len) {
-                self.error(
-                    Diagnostic::error(index.span, format!("index {k} is out of bounds"))
-                        .with_label(base.span, format!("this has {len} elements")),
-                );
-            }
+        if let Some(k) = const_int(index)
+            && (k < 0 || k >= i64::from(len))
+        {
+            self.error(
+                Diagnostic::error(index.span, format!("index {k} is out of bounds"))
+                    .with_label(base.span, format!("this has {len} elements")),
+            );
         }
         elem
     }
@@ -1546,18 +1314,12 @@ impl<'a> Checker<'a> {
         };
         if items.is_empty() {
             if want_elem.is_none() {
-                self.error(Diagnostic::error(
-                    span,
-                    "cannot infer the type of an empty array",
-                ));
+                self.error(Diagnostic::error(span, "cannot infer the type of an empty array"));
             }
             return Ty::Error;
         }
         if items.len() > MAX_ARRAY_LEN as usize {
-            self.error(Diagnostic::error(
-                span,
-                format!("an array has at most {MAX_ARRAY_LEN} items"),
-            ));
+            self.error(Diagnostic::error(span, format!("an array has at most {MAX_ARRAY_LEN} items")));
             return Ty::Error;
         }
         let mut elem: Option<Ty> = None;
@@ -1565,17 +1327,16 @@ impl<'a> Checker<'a> {
             let t = self.expr(item, want_elem.as_ref());
             elem = match elem {
                 None => Some(t),
-                Some(prev) => {
-                    match unify(&prev, &t) {
-                        Some(u) => Some(u),
-                        None => {
-                            self.error(
-                            Diagnostic::error(item.span, format!("array items must share one type: expected `{prev}`, found `{t}`")),
-                        );
-                            Some(Ty::Error)
-                        }
+                Some(prev) => match unify(&prev, &t) {
+                    Some(u) => Some(u),
+                    None => {
+                        self.error(Diagnostic::error(
+                            item.span,
+                            format!("array items must share one type: expected `{prev}`, found `{t}`"),
+                        ));
+                        Some(Ty::Error)
                     }
-                }
+                },
             };
         }
         let elem = elem.unwrap_or(Ty::Error);
@@ -1583,10 +1344,7 @@ impl<'a> Checker<'a> {
             return self.material_value(span);
         }
         if let Ty::Array(..) = elem {
-            self.error(Diagnostic::error(
-                span,
-                "arrays of arrays are not supported",
-            ));
+            self.error(Diagnostic::error(span, "arrays of arrays are not supported"));
             return Ty::Error;
         }
         Ty::Array(Box::new(elem), items.len() as u32)
@@ -1601,9 +1359,7 @@ impl<'a> Checker<'a> {
             (_, n) => {
                 self.error(
                     Diagnostic::error(span, format!("a tuple of {n} values has no type"))
-                        .with_help(
-                            "tuples of two numbers are vec2, of three numbers vector/point/normal",
-                        ),
+                        .with_help("tuples of two numbers are vec2, of three numbers vector/point/normal"),
                 );
                 self.untyped_exprs(items);
                 return Ty::Error;
@@ -1612,10 +1368,7 @@ impl<'a> Checker<'a> {
         for item in items {
             let t = self.expr(item, Some(&Ty::Float));
             if !t.converts_to(&Ty::Float) {
-                self.error(Diagnostic::error(
-                    item.span,
-                    format!("tuple items must be numbers, found `{t}`"),
-                ));
+                self.error(Diagnostic::error(item.span, format!("tuple items must be numbers, found `{t}`")));
             }
         }
         result
@@ -1644,7 +1397,9 @@ impl<'a> Checker<'a> {
             while let Some((node, next, _)) = stack.last().cloned() {
                 let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
                 if let Some((to, span)) = out.get(next).cloned() {
-                    stack.last_mut().map(|top| top.1 += 1);
+                    if let Some(top) = stack.last_mut() {
+                        top.1 += 1;
+                    }
                     match state.get(&to).copied().unwrap_or(0) {
                         0 => {
                             state.insert(to.clone(), 1);
@@ -1652,14 +1407,12 @@ impl<'a> Checker<'a> {
                         }
                         1 => {
                             let pos = stack.iter().position(|(n, _, _)| *n == to).unwrap_or(0);
-                            let mut path: Vec<String> =
-                                stack[pos..].iter().map(|(n, _, _)| n.describe()).collect();
+                            let mut path: Vec<String> = stack[pos..].iter().map(|(n, _, _)| n.describe()).collect();
                             path.push(to.describe());
                             let msg = if path.len() == 2 {
                                 format!("{} calls itself: recursion is not allowed", to.describe())
                             } else {
-                                "recursion is not allowed: these definitions call each other"
-                                    .to_string()
+                                "recursion is not allowed: these definitions call each other".to_string()
                             };
                             self.diags.push(
                                 Diagnostic::error(span, msg)
@@ -1682,11 +1435,7 @@ impl<'a> Checker<'a> {
 fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<String>)> {
     use BinaryOp::*;
     if l.is_error() || r.is_error() {
-        return Ok(if matches!(op, Eq | Ne | Lt | Le | Gt | Ge | And | Or) {
-            Ty::Bool
-        } else {
-            Ty::Error
-        });
+        return Ok(if matches!(op, Eq | Ne | Lt | Le | Gt | Ge | And | Or) { Ty::Bool } else { Ty::Error });
     }
     let sym = op.symbol();
     let plain = |m: String| Err((m, None));
@@ -1708,9 +1457,7 @@ fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
             } else if *l == Ty::Color || *r == Ty::Color {
                 Err((
                     format!("colors cannot be ordered with `{sym}`"),
-                    Some(format!(
-                        "{color_help}: compare brightness(a) {sym} brightness(b)"
-                    )),
+                    Some(format!("{color_help}: compare brightness(a) {sym} brightness(b)")),
                 ))
             } else {
                 plain(format!("cannot compare `{l}` {sym} `{r}`"))
@@ -1722,9 +1469,7 @@ fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
             } else if *l == Ty::Color || *r == Ty::Color {
                 Err((
                     format!("colors cannot be compared with `{sym}`"),
-                    Some(format!(
-                        "{color_help}: compare brightness(a) and brightness(b)"
-                    )),
+                    Some(format!("{color_help}: compare brightness(a) and brightness(b)")),
                 ))
             } else if elementwise(l, r).is_some() && l.is_float_like() && r.is_float_like() {
                 Ok(Ty::Bool)
@@ -1749,10 +1494,8 @@ fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
             match elementwise(l, r) {
                 Some(t) => Ok(t),
                 None => {
-                    let help = (*l == Ty::Material || *r == Ty::Material).then(|| {
-                        "combine materials with texture-tree nodes: mix, blend, select, scale"
-                            .to_string()
-                    });
+                    let help = (*l == Ty::Material || *r == Ty::Material)
+                        .then(|| "combine materials with texture-tree nodes: mix, blend, select, scale".to_string());
                     Err((format!("cannot apply `{sym}` to `{l}` and `{r}`"), help))
                 }
             }
@@ -1767,7 +1510,7 @@ fn color_arith(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
     let (lc, rc) = (*l == Ty::Color, *r == Ty::Color);
     let ok = match op {
         Add => lc && rc,
-        Mul => (lc && rc) || (lc && r.is_numeric()) || (l.is_numeric() && rc),
+        Mul => (lc && (rc || r.is_numeric())) || (l.is_numeric() && rc),
         Div => lc && (rc || r.is_numeric()),
         _ => false,
     };
@@ -1781,18 +1524,11 @@ fn color_arith(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
         Div if l.is_numeric() => "a number cannot be divided by a color; divide two colors, or scale by 1 / x".to_string(),
         _ => "colors support `+` and `*` with colors, `*` and `/` by a float, and `/` between colors".to_string(),
     };
-    Err((
-        format!("cannot apply `{sym}` to `{l}` and `{r}`"),
-        Some(help),
-    ))
+    Err((format!("cannot apply `{sym}` to `{l}` and `{r}`"), Some(help)))
 }
 
 fn required_params(params: &[Param]) -> Vec<String> {
-    params
-        .iter()
-        .filter(|p| p.default.is_none())
-        .map(|p| p.name.name.clone())
-        .collect()
+    params.iter().filter(|p| p.default.is_none()).map(|p| p.name.name.clone()).collect()
 }
 
 fn plural(n: usize) -> &'static str {
@@ -1803,10 +1539,7 @@ fn const_number(e: &Expr) -> Option<f64> {
     match &e.kind {
         ExprKind::Int(i) => Some(f64::from(*i)),
         ExprKind::Float(f) => Some(*f),
-        ExprKind::Unary {
-            op: UnaryOp::Neg,
-            operand,
-        } => const_number(operand).map(|v| -v),
+        ExprKind::Unary { op: UnaryOp::Neg, operand } => const_number(operand).map(|v| -v),
         _ => None,
     }
 }
@@ -1814,10 +1547,7 @@ fn const_number(e: &Expr) -> Option<f64> {
 fn const_int(e: &Expr) -> Option<i64> {
     match &e.kind {
         ExprKind::Int(i) => Some(i64::from(*i)),
-        ExprKind::Unary {
-            op: UnaryOp::Neg,
-            operand,
-        } => const_int(operand).map(|v| -v),
+        ExprKind::Unary { op: UnaryOp::Neg, operand } => const_int(operand).map(|v| -v),
         _ => None,
     }
 }
@@ -1831,11 +1561,7 @@ fn stmt_returns(s: &Stmt) -> bool {
     match &s.kind {
         StmtKind::Return(_) => true,
         StmtKind::Block(b) => block_returns(b),
-        StmtKind::If {
-            then_block,
-            else_branch: Some(e),
-            ..
-        } => block_returns(then_block) && stmt_returns(e),
+        StmtKind::If { then_block, else_branch: Some(e), .. } => block_returns(then_block) && stmt_returns(e),
         _ => false,
     }
 }

@@ -43,13 +43,9 @@ impl Want {
             Want::Material => "a material".into(),
             Want::ColorOrString => "a color or an image file name".into(),
             Want::FloatOrVector => "a float or a vector".into(),
-            Want::Choice(c) => format!(
-                "one of {}",
-                c.iter()
-                    .map(|s| format!("\"{s}\""))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
+            Want::Choice(c) => {
+                format!("one of {}", c.iter().map(|s| format!("\"{s}\"")).collect::<Vec<_>>().join(", "))
+            }
         }
     }
 }
@@ -64,28 +60,13 @@ struct Prop {
 }
 
 const fn req(name: &'static str, want: Want) -> Prop {
-    Prop {
-        name,
-        want,
-        required: true,
-        repeats: false,
-    }
+    Prop { name, want, required: true, repeats: false }
 }
 const fn opt(name: &'static str, want: Want) -> Prop {
-    Prop {
-        name,
-        want,
-        required: false,
-        repeats: false,
-    }
+    Prop { name, want, required: false, repeats: false }
 }
 const fn many(name: &'static str, want: Want) -> Prop {
-    Prop {
-        name,
-        want,
-        required: false,
-        repeats: true,
-    }
+    Prop { name, want, required: false, repeats: true }
 }
 
 const TOP: &[Prop] = &[opt("background", Want::ColorOrString)];
@@ -109,10 +90,7 @@ const RENDER: &[Prop] = &[
 ];
 
 const LIGHTS: &[(&str, &[Prop])] = &[
-    (
-        "point",
-        &[req("at", Want::Point), req("power", Want::Color)],
-    ),
+    ("point", &[req("at", Want::Point), req("power", Want::Color)]),
     (
         "spot",
         &[
@@ -123,13 +101,7 @@ const LIGHTS: &[(&str, &[Prop])] = &[
             opt("falloff", Want::Float),
         ],
     ),
-    (
-        "directional",
-        &[
-            req("direction", Want::Vector),
-            req("irradiance", Want::Color),
-        ],
-    ),
+    ("directional", &[req("direction", Want::Vector), req("irradiance", Want::Color)]),
     (
         "rect",
         &[
@@ -139,14 +111,7 @@ const LIGHTS: &[(&str, &[Prop])] = &[
             req("power", Want::Color),
         ],
     ),
-    (
-        "sphere",
-        &[
-            req("center", Want::Point),
-            req("radius", Want::Positive),
-            req("power", Want::Color),
-        ],
-    ),
+    ("sphere", &[req("center", Want::Point), req("radius", Want::Positive), req("power", Want::Color)]),
 ];
 
 /// Properties every object takes besides its shape's own.
@@ -159,26 +124,9 @@ const OBJECT_COMMON: &[Prop] = &[
 ];
 
 const SHAPES: &[(&str, &[Prop])] = &[
-    (
-        "sphere",
-        &[req("center", Want::Point), req("radius", Want::Positive)],
-    ),
-    (
-        "plane",
-        &[
-            req("point", Want::Point),
-            req("normal", Want::Vector),
-            opt("tile", Want::Positive),
-        ],
-    ),
-    (
-        "disk",
-        &[
-            req("center", Want::Point),
-            req("normal", Want::Vector),
-            req("radius", Want::Positive),
-        ],
-    ),
+    ("sphere", &[req("center", Want::Point), req("radius", Want::Positive)]),
+    ("plane", &[req("point", Want::Point), req("normal", Want::Vector), opt("tile", Want::Positive)]),
+    ("disk", &[req("center", Want::Point), req("normal", Want::Vector), req("radius", Want::Positive)]),
     ("box", &[req("min", Want::Point), req("max", Want::Point)]),
     (
         "cylinder",
@@ -210,14 +158,7 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
                 "render" => {
                     no_kind(cx, b);
                     renders.push(b);
-                    check_props(
-                        cx,
-                        b.props.iter().collect(),
-                        RENDER,
-                        &[],
-                        "render settings",
-                        b,
-                    );
+                    check_props(cx, b.props.iter().collect(), RENDER, &[], "render settings", b);
                 }
                 "light" => {
                     if let Some(props) = kind_props(cx, b, LIGHTS, "light") {
@@ -226,19 +167,11 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
                 }
                 "object" => {
                     if let Some(props) = kind_props(cx, b, SHAPES, "shape") {
-                        check_props(
-                            cx,
-                            b.props.iter().collect(),
-                            props,
-                            OBJECT_COMMON,
-                            "this object",
-                            b,
-                        );
+                        check_props(cx, b.props.iter().collect(), props, OBJECT_COMMON, "this object", b);
                     }
                 }
                 other => {
-                    let mut d =
-                        Diagnostic::error(b.keyword.span, format!("unknown scene block `{other}`"));
+                    let mut d = Diagnostic::error(b.keyword.span, format!("unknown scene block `{other}`"));
                     d = match did_you_mean(other, BLOCKS.iter().copied()) {
                         Some(s) => d.with_help(format!("did you mean `{s}`?")),
                         None => d.with_help(format!("scene blocks are: {}", BLOCKS.join(", "))),
@@ -267,10 +200,7 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
 
 fn no_kind(cx: &mut Checker<'_>, b: &SceneBlock) {
     if let Some(kind) = &b.kind {
-        cx.error(Diagnostic::error(
-            kind.span,
-            format!("`{}` takes no kind", b.keyword.name),
-        ));
+        cx.error(Diagnostic::error(kind.span, format!("`{}` takes no kind", b.keyword.name)));
     }
 }
 
@@ -283,11 +213,7 @@ fn kind_props(
     let names: Vec<&str> = kinds.iter().map(|k| k.0).collect();
     let Some(kind) = &b.kind else {
         cx.error(
-            Diagnostic::error(
-                b.keyword.span,
-                format!("`{}` needs a {what} kind", b.keyword.name),
-            )
-            .with_help(format!(
+            Diagnostic::error(b.keyword.span, format!("`{}` needs a {what} kind", b.keyword.name)).with_help(format!(
                 "write `{} {} {{ ... }}`; kinds: {}",
                 b.keyword.name,
                 names[0],
@@ -354,13 +280,13 @@ fn check_prop_list<'p>(
             }
             continue;
         };
-        if let Some(prev) = given.insert(name, p) {
-            if !spec.repeats {
-                cx.error(
-                    Diagnostic::error(p.name.span, format!("`{name}` is given twice"))
-                        .with_label(prev.name.span, "first given here"),
-                );
-            }
+        if let Some(prev) = given.insert(name, p)
+            && !spec.repeats
+        {
+            cx.error(
+                Diagnostic::error(p.name.span, format!("`{name}` is given twice"))
+                    .with_label(prev.name.span, "first given here"),
+            );
         }
         let Some(value) = &p.value else {
             cx.error(
@@ -393,20 +319,12 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     let found = cx.expr(value, expected.as_ref());
     let ok = match spec.want {
         Want::ColorOrString => found == Ty::Color || found == Ty::String || found.is_error(),
-        Want::FloatOrVector => {
-            found.converts_to(&Ty::Float) || found.is_triple() || found.is_error()
-        }
+        Want::FloatOrVector => found.converts_to(&Ty::Float) || found.is_triple() || found.is_error(),
         _ => expected.as_ref().is_none_or(|t| found.converts_to(t)),
     };
     if !ok {
-        let mut d = Diagnostic::error(
-            value.span,
-            format!(
-                "`{}` takes {}, found `{found}`",
-                spec.name,
-                spec.want.describe()
-            ),
-        );
+        let mut d =
+            Diagnostic::error(value.span, format!("`{}` takes {}, found `{found}`", spec.name, spec.want.describe()));
         if spec.want == Want::Color && found.is_numeric() {
             d = d.with_help("a number is not a color: write gray(x) or rgb(r, g, b)");
         }
@@ -415,13 +333,10 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     }
     match spec.want {
         Want::Positive | Want::Count => {
-            if let Some(v) = literal_number(value) {
-                if v <= 0.0 {
-                    cx.error(Diagnostic::error(
-                        value.span,
-                        format!("`{}` must be positive, found {v}", spec.name),
-                    ));
-                }
+            if let Some(v) = literal_number(value)
+                && v <= 0.0
+            {
+                cx.error(Diagnostic::error(value.span, format!("`{}` must be positive, found {v}", spec.name)));
             }
         }
         Want::Choice(choices) => match &value.kind {
@@ -434,22 +349,15 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
                 }
                 cx.error(d);
             }
-            _ => cx.error(Diagnostic::error(
-                value.span,
-                format!("`{}` takes {}", spec.name, spec.want.describe()),
-            )),
+            _ => cx.error(Diagnostic::error(value.span, format!("`{}` takes {}", spec.name, spec.want.describe()))),
         },
         _ => {}
     }
-    if spec.name == "fov" {
-        if let Some(v) = literal_number(value) {
-            if v >= 180.0 {
-                cx.error(Diagnostic::error(
-                    value.span,
-                    format!("a field of view of {v} degrees is not below 180"),
-                ));
-            }
-        }
+    if spec.name == "fov"
+        && let Some(v) = literal_number(value)
+        && v >= 180.0
+    {
+        cx.error(Diagnostic::error(value.span, format!("a field of view of {v} degrees is not below 180")));
     }
 }
 
@@ -457,10 +365,7 @@ fn literal_number(e: &Expr) -> Option<f64> {
     match &e.kind {
         ExprKind::Int(i) => Some(f64::from(*i)),
         ExprKind::Float(f) => Some(*f),
-        ExprKind::Unary {
-            op: UnaryOp::Neg,
-            operand,
-        } => literal_number(operand).map(|v| -v),
+        ExprKind::Unary { op: UnaryOp::Neg, operand } => literal_number(operand).map(|v| -v),
         _ => None,
     }
 }

@@ -118,10 +118,7 @@ mod tests {
         assert!(Ty::Int.converts_to(&Ty::Float));
         assert!(!Ty::Float.converts_to(&Ty::Int));
         assert!(Ty::Point.converts_to(&Ty::Normal));
-        assert!(
-            !Ty::Float.converts_to(&Ty::Color),
-            "a float is never implicitly a color"
-        );
+        assert!(!Ty::Float.converts_to(&Ty::Color), "a float is never implicitly a color");
         assert!(Ty::Array(Box::new(Ty::Int), 3).converts_to(&Ty::Array(Box::new(Ty::Float), 3)));
         assert!(!Ty::Array(Box::new(Ty::Int), 3).converts_to(&Ty::Array(Box::new(Ty::Float), 2)));
         assert_eq!(Ty::Array(Box::new(Ty::Color), 4).to_string(), "color[4]");

@@ -342,21 +342,13 @@ impl ExprKind {
         let args = |args: &[Arg]| args.iter().map(|a| a.value.depth).max().unwrap_or(0);
         let exprs = |es: &[Expr]| es.iter().map(|e| e.depth).max().unwrap_or(0);
         match self {
-            ExprKind::Int(_)
-            | ExprKind::Float(_)
-            | ExprKind::Bool(_)
-            | ExprKind::Str(_)
-            | ExprKind::Name(_) => 0,
+            ExprKind::Int(_) | ExprKind::Float(_) | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Name(_) => 0,
             ExprKind::Call { args: a, .. } | ExprKind::Construct { args: a, .. } => args(a),
             ExprKind::Member { base, .. } => base.depth,
             ExprKind::Index { base, index } => base.depth.max(index.depth),
             ExprKind::Unary { operand, .. } => operand.depth,
             ExprKind::Binary { lhs, rhs, .. } => lhs.depth.max(rhs.depth),
-            ExprKind::Ternary {
-                cond,
-                then_expr,
-                else_expr,
-            } => cond.depth.max(then_expr.depth).max(else_expr.depth),
+            ExprKind::Ternary { cond, then_expr, else_expr } => cond.depth.max(then_expr.depth).max(else_expr.depth),
             ExprKind::Array(es) | ExprKind::Tuple(es) => exprs(es),
         }
     }
@@ -377,6 +369,15 @@ impl Expr {
     }
 }
 
+/// Parentheses add no node but count as a nesting level.
+pub fn parenthesized(mut e: Expr, span: Span) -> Result<Expr, TooDeep> {
+    e.depth += 1;
+    if e.depth > MAX_NESTING {
+        return Err(TooDeep(span));
+    }
+    Ok(e)
+}
+
 impl Block {
     pub fn new(stmts: Vec<Stmt>, span: Span) -> Result<Block, TooDeep> {
         let depth = stmts.iter().map(|s| s.depth).max().unwrap_or(0) + 1;
@@ -389,26 +390,22 @@ impl Block {
 
 impl Stmt {
     pub fn new(kind: StmtKind, span: Span) -> Result<Stmt, TooDeep> {
-        let depth = 1 + match &kind {
-            StmtKind::Let { init, .. } => init.as_ref().map_or(0, |e| e.depth),
-            StmtKind::Assign { target, value, .. } => target.depth.max(value.depth),
-            StmtKind::Expr(e) => e.depth,
-            StmtKind::If {
-                cond,
-                then_block,
-                else_branch,
-            } => cond
-                .depth
-                .max(then_block.depth)
-                .max(else_branch.as_ref().map_or(0, |s| s.depth)),
-            StmtKind::For {
-                start, end, body, ..
-            } => start.depth.max(end.depth).max(body.depth),
-            StmtKind::While { cond, body } => cond.depth.max(body.depth),
-            StmtKind::Break | StmtKind::Continue => 0,
-            StmtKind::Return(e) => e.as_ref().map_or(0, |e| e.depth),
-            StmtKind::Block(b) => b.depth,
-        };
+        // A block statement is one level, not two.
+        let own = u32::from(!matches!(kind, StmtKind::Block(_)));
+        let depth = own
+            + match &kind {
+                StmtKind::Let { init, .. } => init.as_ref().map_or(0, |e| e.depth),
+                StmtKind::Assign { target, value, .. } => target.depth.max(value.depth),
+                StmtKind::Expr(e) => e.depth,
+                StmtKind::If { cond, then_block, else_branch } => {
+                    cond.depth.max(then_block.depth).max(else_branch.as_ref().map_or(0, |s| s.depth))
+                }
+                StmtKind::For { start, end, body, .. } => start.depth.max(end.depth).max(body.depth),
+                StmtKind::While { cond, body } => cond.depth.max(body.depth),
+                StmtKind::Break | StmtKind::Continue => 0,
+                StmtKind::Return(e) => e.as_ref().map_or(0, |e| e.depth),
+                StmtKind::Block(b) => b.depth,
+            };
         if depth > MAX_NESTING {
             return Err(TooDeep(span));
         }

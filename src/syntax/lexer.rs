@@ -62,11 +62,7 @@ fn int_value(lex: &mut logos::Lexer<'_, Tok>) -> Result<i32, LexError> {
 
 fn float_value(lex: &mut logos::Lexer<'_, Tok>) -> Result<f64, LexError> {
     let v: f64 = lex.slice().parse().map_err(|_| LexError::BadNumber)?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(LexError::BadNumber)
-    }
+    if v.is_finite() { Ok(v) } else { Err(LexError::BadNumber) }
 }
 
 /// A TSL token.
@@ -306,9 +302,7 @@ pub struct Lexer<'src> {
 
 impl<'src> Lexer<'src> {
     pub fn new(src: &'src str) -> Self {
-        Lexer {
-            inner: Tok::lexer(src).spanned(),
-        }
+        Lexer { inner: Tok::lexer(src).spanned() }
     }
 }
 
@@ -341,36 +335,20 @@ mod tests {
     fn numbers_and_ranges() {
         assert_eq!(
             kinds("0..8 1.5 .5 2e3"),
-            vec![
-                Tok::Int(0),
-                Tok::DotDot,
-                Tok::Int(8),
-                Tok::Float(1.5),
-                Tok::Float(0.5),
-                Tok::Float(2000.0),
-            ]
+            vec![Tok::Int(0), Tok::DotDot, Tok::Int(8), Tok::Float(1.5), Tok::Float(0.5), Tok::Float(2000.0),]
         );
     }
 
     #[test]
     fn comments_are_skipped() {
-        assert_eq!(
-            kinds("a // x\n /* y\n z */ b"),
-            vec![Tok::Ident("a".into()), Tok::Ident("b".into())]
-        );
+        assert_eq!(kinds("a // x\n /* y\n z */ b"), vec![Tok::Ident("a".into()), Tok::Ident("b".into())]);
     }
 
     #[test]
     fn errors_carry_spans_and_lexing_continues() {
         let toks = tokenize("a $ b");
         assert_eq!(toks.len(), 3);
-        assert_eq!(
-            toks[1],
-            Err(SpannedLexError {
-                error: LexError::UnexpectedChar,
-                span: 2..3
-            })
-        );
+        assert_eq!(toks[1], Err(SpannedLexError { error: LexError::UnexpectedChar, span: 2..3 }));
         let toks = tokenize("x /* never closed");
         assert!(matches!(&toks[1], Err(e) if e.error == LexError::UnterminatedComment));
         let toks = tokenize("\"abc\nd");

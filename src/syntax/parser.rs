@@ -11,13 +11,7 @@ use crate::syntax::lexer::{Lexer, SpannedLexError, Tok};
 use lalrpop_util::{ErrorRecovery, ParseError};
 
 lalrpop_util::lalrpop_mod!(
-    #[allow(
-        clippy::all,
-        clippy::pedantic,
-        unused_parens,
-        unused_imports,
-        dead_code
-    )]
+    #[allow(clippy::all, clippy::pedantic, clippy::panic, unused_parens, unused_imports, dead_code)]
     grammar,
     "/tsl.rs"
 );
@@ -29,9 +23,7 @@ pub enum SyntaxError {
 }
 
 pub(crate) fn deep(e: TooDeep) -> ParseError<usize, Tok, SyntaxError> {
-    ParseError::User {
-        error: SyntaxError::TooDeep(e.0),
-    }
+    ParseError::User { error: SyntaxError::TooDeep(e.0) }
 }
 
 /// Builds an expression node from a grammar action.
@@ -62,21 +54,18 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
     for e in &lex_errors {
         let span = Span::new(file, e.span.start, e.span.end);
         let mut d = Diagnostic::error(span, e.error.to_string());
-        if let Some(c) = src.get(e.span.clone()).and_then(|s| s.chars().next()) {
-            if e.error == crate::syntax::lexer::LexError::UnexpectedChar {
-                d = Diagnostic::error(span, format!("unexpected character `{}`", c.escape_debug()));
-            }
+        if let Some(c) = src.get(e.span.clone()).and_then(|s| s.chars().next())
+            && e.error == crate::syntax::lexer::LexError::UnexpectedChar
+        {
+            d = Diagnostic::error(span, format!("unexpected character `{}`", c.escape_debug()));
         }
         diags.push(d);
     }
 
     let mut recovered: Vec<ErrorRecovery<usize, Tok, SyntaxError>> = Vec::new();
     let end = src.len();
-    let result = grammar::SourceFileParser::new().parse(
-        file,
-        &mut recovered,
-        tokens.into_iter().map(Ok::<_, SyntaxError>),
-    );
+    let result =
+        grammar::SourceFileParser::new().parse(file, &mut recovered, tokens.into_iter().map(Ok::<_, SyntaxError>));
     for r in recovered {
         diags.push(parse_error(file, end, r.error));
     }
@@ -97,13 +86,9 @@ fn parse_error(file: FileId, eof: usize, e: ParseError<usize, Tok, SyntaxError>)
         }
         ParseError::UnrecognizedEof { location, expected } => {
             let at = location.min(eof);
-            Diagnostic::error(Span::new(file, at, at), "unexpected end of file")
-                .with_primary(expected_list(&expected))
+            Diagnostic::error(Span::new(file, at, at), "unexpected end of file").with_primary(expected_list(&expected))
         }
-        ParseError::UnrecognizedToken {
-            token: (l, tok, r),
-            expected,
-        } => {
+        ParseError::UnrecognizedToken { token: (l, tok, r), expected } => {
             let mut d = Diagnostic::error(Span::new(file, l, r), format!("unexpected {tok}"))
                 .with_primary(expected_list(&expected));
             if let Some(help) = token_help(&tok, &expected) {
@@ -111,23 +96,19 @@ fn parse_error(file: FileId, eof: usize, e: ParseError<usize, Tok, SyntaxError>)
             }
             d
         }
-        ParseError::ExtraToken { token: (l, tok, r) } => Diagnostic::error(
-            Span::new(file, l, r),
-            format!("unexpected {tok} after the end of the file"),
-        ),
-        ParseError::User {
-            error: SyntaxError::TooDeep(span),
-        } => Diagnostic::error(span, format!("nesting deeper than {MAX_NESTING} levels"))
-            .with_help("split the expression or block into smaller functions or local variables"),
+        ParseError::ExtraToken { token: (l, tok, r) } => {
+            Diagnostic::error(Span::new(file, l, r), format!("unexpected {tok} after the end of the file"))
+        }
+        ParseError::User { error: SyntaxError::TooDeep(span) } => {
+            Diagnostic::error(span, format!("nesting deeper than {MAX_NESTING} levels"))
+                .with_help("split the expression or block into smaller functions or local variables")
+        }
     }
 }
 
 /// "expected one of ..." from lalrpop's terminal names.
 fn expected_list(expected: &[String]) -> String {
-    let names: Vec<String> = expected
-        .iter()
-        .map(|e| e.trim_matches('"').to_string())
-        .collect();
+    let names: Vec<String> = expected.iter().map(|e| e.trim_matches('"').to_string()).collect();
     match names.len() {
         0 => String::new(),
         1 => format!("expected {}", names[0]),
@@ -142,10 +123,7 @@ fn token_help(tok: &Tok, expected: &[String]) -> Option<String> {
         return Some("statements and declarations end with `;`".into());
     }
     if matches!(tok, Tok::Material) {
-        return Some(
-            "a function that builds a material tree is written `material name(params) = expr;`"
-                .into(),
-        );
+        return Some("a function that builds a material tree is written `material name(params) = expr;`".into());
     }
     None
 }

@@ -69,11 +69,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     // Checking recurses over the (depth-limited) syntax tree; a generous
     // stack keeps that safe for every accepted input.
-    let worker = std::thread::Builder::new()
-        .stack_size(64 << 20)
-        .spawn(move || match cli.command {
-            Command::Check(args) => check(args),
-        });
+    let worker = std::thread::Builder::new().stack_size(64 << 20).spawn(move || match cli.command {
+        Command::Check(args) => check(args),
+    });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,
         _ => {
@@ -84,10 +82,7 @@ fn main() -> ExitCode {
 }
 
 fn check(args: CheckArgs) -> ExitCode {
-    let options = LoadOptions {
-        import_paths: args.include.clone(),
-        prelude: true,
-    };
+    let options = LoadOptions { import_paths: args.include.clone(), prelude: true };
     let colors = match args.color {
         ColorChoice::Always => Colors::Always,
         ColorChoice::Never => Colors::Never,
@@ -121,11 +116,7 @@ fn check(args: CheckArgs) -> ExitCode {
         };
         failed |= report(&checked, &args, colors);
     }
-    if failed {
-        ExitCode::from(1)
-    } else {
-        ExitCode::SUCCESS
-    }
+    if failed { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }
 
 /// Prints the diagnostics of one file; returns whether it failed.
@@ -143,28 +134,17 @@ fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
             let text = diag::render_text(sources, &checked.diagnostics, colors);
             let mut err = std::io::stderr().lock();
             let _ = err.write_all(text.as_bytes());
-            let (errors, warnings) = (
-                checked.count(Severity::Error),
-                checked.count(Severity::Warning),
-            );
+            let (errors, warnings) = (checked.count(Severity::Error), checked.count(Severity::Warning));
             if errors > 0 {
-                let also = if warnings > 0 {
-                    format!("; {warnings} warning{} emitted", s(warnings))
-                } else {
-                    String::new()
-                };
-                let _ = writeln!(
-                    err,
-                    "error: could not check due to {errors} error{}{also}",
-                    s(errors)
-                );
+                let also =
+                    if warnings > 0 { format!("; {warnings} warning{} emitted", s(warnings)) } else { String::new() };
+                let _ = writeln!(err, "error: could not check due to {errors} error{}{also}", s(errors));
             } else if warnings > 0 {
                 let _ = writeln!(err, "warning: {warnings} warning{} emitted", s(warnings));
             }
         }
     }
-    let warnings_fail =
-        args.warnings == Some(WarningLevel::Error) && checked.count(Severity::Warning) > 0;
+    let warnings_fail = args.warnings == Some(WarningLevel::Error) && checked.count(Severity::Warning) > 0;
     !checked.is_ok() || warnings_fail
 }
 

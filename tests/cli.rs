@@ -1,0 +1,183 @@
+//! `tslc check` as users and CI run it: exit codes, streams, formats.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+fn tslc(args: &[&str], stdin: Option<&str>) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tslc"))
+        .args(args)
+        .stdin(if stdin.is_some() { Stdio::piped() } else { Stdio::null() })
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("tslc runs");
+    if let Some(text) = stdin {
+        child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A scratch directory unique to one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tslc-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+const GOOD: &str = "float half(float x) { return x * 0.5; }\n";
+const BAD: &str = "float f(color c) {\n    return c.r;\n}\n";
+
+#[test]
+fn clean_file_exits_zero_silently() {
+    let dir = scratch("clean");
+    let o = tslc(&["check", &write(&dir, "good.tsl", GOOD)], None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(o.stdout.is_empty() && o.stderr.is_empty());
+}
+
+#[test]
+fn errors_exit_one_with_located_messages_on_stderr() {
+    let dir = scratch("errors");
+    let path = write(&dir, "bad.tsl", BAD);
+    let o = tslc(&["check", "--color", "never", &path], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(o.stdout.is_empty(), "diagnostics go to stderr");
+    let err = stderr(&o);
+    assert!(err.contains(&format!("{path}:2:14")), "{err}");
+    assert!(err.contains("help:"), "{err}");
+    assert!(!err.contains('\u{1b}'), "no colour when asked for none");
+}
+
+#[test]
+fn every_file_is_checked_and_all_errors_reported() {
+    let dir = scratch("many");
+    let a = write(&dir, "a.tsl", "float f() { return x; }\nfloat g() { return y; }\n");
+    let b = write(&dir, "b.tsl", GOOD);
+    let c = write(&dir, "c.tsl", BAD);
+    let o = tslc(&["check", &a, &b, &c], None);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains("`x`") && err.contains("`y`") && err.contains("`r`"), "{err}");
+}
+
+#[test]
+fn colour_is_used_only_when_asked_or_on_a_terminal() {
+    let dir = scratch("color");
+    let path = write(&dir, "bad.tsl", BAD);
+    let o = tslc(&["check", "--color", "always", &path], None);
+    assert!(stderr(&o).contains('\u{1b}'));
+    let o = tslc(&["check", &path], None);
+    assert!(!stderr(&o).contains('\u{1b}'), "auto: stderr is a pipe here");
+}
+
+#[test]
+fn json_messages_go_to_stdout_one_object_per_line() {
+    let dir = scratch("json");
+    let path = write(&dir, "bad.tsl", "float f(color c) { return c.r + q; }\n");
+    let o = tslc(&["check", "--message-format", "json", &path], None);
+    assert_eq!(o.status.code(), Some(1));
+    let out = String::from_utf8(o.stdout).unwrap();
+    let lines: Vec<serde_json::Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 2, "{out}");
+    let first = &lines[0];
+    assert_eq!(first["severity"], "error");
+    assert_eq!(first["file"], path.as_str());
+    assert_eq!(first["line"], 1);
+    assert_eq!(first["column"], 29);
+    assert_eq!(first["byte_start"], 28);
+    assert!(first["help"].as_str().unwrap().contains("brightness"));
+    assert!(first["labels"].is_array());
+    assert!(lines[1]["message"].as_str().unwrap().contains("`q`"));
+}
+
+#[test]
+fn standard_input_with_a_reported_name_and_imports() {
+    let dir = scratch("stdin");
+    write(&dir, "lib.tsl", GOOD);
+    let name = dir.join("main.tsl").display().to_string();
+    let src = "import \"lib.tsl\";\nfloat g() { return half(2) + zz; }\n";
+    let o = tslc(&["check", "--stdin-path", &name, "-"], Some(src));
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains(&format!("{name}:2:")), "named as given: {err}");
+    assert!(!err.contains("cannot find imported"), "the import resolved next to the named path: {err}");
+    assert!(err.contains("cannot find value `zz`"), "{err}");
+}
+
+#[test]
+fn include_directories_are_searched() {
+    let dir = scratch("include");
+    let libdir = dir.join("lib");
+    std::fs::create_dir_all(&libdir).unwrap();
+    write(&libdir, "shapes.tsl", GOOD);
+    let main = write(&dir, "main.tsl", "import \"shapes.tsl\";\nfloat g() { return half(2); }\n");
+    let o = tslc(&["check", &main], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("cannot find imported file `shapes.tsl`"), "{}", stderr(&o));
+    let o = tslc(&["check", "-I", &libdir.display().to_string(), &main], None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn warnings_fail_only_under_w_error() {
+    let dir = scratch("warn");
+    let path = write(&dir, "warn.tsl", "float f() { float unused = 1; return 2; }\n");
+    let o = tslc(&["check", &path], None);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(stderr(&o).contains("unused variable"));
+    let o = tslc(&["check", "-W", "error", &path], None);
+    assert_eq!(o.status.code(), Some(1));
+}
+
+#[test]
+fn bad_paths_are_clear_errors() {
+    let dir = scratch("paths");
+    let missing = dir.join("nope.tsl").display().to_string();
+    let o = tslc(&["check", &missing], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("no such file"), "{}", stderr(&o));
+
+    let o = tslc(&["check", &dir.display().to_string()], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("is a directory"), "{}", stderr(&o));
+
+    let empty = write(&dir, "empty.tsl", "");
+    let o = tslc(&["check", &empty], None);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(&format!("{empty}:1:1")), "{}", stderr(&o));
+}
+
+#[test]
+fn usage_errors_exit_two() {
+    assert_eq!(tslc(&["check"], None).status.code(), Some(2));
+    assert_eq!(tslc(&["check", "--colour", "x", "a.tsl"], None).status.code(), Some(2));
+    assert_eq!(tslc(&["frobnicate"], None).status.code(), Some(2));
+}
+
+#[test]
+fn stdlib_and_examples_check_clean_from_the_command_line() {
+    let mut files: Vec<String> = Vec::new();
+    for dir in ["stdlib", "examples"] {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "tsl") {
+                files.push(p.display().to_string());
+            }
+        }
+    }
+    let mut args = vec!["check"];
+    args.extend(files.iter().map(String::as_str));
+    let o = tslc(&args, None);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
