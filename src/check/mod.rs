@@ -181,6 +181,8 @@ struct Body {
     globals_allowed: bool,
     /// Whether material values may appear (material trees only).
     materials_allowed: bool,
+    /// What is being checked, for messages: "a function", "a constant", ...
+    context: &'static str,
     node: Option<Node>,
 }
 
@@ -252,16 +254,22 @@ impl<'a> Checker<'a> {
             );
         }
         for s in scenes {
-            self.body = Body { globals_allowed: false, materials_allowed: true, ..Body::default() };
+            self.body = Body { context: "the scene", ..Body::default() };
             scene::check_scene(self, s);
         }
     }
 
     // ------------------------------------------------------------ items
 
-    fn begin(&mut self, node: Node, globals_allowed: bool, materials_allowed: bool) {
-        self.body =
-            Body { node: Some(node), globals_allowed, materials_allowed, scopes: vec![Vec::new()], ..Body::default() };
+    fn begin(&mut self, node: Node, context: &'static str, globals_allowed: bool, materials_allowed: bool) {
+        self.body = Body {
+            node: Some(node),
+            context,
+            globals_allowed,
+            materials_allowed,
+            scopes: vec![Vec::new()],
+            ..Body::default()
+        };
     }
 
     /// Declares parameters in the current scope, checking their types and
@@ -270,15 +278,16 @@ impl<'a> Checker<'a> {
         let mut seen: HashMap<&str, Span> = HashMap::new();
         for p in params {
             let ty = self.resolve_type(&p.ty, what);
+            if let Some(default) = &p.default {
+                let found = self.expr(default, Some(&ty));
+                self.expect_ty(default, &found, &ty, "the default value");
+            }
             if let Some(prev) = seen.insert(&p.name.name, p.name.span) {
                 self.error(
                     Diagnostic::error(p.name.span, format!("parameter `{}` is declared twice", p.name.name))
                         .with_label(prev, "first declared here"),
                 );
-            }
-            if let Some(default) = &p.default {
-                let found = self.expr(default, Some(&ty));
-                self.expect_ty(default, &found, &ty, "the default value");
+                continue;
             }
             self.declare(Local {
                 name: p.name.name.clone(),
@@ -291,7 +300,7 @@ impl<'a> Checker<'a> {
     }
 
     fn check_function(&mut self, f: &Function) {
-        self.begin(Node::Item(f.name.name.clone()), true, false);
+        self.begin(Node::Item(f.name.name.clone()), "a function", true, false);
         let ret = self.resolve_type(&f.ret, "a function");
         self.declare_params(&f.params, "a function");
         self.body.ret = Some(ret.clone());
@@ -314,7 +323,7 @@ impl<'a> Checker<'a> {
 
     fn check_material(&mut self, d: &MaterialDef) {
         let name = d.name.name.clone();
-        self.begin(Node::Item(name.clone()), true, false);
+        self.begin(Node::Item(name.clone()), "a material's parameters", true, false);
         self.declare_params(&d.params, "a material's parameter list");
         let params_scope = self.body.scopes.clone();
 
@@ -364,13 +373,16 @@ impl<'a> Checker<'a> {
             self.body = Body {
                 scopes: params_scope.clone(),
                 material: Some((name.clone(), defined.clone())),
+                context: "a material method",
                 globals_allowed: true,
                 node: Some(Node::Method(name.clone(), im.name)),
                 ..Body::default()
             };
             self.push_scope();
-            for (p, (_, want)) in m.params.iter().zip(im.params) {
-                let ty = want.ty();
+            // The body is checked against the signature as written: a wrong
+            // signature is one error, not one per `return`.
+            for p in &m.params {
+                let ty = Ty::from_ast(&p.ty);
                 self.declare(Local {
                     name: p.name.name.clone(),
                     ty,
@@ -379,15 +391,23 @@ impl<'a> Checker<'a> {
                     used: true,
                 });
             }
-            self.body.ret = Some(im.ret.ty());
+            let ret = Ty::from_ast(&m.ret);
+            self.body.ret = Some(ret.clone());
             self.block_in_scope(&m.body);
-            self.check_returns(m, &im.ret.ty());
+            self.check_returns(m, &ret);
             self.end_scope();
             self.end_scope();
         }
     }
 
     fn check_method_signature(&mut self, m: &Function, im: &InterfaceMethod) {
+        if let Some(d) = m.params.iter().find_map(|p| p.default.as_ref()) {
+            self.error(
+                Diagnostic::error(d.span, "interface method parameters cannot have default values")
+                    .with_help("the renderer always passes every argument; remove the default"),
+            );
+            return;
+        }
         let ret = Ty::from_ast(&m.ret);
         let params_ok = m.params.len() == im.params.len()
             && m.params.iter().zip(im.params).all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.ty() && p.default.is_none());
@@ -404,7 +424,7 @@ impl<'a> Checker<'a> {
     }
 
     fn check_tree(&mut self, t: &MaterialTree) {
-        self.begin(Node::Item(t.name.name.clone()), true, true);
+        self.begin(Node::Item(t.name.name.clone()), "a material tree", true, true);
         if let Some(params) = &t.params {
             self.declare_params(params, "a material tree");
         }
@@ -414,9 +434,9 @@ impl<'a> Checker<'a> {
     }
 
     fn check_const(&mut self, c: &ConstDef) {
-        self.begin(Node::Item(c.name.name.clone()), false, false);
+        self.begin(Node::Item(c.name.name.clone()), "a constant", false, false);
         let ty = self.resolve_type(&c.ty, "a constant");
-        if matches!(ty, Ty::Material) {
+        if ty.is_error() {
             return;
         }
         let found = self.expr(&c.value, Some(&ty));
@@ -564,7 +584,7 @@ impl<'a> Checker<'a> {
             StmtKind::While { cond, body } => {
                 self.error(
                     Diagnostic::error(
-                        s.span.to(cond.span),
+                        Span { end: cond.span.end, ..s.span },
                         "`while` loops are not allowed: a shader must not hang its host",
                     )
                     .with_help("loop over a bounded range instead: `for i in 0..n { ... }`"),
@@ -945,10 +965,11 @@ impl<'a> Checker<'a> {
                     seen_named = true;
                     match params.iter().position(|p| p.name == name.name) {
                         Some(p) if bound[p].is_some() => {
-                            self.error(Diagnostic::error(
-                                name.span,
-                                format!("argument `{}` is given twice", name.name),
-                            ));
+                            let mut d = Diagnostic::error(name.span, format!("argument `{}` is given twice", name.name));
+                            if let Some(first) = bound[p] {
+                                d = d.with_label(first.span, "first given here");
+                            }
+                            self.error(d);
                             ok = false;
                         }
                         Some(p) => bound[p] = Some(&arg.value),
@@ -970,6 +991,9 @@ impl<'a> Checker<'a> {
                     }
                 }
             }
+        }
+        if !ok {
+            return None;
         }
         let missing: Vec<&str> =
             params.iter().zip(&bound).filter(|(p, b)| p.required && b.is_none()).map(|(p, _)| p.name).collect();
