@@ -208,7 +208,7 @@ fn to_codespan(d: &Diagnostic) -> cs::Diagnostic<usize> {
     labels.extend(
         d.labels.iter().map(|l| cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)),
     );
-    let mut notes: Vec<String> = d.notes.clone();
+    let mut notes: Vec<String> = d.notes.iter().map(|n| format!("note: {n}")).collect();
     if let Some(help) = &d.help {
         notes.push(format!("help: {help}"));
     }
@@ -278,20 +278,30 @@ pub fn to_json(sources: &SourceMap, d: &Diagnostic) -> String {
     serde_json::to_string(&json).unwrap_or_else(|e| format!("{{\"severity\":\"error\",\"message\":\"{e}\"}}"))
 }
 
-/// Edit distance, for "did you mean" suggestions.
-fn levenshtein(a: &str, b: &str) -> usize {
+/// Edit distance for "did you mean" suggestions: insertions, deletions,
+/// substitutions and swaps of neighbours each cost one (optimal string
+/// alignment), so `lihgt` is one edit from `light`.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.chars().collect();
     let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut prev = row[0];
-        row[0] = i + 1;
-        for (j, &cb) in b.iter().enumerate() {
-            let cur = row[j + 1];
-            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(row[j + 1] + 1);
-            prev = cur;
+    let mut rows = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in rows.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for (j, cell) in rows[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut d = (rows[i - 1][j] + 1).min(rows[i][j - 1] + 1).min(rows[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                d = d.min(rows[i - 2][j - 2] + 1);
+            }
+            rows[i][j] = d;
         }
     }
-    row[b.len()]
+    rows[a.len()][b.len()]
 }
 
 /// The candidate closest to `name`, if it is close enough to be a likely typo.
@@ -303,7 +313,7 @@ pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str
     candidates
         .into_iter()
         .filter(|c| *c != name)
-        .map(|c| (levenshtein(&name.to_lowercase(), &c.to_lowercase()), c))
+        .map(|c| (edit_distance(&name.to_lowercase(), &c.to_lowercase()), c))
         .filter(|(d, _)| *d <= limit)
         .min_by_key(|(d, c)| (*d, *c))
         .map(|(_, c)| c)
@@ -328,5 +338,7 @@ mod tests {
         assert_eq!(did_you_mean("xyz", ["normalize"]), None);
         assert_eq!(did_you_mean("z", ["N", "P"]), None);
         assert_eq!(did_you_mean("n", ["N", "P"]), Some("N"));
+        assert_eq!(did_you_mean("lihgt", ["light", "object"]), Some("light"));
+        assert_eq!(did_you_mean("fvo", ["fov", "from"]), Some("fov"));
     }
 }

@@ -57,7 +57,7 @@ fn examples_check_clean() {
 fn err_fixtures_match_their_snapshots() {
     let files = tsl_files("tests/check/err");
     for f in &files {
-        let checked = tsl::check_file(&f, &LoadOptions::default());
+        let checked = tsl::check_file(f, &LoadOptions::default());
         assert!(!checked.is_ok() || !checked.diagnostics.is_empty(), "{} produced no diagnostics", f.display());
         let expected = Path::new(env!("CARGO_MANIFEST_DIR")).join(f.with_extension("stderr"));
         expect_test::expect_file![expected].assert_eq(&checked.render_diagnostics());

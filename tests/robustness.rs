@@ -13,7 +13,7 @@ fn check(src: &str) -> tsl::Checked {
 fn assert_too_deep(src: &str) {
     let checked = check(src);
     let text = checked.render_diagnostics();
-    assert!(text.contains("nesting deeper than 256 levels"), "{}", &text[..text.len().min(2000)]);
+    assert!(text.contains("nested deeper than 256 levels"), "{}", &text[..text.len().min(2000)]);
     assert!(text.contains("input.tsl:1:"), "the error is located: {}", &text[..text.len().min(2000)]);
 }
 

@@ -122,6 +122,11 @@ pub fn elementwise(a: &Ty, b: &Ty) -> Option<Ty> {
     }
 }
 
+/// "`float`" or "`vector` or `float`": what may accompany a `t` argument.
+fn same_or_float(t: &Ty) -> String {
+    if *t == Ty::Float { "`float`".into() } else { format!("`{t}` or `float`") }
+}
+
 /// Float-family type of a numeric-or-vector argument, with ints as floats.
 fn genf(t: &Ty) -> Option<Ty> {
     match t {
@@ -189,7 +194,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             for i in 1..args.len() {
                 let ai = arg(args, i);
                 if !(ai.converts_to(&t) || ai.is_numeric()) {
-                    return Err(err(i, format!("expected `{t}` or `float`, found `{ai}`")));
+                    return Err(err(i, format!("expected {}, found `{ai}`", same_or_float(&t))));
                 }
             }
             Ok(if a0 == Ty::Int && args[1..].iter().all(|x| x.as_ref() == Some(&Ty::Int)) { Ty::Int } else { t })
@@ -201,7 +206,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             for i in 0..last {
                 let ai = arg(args, i);
                 if !(ai.converts_to(&t) || ai.is_numeric()) {
-                    return Err(err(i, format!("expected `{t}` or `float`, found `{ai}`")));
+                    return Err(err(i, format!("expected {}, found `{ai}`", same_or_float(&t))));
                 }
             }
             Ok(t)
@@ -303,6 +308,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             let (a, b) = (arg(args, 1), arg(args, 2));
             let t =
                 unify(&a, &b).ok_or_else(|| err(2, format!("`mix` blends two values of one type: `{a}` and `{b}`")))?;
+            let t = if t == Ty::Int { Ty::Float } else { t };
             if !(t.is_float_like() || matches!(t, Ty::Color | Ty::Material | Ty::Error)) {
                 return Err(err(1, format!("`mix` cannot blend `{t}`")));
             }

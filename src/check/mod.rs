@@ -27,13 +27,23 @@ use std::collections::HashMap;
 /// The most elements an array may have.
 pub const MAX_ARRAY_LEN: u32 = 4096;
 
+/// The most iterations one `for` loop runs; back ends stop a loop there, so
+/// no shader can hang its host.
+pub const MAX_LOOP_ITERATIONS: i64 = 1_000_000;
+
 /// A checked program: the loaded modules, the global symbols and the type of
 /// every expression, keyed by its span.
 #[derive(Debug, Clone, Default)]
 pub struct Program {
     pub loaded: Loaded,
     pub symbols: HashMap<String, Symbol>,
+    /// The prelude's own names: prelude code resolves against these, so a
+    /// user definition that shadows a prelude name does not change the
+    /// prelude's behaviour.
+    pub prelude_symbols: HashMap<String, Symbol>,
     pub expr_types: HashMap<Span, Ty>,
+    /// The global item each name or call resolved to, keyed by its span.
+    pub resolutions: HashMap<Span, Symbol>,
 }
 
 /// A global name and the item that defines it.
@@ -67,10 +77,15 @@ impl SymbolKind {
 /// Checks a loaded program.
 pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    let symbols = collect_symbols(&loaded, &mut diags);
+    let (symbols, prelude_symbols) = collect_symbols(&loaded, &mut diags);
     let mut checker = Checker {
         loaded: &loaded,
         symbols: &symbols,
+        prelude_symbols: &prelude_symbols,
+        in_prelude: false,
+        current: (0, 0),
+        resolutions: HashMap::new(),
+        reads_globals: HashMap::new(),
         diags: &mut diags,
         expr_types: HashMap::new(),
         graph: HashMap::new(),
@@ -78,14 +93,20 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     };
     checker.check_items();
     checker.report_recursion();
+    checker.report_varying_constants();
     let expr_types = std::mem::take(&mut checker.expr_types);
-    (Program { loaded, symbols, expr_types }, diags)
+    let resolutions = std::mem::take(&mut checker.resolutions);
+    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions }, diags)
 }
 
-/// Builds the global namespace. User items shadow prelude items of the same
-/// name; two definitions in the same layer are an error.
-fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<String, Symbol> {
+type Symbols = HashMap<String, Symbol>;
+
+/// Builds the global namespaces: the one user code sees (user items shadow
+/// prelude items of the same name) and the prelude's own. Two definitions in
+/// the same layer are an error.
+fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Symbols) {
     let mut symbols: HashMap<String, Symbol> = HashMap::new();
+    let mut prelude: HashMap<String, Symbol> = HashMap::new();
     let mut from_prelude: HashMap<String, bool> = HashMap::new();
     for (m, module) in loaded.modules.iter().enumerate() {
         for (i, item) in module.ast.items.iter().enumerate() {
@@ -115,9 +136,8 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<Stri
             }
             let symbol = Symbol { kind, module: m, item: i, span: name.span };
             match symbols.get(&name.name) {
-                Some(prev) if from_prelude[&name.name] && !module.is_prelude => {
+                Some(_) if from_prelude[&name.name] && !module.is_prelude => {
                     // A user definition shadows the prelude's.
-                    let _ = prev;
                     symbols.insert(name.name.clone(), symbol);
                     from_prelude.insert(name.name.clone(), false);
                 }
@@ -133,23 +153,37 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> HashMap<Stri
                     from_prelude.insert(name.name.clone(), module.is_prelude);
                 }
             }
+            if module.is_prelude {
+                prelude.entry(name.name.clone()).or_insert(symbol);
+            }
         }
     }
-    symbols
+    (symbols, prelude)
 }
 
-/// A node of the dependency graph: a global item, or a method of a material.
+/// Where an item is: (module, item index).
+type ItemId = (usize, usize);
+
+/// A node of the dependency graph: a global item, or a method of a
+/// material. Nodes name items by position, since a user item and the
+/// prelude item it shadows share a name.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
 enum Node {
-    Item(String),
-    Method(String, &'static str),
+    Item(ItemId, String),
+    Method(ItemId, String, &'static str),
 }
 
 impl Node {
     fn describe(&self) -> String {
         match self {
-            Node::Item(n) => format!("`{n}`"),
-            Node::Method(m, f) => format!("`{m}.{f}`"),
+            Node::Item(_, n) => format!("`{n}`"),
+            Node::Method(_, m, f) => format!("`{m}.{f}`"),
+        }
+    }
+
+    fn id(&self) -> ItemId {
+        match self {
+            Node::Item(id, _) | Node::Method(id, _, _) => *id,
         }
     }
 }
@@ -188,7 +222,15 @@ struct Body {
 
 struct Checker<'a> {
     loaded: &'a Loaded,
-    symbols: &'a HashMap<String, Symbol>,
+    symbols: &'a Symbols,
+    prelude_symbols: &'a Symbols,
+    /// Whether the item being checked is prelude code.
+    in_prelude: bool,
+    /// The item being checked.
+    current: ItemId,
+    resolutions: HashMap<Span, Symbol>,
+    /// Items whose own code reads a shading global, with the first use.
+    reads_globals: HashMap<Node, Span>,
     diags: &'a mut Vec<Diagnostic>,
     expr_types: HashMap<Span, Ty>,
     /// Dependencies between items, with the span of the first use.
@@ -208,15 +250,30 @@ impl<'a> Checker<'a> {
         self.diags.push(d);
     }
 
+    /// Whether item `i` of module `m` is the definition its layer sees
+    /// (and not a rejected duplicate).
     fn is_active(&self, m: usize, i: usize, name: &str) -> bool {
-        self.symbols.get(name).is_some_and(|s| s.module == m && s.item == i)
+        let table = if self.loaded.modules[m].is_prelude { self.prelude_symbols } else { self.symbols };
+        table.get(name).is_some_and(|s| s.module == m && s.item == i)
+    }
+
+    /// Looks up a global name as the current item sees it.
+    fn symbol(&self, name: &str) -> Option<Symbol> {
+        let table = if self.in_prelude { self.prelude_symbols } else { self.symbols };
+        table.get(name).copied()
+    }
+
+    fn item_node(sym: Symbol, name: &str) -> Node {
+        Node::Item((sym.module, sym.item), name.to_string())
     }
 
     fn check_items(&mut self) {
         let loaded = self.loaded;
         let mut scenes: Vec<&Scene> = Vec::new();
         for (m, module) in loaded.modules.iter().enumerate() {
+            self.in_prelude = module.is_prelude;
             for (i, item) in module.ast.items.iter().enumerate() {
+                self.current = (m, i);
                 match item {
                     Item::Import { .. } => {}
                     Item::Function(f) => {
@@ -249,11 +306,12 @@ impl<'a> Checker<'a> {
         }
         for extra in scenes.iter().skip(1) {
             self.error(
-                Diagnostic::error(extra.span, "a program has at most one scene")
-                    .with_label(scenes[0].span, "the first scene is here"),
+                Diagnostic::error(Span { end: extra.span.start + 5, ..extra.span }, "a program has at most one scene")
+                    .with_label(Span { end: scenes[0].span.start + 5, ..scenes[0].span }, "the first scene is here"),
             );
         }
         for s in scenes {
+            self.in_prelude = false;
             self.body = Body { context: "the scene", ..Body::default() };
             scene::check_scene(self, s);
         }
@@ -300,7 +358,7 @@ impl<'a> Checker<'a> {
     }
 
     fn check_function(&mut self, f: &Function) {
-        self.begin(Node::Item(f.name.name.clone()), "a function", true, false);
+        self.begin(Node::Item(self.current, f.name.name.clone()), "a function", true, false);
         let ret = self.resolve_type(&f.ret, "a function");
         self.declare_params(&f.params, "a function");
         self.body.ret = Some(ret.clone());
@@ -323,7 +381,7 @@ impl<'a> Checker<'a> {
 
     fn check_material(&mut self, d: &MaterialDef) {
         let name = d.name.name.clone();
-        self.begin(Node::Item(name.clone()), "a material's parameters", true, false);
+        self.begin(Node::Item(self.current, name.clone()), "a material's parameters", true, false);
         self.declare_params(&d.params, "a material's parameter list");
         let params_scope = self.body.scopes.clone();
 
@@ -357,12 +415,17 @@ impl<'a> Checker<'a> {
             }
         }
         // The item depends on all of its methods; defaults add their own edges.
-        let item = Node::Item(name.clone());
+        let id = self.current;
+        let item = Node::Item(id, name.clone());
         for im in INTERFACE {
-            self.edge(item.clone(), Node::Method(name.clone(), im.name), d.name.span);
+            self.edge(item.clone(), Node::Method(id, name.clone(), im.name), d.name.span);
         }
         if !defined.contains(&"ambient") {
-            self.edge(Node::Method(name.clone(), "ambient"), Node::Method(name.clone(), "diffuse"), d.name.span);
+            self.edge(
+                Node::Method(id, name.clone(), "ambient"),
+                Node::Method(id, name.clone(), "diffuse"),
+                d.name.span,
+            );
         }
 
         for m in &d.methods {
@@ -375,7 +438,7 @@ impl<'a> Checker<'a> {
                 material: Some((name.clone(), defined.clone())),
                 context: "a material method",
                 globals_allowed: true,
-                node: Some(Node::Method(name.clone(), im.name)),
+                node: Some(Node::Method(id, name.clone(), im.name)),
                 ..Body::default()
             };
             self.push_scope();
@@ -424,7 +487,7 @@ impl<'a> Checker<'a> {
     }
 
     fn check_tree(&mut self, t: &MaterialTree) {
-        self.begin(Node::Item(t.name.name.clone()), "a material tree", true, true);
+        self.begin(Node::Item(self.current, t.name.name.clone()), "a material tree", true, true);
         if let Some(params) = &t.params {
             self.declare_params(params, "a material tree");
         }
@@ -434,7 +497,7 @@ impl<'a> Checker<'a> {
     }
 
     fn check_const(&mut self, c: &ConstDef) {
-        self.begin(Node::Item(c.name.name.clone()), "a constant", false, false);
+        self.begin(Node::Item(self.current, c.name.name.clone()), "a constant", false, false);
         let ty = self.resolve_type(&c.ty, "a constant");
         if ty.is_error() {
             return;
@@ -511,9 +574,11 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn use_item(&mut self, name: &str, span: Span) {
+    /// Records that the current body uses a global item.
+    fn use_item(&mut self, sym: Symbol, name: &str, span: Span) {
+        self.resolutions.insert(span, sym);
         if let Some(from) = self.body.node.clone() {
-            self.edge(from, Node::Item(name.to_string()), span);
+            self.edge(from, Self::item_node(sym, name), span);
         }
     }
 
@@ -535,12 +600,17 @@ impl<'a> Checker<'a> {
         match &s.kind {
             StmtKind::Let { ty, name, init } => {
                 let ty = self.resolve_type(ty, "a local variable");
-                if let Some(init) = init {
+                // After a bad type, checking the initialiser or use would
+                // only repeat the same mistake.
+                let bad_type = ty.is_error();
+                if let (Some(init), false) = (init, bad_type) {
                     let found = self.expr(init, Some(&ty));
                     self.expect_ty(init, &found, &ty, "the initial value");
                 }
                 self.warn_shadowed_global(name);
-                self.declare(Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Var, used: false });
+                let local =
+                    Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Var, used: bad_type };
+                self.declare(local);
             }
             StmtKind::Assign { target, op, value } => self.assign(target, *op, value),
             StmtKind::Expr(e) => {
@@ -566,6 +636,14 @@ impl<'a> Checker<'a> {
                                 .with_help("convert with int(x)"),
                         );
                     }
+                }
+                if let (Some(lo), Some(hi)) = (const_int(start), const_int(end))
+                    && hi - lo > MAX_LOOP_ITERATIONS
+                {
+                    self.error(
+                        Diagnostic::warning(start.span.to(end.span), format!("this loop would run {} times", hi - lo))
+                            .with_note(format!("a loop stops after {MAX_LOOP_ITERATIONS} iterations")),
+                    );
                 }
                 self.push_scope();
                 self.warn_shadowed_global(var);
@@ -690,15 +768,19 @@ impl<'a> Checker<'a> {
                     self.expr_types.insert(e.span, ty.clone());
                     return Some(ty);
                 }
-                let msg = if interface::global(name).is_some() {
-                    format!("cannot assign to `{name}`: shading globals are read-only")
-                } else if self.symbols.get(name).is_some_and(|s| s.kind == SymbolKind::Const) {
-                    format!("cannot assign to the constant `{name}`")
+                let (msg, ty) = if let Some(ty) = interface::global(name) {
+                    (format!("cannot assign to `{name}`: shading globals are read-only"), ty)
+                } else if let Some(sym) = self.symbol(name).filter(|s| s.kind == SymbolKind::Const) {
+                    (format!("cannot assign to the constant `{name}`"), self.const_type(sym))
                 } else {
                     self.expr(e, None);
                     return None;
                 };
-                self.error(Diagnostic::error(e.span, msg).with_help("declare a local copy: `vector p = P;`"));
+                let copy = format!("my_{}", name.to_lowercase());
+                self.error(
+                    Diagnostic::error(e.span, msg)
+                        .with_help(format!("declare a local copy and change that: `{ty} {copy} = {name};`")),
+                );
                 None
             }
             ExprKind::Member { base, .. } | ExprKind::Index { base, .. } => {
@@ -828,17 +910,27 @@ impl<'a> Checker<'a> {
         }
         if let Some(t) = interface::global(name) {
             if !self.body.globals_allowed {
+                let help = if self.body.context == "the scene" {
+                    "scene values are fixed before shading starts; only a `material` may vary over the surface"
+                } else {
+                    "constants are fixed before shading starts; use a function to compute a value per shading point"
+                };
                 self.error(
-                    Diagnostic::error(span, format!("the shading global `{name}` cannot be used here")).with_help(
-                        "constants and scene values are fixed before shading starts; use a function instead",
-                    ),
+                    Diagnostic::error(
+                        span,
+                        format!("the shading global `{name}` cannot be used in {}", self.body.context),
+                    )
+                    .with_help(help),
                 );
                 return Ty::Error;
             }
+            if let Some(node) = &self.body.node {
+                self.reads_globals.entry(node.clone()).or_insert(span);
+            }
             return t;
         }
-        if let Some(sym) = self.symbols.get(name).copied() {
-            self.use_item(name, span);
+        if let Some(sym) = self.symbol(name) {
+            self.use_item(sym, name, span);
             return match sym.kind {
                 SymbolKind::Const => self.const_type(sym),
                 SymbolKind::MaterialTree | SymbolKind::Material => {
@@ -883,7 +975,7 @@ impl<'a> Checker<'a> {
             Ty::Material
         } else {
             self.error(
-                Diagnostic::error(span, "a material cannot be used inside a function or material method")
+                Diagnostic::error(span, format!("a material cannot be used in {}", self.body.context))
                     .with_help("build texture trees at the top level: `material name = mix(...);`"),
             );
             Ty::Error
@@ -910,7 +1002,8 @@ impl<'a> Checker<'a> {
         if self.body.globals_allowed {
             candidates.extend(GLOBALS.iter().map(|g| g.0));
         }
-        candidates.extend(self.symbols.keys().map(String::as_str));
+        let table = if self.in_prelude { self.prelude_symbols } else { self.symbols };
+        candidates.extend(table.keys().map(String::as_str));
         if what == "function" {
             candidates.extend(BUILTINS.iter().map(|b| b.name));
             if let Some((_, _)) = &self.body.material {
@@ -965,7 +1058,8 @@ impl<'a> Checker<'a> {
                     seen_named = true;
                     match params.iter().position(|p| p.name == name.name) {
                         Some(p) if bound[p].is_some() => {
-                            let mut d = Diagnostic::error(name.span, format!("argument `{}` is given twice", name.name));
+                            let mut d =
+                                Diagnostic::error(name.span, format!("argument `{}` is given twice", name.name));
                             if let Some(first) = bound[p] {
                                 d = d.with_label(first.span, "first given here");
                             }
@@ -1023,7 +1117,7 @@ impl<'a> Checker<'a> {
             let params: Vec<ParamInfo> =
                 im.params.iter().map(|(n, t)| ParamInfo { name: n, ty: Some(t.ty()), required: true }).collect();
             if let Some(from) = self.body.node.clone() {
-                self.edge(from, Node::Method(material, im.name), callee.span);
+                self.edge(from, Node::Method(self.current, material, im.name), callee.span);
             }
             self.typed_args(name, &params, args, span);
             return im.ret.ty();
@@ -1035,8 +1129,8 @@ impl<'a> Checker<'a> {
             return Ty::Error;
         }
         // 3. A user or prelude item.
-        if let Some(sym) = self.symbols.get(name).copied() {
-            self.use_item(name, callee.span);
+        if let Some(sym) = self.symbol(name) {
+            self.use_item(sym, name, callee.span);
             let item = self.item(sym);
             let (params, ret): (&[Param], Ty) = match item {
                 Item::Function(f) => (&f.params, Ty::from_ast(&f.ret)),
@@ -1207,6 +1301,11 @@ impl<'a> Checker<'a> {
     }
 
     fn construct(&mut self, ty: BaseType, ty_span: Span, args: &[Arg], span: Span) -> Ty {
+        // Inside a material, `normal()` is the interface method, not a constructor.
+        if ty == BaseType::Normal && args.is_empty() && self.body.material.is_some() {
+            let callee = Ident { name: "normal".into(), span: ty_span };
+            return self.call(&callee, args, span);
+        }
         for a in args {
             if let Some(n) = &a.name {
                 self.error(Diagnostic::error(n.span, "type constructors take positional arguments only"));
@@ -1324,6 +1423,7 @@ impl<'a> Checker<'a> {
     }
 
     fn array(&mut self, items: &[Expr], span: Span, expected: Option<&Ty>) -> Ty {
+        let mut wrong_len = false;
         let want_elem = match expected {
             Some(Ty::Array(e, n)) => {
                 if items.len() != *n as usize {
@@ -1331,6 +1431,7 @@ impl<'a> Checker<'a> {
                         span,
                         format!("expected an array of {n} items, found {}", items.len()),
                     ));
+                    wrong_len = true;
                 }
                 Some((**e).clone())
             }
@@ -1369,6 +1470,9 @@ impl<'a> Checker<'a> {
         }
         if let Ty::Array(..) = elem {
             self.error(Diagnostic::error(span, "arrays of arrays are not supported"));
+            return Ty::Error;
+        }
+        if wrong_len {
             return Ty::Error;
         }
         Ty::Array(Box::new(elem), items.len() as u32)
@@ -1433,16 +1537,9 @@ impl<'a> Checker<'a> {
                             let pos = stack.iter().position(|(n, _, _)| *n == to).unwrap_or(0);
                             let mut path: Vec<String> = stack[pos..].iter().map(|(n, _, _)| n.describe()).collect();
                             path.push(to.describe());
-                            let msg = if path.len() == 2 {
-                                format!("{} calls itself: recursion is not allowed", to.describe())
-                            } else {
-                                "recursion is not allowed: these definitions call each other".to_string()
-                            };
-                            self.diags.push(
-                                Diagnostic::error(span, msg)
-                                    .with_note(format!("cycle: {}", path.join(" -> ")))
-                                    .with_help("shade trees are acyclic so every shader terminates; compute iteratively with a `for` loop"),
-                            );
+                            let cycle: Vec<&Node> = stack[pos..].iter().map(|(n, _, _)| n).collect();
+                            let d = self.cycle_diagnostic(&cycle, &to, span, path);
+                            self.diags.push(d);
                         }
                         _ => {}
                     }
@@ -1451,6 +1548,99 @@ impl<'a> Checker<'a> {
                     stack.pop();
                 }
             }
+        }
+    }
+}
+
+impl Checker<'_> {
+    fn is_const(&self, node: &Node) -> bool {
+        let (m, i) = node.id();
+        matches!(node, Node::Item(..)) && matches!(self.loaded.modules[m].ast.items[i], Item::Const(_))
+    }
+
+    fn cycle_diagnostic(&self, cycle: &[&Node], to: &Node, span: Span, path: Vec<String>) -> Diagnostic {
+        if cycle.iter().all(|n| self.is_const(n)) {
+            let msg = if cycle.len() == 1 {
+                format!("constant {} is defined in terms of itself", to.describe())
+            } else {
+                "these constants are defined in terms of each other".to_string()
+            };
+            return Diagnostic::error(span, msg).with_note(format!("cycle: {}", path.join(" -> ")));
+        }
+        let msg = if cycle.len() == 1 {
+            format!("{} calls itself: recursion is not allowed", to.describe())
+        } else {
+            "recursion is not allowed: these definitions call each other".to_string()
+        };
+        let mut d = Diagnostic::error(span, msg).with_note(format!("cycle: {}", path.join(" -> ")));
+        // The default `ambient` calls `diffuse`; say so when that closes the cycle.
+        let default_ambient = cycle.iter().find_map(|n| match n {
+            Node::Method((m, i), name, "ambient") => match &self.loaded.modules[*m].ast.items[*i] {
+                Item::Material(def) if !def.methods.iter().any(|f| f.name.name == "ambient") => Some(name.clone()),
+                _ => None,
+            },
+            _ => None,
+        });
+        if let Some(material) = default_ambient {
+            d = d
+                .with_note(format!("`{material}` does not define `ambient`; its default is `light * diffuse()`"))
+                .with_help(format!("define `ambient` in `{material}`, or do not call `ambient` from `diffuse`"));
+        } else {
+            d = d
+                .with_help("shade trees are acyclic so every shader terminates; compute iteratively with a `for` loop");
+        }
+        d
+    }
+
+    /// A constant may not depend on the shading point, not even through the
+    /// functions it calls.
+    fn report_varying_constants(&mut self) {
+        let mut consts: Vec<Node> = self.graph.keys().filter(|n| self.is_const(n)).cloned().collect();
+        consts.sort();
+        for start in consts {
+            // Depth-first search for a node that reads a global, keeping the
+            // path for the message.
+            let mut seen: HashMap<Node, ()> = HashMap::new();
+            let mut stack: Vec<(Node, usize)> = vec![(start.clone(), 0)];
+            seen.insert(start.clone(), ());
+            let mut found: Option<Vec<Node>> = None;
+            while let Some((node, next)) = stack.last().cloned() {
+                if self.reads_globals.contains_key(&node) {
+                    found = Some(stack.iter().map(|(n, _)| n.clone()).collect());
+                    break;
+                }
+                let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+                match out.get(next) {
+                    Some((to, _)) => {
+                        if let Some(top) = stack.last_mut() {
+                            top.1 += 1;
+                        }
+                        if seen.insert(to.clone(), ()).is_none() {
+                            stack.push((to.clone(), 0));
+                        }
+                    }
+                    None => {
+                        stack.pop();
+                    }
+                }
+            }
+            let Some(path) = found else { continue };
+            let Some(first_use) = self
+                .graph
+                .get(&start)
+                .and_then(|out| out.iter().find(|(n, _)| path.get(1) == Some(n)).map(|(_, span)| *span))
+            else {
+                continue;
+            };
+            let reader = &path[path.len() - 1];
+            let global_span = self.reads_globals[reader];
+            let names: Vec<String> = path.iter().map(Node::describe).collect();
+            self.diags.push(
+                Diagnostic::error(first_use, format!("constant {} depends on the shading point", start.describe()))
+                    .with_label(global_span, format!("{} reads a shading global here", reader.describe()))
+                    .with_note(format!("through {}", names.join(" -> ")))
+                    .with_help("a constant is fixed before shading starts; make it a function instead"),
+            );
         }
     }
 }

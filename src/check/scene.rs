@@ -3,7 +3,7 @@
 //! they are only checked.
 
 use super::{Checker, Ty};
-use crate::diag::{Diagnostic, did_you_mean};
+use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
 use std::collections::HashMap;
 
@@ -184,7 +184,7 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     check_prop_list(cx, &top_props, TOP, &[]);
     if cameras.is_empty() {
         cx.error(
-            Diagnostic::error(scene.span, "the scene has no camera")
+            Diagnostic::error(Span { end: scene.span.start + 5, ..scene.span }, "the scene has no camera")
                 .with_help("add `camera { from (0, 1, -4); to (0, 1, 0); fov 40; }`"),
         );
     }

@@ -7,7 +7,7 @@
 
 use crate::diag::{Diagnostic, FileId, Span};
 use crate::syntax::ast::{self, MAX_NESTING, SourceFile, TooDeep};
-use crate::syntax::lexer::{Lexer, SpannedLexError, Tok};
+use crate::syntax::lexer::{LexError, Lexer, SpannedLexError, Tok};
 use lalrpop_util::{ErrorRecovery, ParseError};
 
 lalrpop_util::lalrpop_mod!(
@@ -39,91 +39,201 @@ pub(crate) fn node(
 /// Parses one source file.
 pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    // Lexer errors are reported and the bad bytes skipped, so the parser sees
-    // the rest of the file.
+    // Lexer errors are reported and lexing goes on. A bad string or number
+    // still becomes a token, so the parser does not report it a second time.
     let mut lex_errors: Vec<SpannedLexError> = Vec::new();
     let tokens: Vec<(usize, Tok, usize)> = Lexer::new(src)
         .filter_map(|t| match t {
             Ok(t) => Some(t),
             Err(e) => {
+                let stand_in = match e.error {
+                    LexError::UnterminatedString => {
+                        Some(Tok::Str(src.get(e.span.start + 1..e.span.end).unwrap_or("").to_string()))
+                    }
+                    LexError::BadNumber => Some(Tok::Float(0.0)),
+                    LexError::UnexpectedChar | LexError::UnterminatedComment => None,
+                };
+                let token = stand_in.map(|t| (e.span.start, t, e.span.end));
                 lex_errors.push(e);
-                None
+                token
             }
         })
         .collect();
+    // An unterminated comment or string swallows the rest of the file or
+    // line; the end of file that follows is no news.
+    let swallowed =
+        lex_errors.iter().any(|e| matches!(e.error, LexError::UnterminatedComment | LexError::UnterminatedString));
     for e in &lex_errors {
         let span = Span::new(file, e.span.start, e.span.end);
-        let mut d = Diagnostic::error(span, e.error.to_string());
-        if let Some(c) = src.get(e.span.clone()).and_then(|s| s.chars().next())
-            && e.error == crate::syntax::lexer::LexError::UnexpectedChar
-        {
-            d = Diagnostic::error(span, format!("unexpected character `{}`", c.escape_debug()));
-        }
+        let d = match src.get(e.span.clone()).and_then(|s| s.chars().next()) {
+            Some(c) if e.error == LexError::UnexpectedChar => {
+                Diagnostic::error(span, format!("unexpected character `{}`", c.escape_debug()))
+            }
+            _ => Diagnostic::error(span, e.error.to_string()),
+        };
         diags.push(d);
     }
 
+    let context = ErrorContext {
+        file,
+        eof: src.len(),
+        spans: tokens.iter().map(|t| (t.0, t.2)).collect(),
+        unclosed: unclosed_braces(&tokens),
+    };
     let mut recovered: Vec<ErrorRecovery<usize, Tok, SyntaxError>> = Vec::new();
-    let end = src.len();
     let result =
         grammar::SourceFileParser::new().parse(file, &mut recovered, tokens.into_iter().map(Ok::<_, SyntaxError>));
-    for r in recovered {
-        diags.push(parse_error(file, end, r.error));
-    }
+    let mut errors: Vec<ParseError<usize, Tok, SyntaxError>> = recovered.into_iter().map(|r| r.error).collect();
     let ast = match result {
         Ok(ast) => ast,
         Err(e) => {
-            diags.push(parse_error(file, end, e));
+            errors.push(e);
             SourceFile::default()
         }
     };
+    for e in errors {
+        if swallowed && matches!(e, ParseError::UnrecognizedEof { .. }) {
+            continue;
+        }
+        diags.push(context.diagnostic(e));
+    }
     (ast, diags)
 }
 
-fn parse_error(file: FileId, eof: usize, e: ParseError<usize, Tok, SyntaxError>) -> Diagnostic {
-    match e {
-        ParseError::InvalidToken { location } => {
-            Diagnostic::error(Span::new(file, location, location + 1), "invalid token")
-        }
-        ParseError::UnrecognizedEof { location, expected } => {
-            let at = location.min(eof);
-            Diagnostic::error(Span::new(file, at, at), "unexpected end of file").with_primary(expected_list(&expected))
-        }
-        ParseError::UnrecognizedToken { token: (l, tok, r), expected } => {
-            let mut d = Diagnostic::error(Span::new(file, l, r), format!("unexpected {tok}"))
-                .with_primary(expected_list(&expected));
-            if let Some(help) = token_help(&tok, &expected) {
-                d = d.with_help(help);
+/// What a parse error message needs besides the error.
+struct ErrorContext {
+    file: FileId,
+    eof: usize,
+    /// Byte ranges of the tokens, in order.
+    spans: Vec<(usize, usize)>,
+    /// Where `{` were opened and never closed.
+    unclosed: Vec<usize>,
+}
+
+fn unclosed_braces(tokens: &[(usize, Tok, usize)]) -> Vec<usize> {
+    let mut open = Vec::new();
+    for (start, tok, _) in tokens {
+        match tok {
+            Tok::LBrace => open.push(*start),
+            Tok::RBrace => {
+                open.pop();
             }
-            d
+            _ => {}
         }
-        ParseError::ExtraToken { token: (l, tok, r) } => {
-            Diagnostic::error(Span::new(file, l, r), format!("unexpected {tok} after the end of the file"))
+    }
+    open
+}
+
+/// What the parser was looking for, in words.
+#[derive(Debug, PartialEq)]
+enum Wanted {
+    Semicolon,
+    Expression,
+    Statement,
+    Item,
+    MaterialMethod,
+    Tokens(String),
+}
+
+fn wanted(expected: &[String]) -> Wanted {
+    let wants = |t: &str| expected.iter().any(|e| e.trim_matches('"') == t);
+    // After a complete expression an operator could also follow, but `;` is
+    // what is missing.
+    if wants(";") && !wants("identifier") {
+        return Wanted::Semicolon;
+    }
+    if wants("scene") && wants("material") {
+        return Wanted::Item;
+    }
+    if wants("return") {
+        return Wanted::Statement;
+    }
+    if wants("}") && wants("float") && !wants("identifier") {
+        return Wanted::MaterialMethod;
+    }
+    if wants("identifier") && wants("(") && wants("int literal") {
+        return Wanted::Expression;
+    }
+    let names: Vec<String> = expected.iter().map(|e| format!("`{}`", e.trim_matches('"'))).collect();
+    Wanted::Tokens(match names.len() {
+        0 => "something else".to_string(),
+        1 => names[0].clone(),
+        _ => format!("one of {}", names.join(", ")),
+    })
+}
+
+impl ErrorContext {
+    fn span(&self, start: usize, end: usize) -> Span {
+        Span::new(self.file, start.min(self.eof), end.min(self.eof))
+    }
+
+    /// The token before the one starting at `at`.
+    fn previous_token(&self, at: usize) -> Option<(usize, usize)> {
+        let i = self.spans.partition_point(|&(s, _)| s < at);
+        i.checked_sub(1).map(|i| self.spans[i])
+    }
+
+    fn diagnostic(&self, e: ParseError<usize, Tok, SyntaxError>) -> Diagnostic {
+        match e {
+            ParseError::InvalidToken { location } => {
+                Diagnostic::error(self.span(location, location + 1), "invalid token")
+            }
+            ParseError::UnrecognizedEof { location, expected } => {
+                let at = self.span(location, location);
+                match (wanted(&expected), self.unclosed.last()) {
+                    (_, Some(&open)) => Diagnostic::error(at, "unexpected end of file: expected `}`")
+                        .with_label(self.span(open, open + 1), "this `{` is never closed"),
+                    (Wanted::Semicolon, None) => self.missing_semicolon(location, "the end of the file".into()),
+                    (w, None) => Diagnostic::error(at, format!("unexpected end of file: expected {}", describe(&w))),
+                }
+            }
+            ParseError::UnrecognizedToken { token: (l, tok, r), expected } => {
+                let w = wanted(&expected);
+                if w == Wanted::Semicolon {
+                    return self.missing_semicolon(l, tok.to_string());
+                }
+                let mut d = Diagnostic::error(self.span(l, r), format!("expected {}, found {tok}", describe(&w)));
+                if w == Wanted::MaterialMethod {
+                    d = d.with_help(
+                        "a material body holds interface methods such as `color diffuse() { return kd; }`; \
+                         a material built from an expression is written `material name(params) = expr;`",
+                    );
+                } else if matches!(tok, Tok::Material) && w == Wanted::Statement {
+                    d = d.with_help("materials are defined at the top level, outside functions");
+                }
+                d
+            }
+            ParseError::ExtraToken { token: (l, tok, r) } => {
+                Diagnostic::error(self.span(l, r), format!("unexpected {tok} after the end of the file"))
+            }
+            ParseError::User { error: SyntaxError::TooDeep(span) } => {
+                // Point at where the over-deep construct starts, not over all of it.
+                let start = Span { end: span.start + 1, ..span };
+                Diagnostic::error(start, format!("nested deeper than {MAX_NESTING} levels"))
+                    .with_note("each operator, parenthesis, call, index and block adds a level; a chain `a + b + c + ...` adds one per operand")
+                    .with_help("split it into smaller functions or local variables")
+            }
         }
-        ParseError::User { error: SyntaxError::TooDeep(span) } => {
-            Diagnostic::error(span, format!("nesting deeper than {MAX_NESTING} levels"))
-                .with_help("split the expression or block into smaller functions or local variables")
+    }
+
+    /// rustc style: point just after the token that should be followed by `;`.
+    fn missing_semicolon(&self, next_start: usize, found: String) -> Diagnostic {
+        match self.previous_token(next_start) {
+            Some((s, e)) => Diagnostic::error(self.span(e, e), format!("expected `;`, found {found}"))
+                .with_label(self.span(s, e), "add `;` after this")
+                .with_help("statements and declarations end with `;`"),
+            None => Diagnostic::error(self.span(next_start, next_start), format!("expected `;`, found {found}")),
         }
     }
 }
 
-/// "expected one of ..." from lalrpop's terminal names.
-fn expected_list(expected: &[String]) -> String {
-    let names: Vec<String> = expected.iter().map(|e| e.trim_matches('"').to_string()).collect();
-    match names.len() {
-        0 => String::new(),
-        1 => format!("expected {}", names[0]),
-        n if n <= 8 => format!("expected one of: {}", names.join(", ")),
-        _ => "expected an item, statement or expression".to_string(),
+fn describe(w: &Wanted) -> String {
+    match w {
+        Wanted::Semicolon => "`;`".into(),
+        Wanted::Expression => "an expression".into(),
+        Wanted::Statement => "a statement or `}`".into(),
+        Wanted::Item => "a function, material, constant, `import` or `scene`".into(),
+        Wanted::MaterialMethod => "an interface method or `}`".into(),
+        Wanted::Tokens(t) => t.clone(),
     }
-}
-
-fn token_help(tok: &Tok, expected: &[String]) -> Option<String> {
-    let wants = |t: &str| expected.iter().any(|e| e == &format!("\"{t}\""));
-    if wants(";") {
-        return Some("statements and declarations end with `;`".into());
-    }
-    if matches!(tok, Tok::Material) {
-        return Some("a function that builds a material tree is written `material name(params) = expr;`".into());
-    }
-    None
 }
