@@ -276,26 +276,12 @@ impl<'a> Checker<'a> {
                 self.current = (m, i);
                 match item {
                     Item::Import { .. } => {}
-                    Item::Function(f) => {
-                        if self.is_active(m, i, &f.name.name) {
-                            self.check_function(f);
-                        }
-                    }
-                    Item::Material(d) => {
-                        if self.is_active(m, i, &d.name.name) {
-                            self.check_material(d);
-                        }
-                    }
-                    Item::MaterialTree(t) => {
-                        if self.is_active(m, i, &t.name.name) {
-                            self.check_tree(t);
-                        }
-                    }
-                    Item::Const(c) => {
-                        if self.is_active(m, i, &c.name.name) {
-                            self.check_const(c);
-                        }
-                    }
+                    Item::Function(f) if self.is_active(m, i, &f.name.name) => self.check_function(f),
+                    Item::Material(d) if self.is_active(m, i, &d.name.name) => self.check_material(d),
+                    Item::MaterialTree(t) if self.is_active(m, i, &t.name.name) => self.check_tree(t),
+                    Item::Const(c) if self.is_active(m, i, &c.name.name) => self.check_const(c),
+                    // Rejected duplicates were reported when collecting names.
+                    Item::Function(_) | Item::Material(_) | Item::MaterialTree(_) | Item::Const(_) => {}
                     Item::Scene(s) => {
                         if !module.is_prelude {
                             scenes.push(s);
@@ -473,8 +459,11 @@ impl<'a> Checker<'a> {
         }
         let ret = Ty::from_ast(&m.ret);
         let params_ok = m.params.len() == im.params.len()
-            && m.params.iter().zip(im.params).all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.ty() && p.default.is_none());
-        if ret != im.ret.ty() || !params_ok {
+            && m.params
+                .iter()
+                .zip(im.params)
+                .all(|(p, (_, t))| Ty::from_ast(&p.ty) == t.clone() && p.default.is_none());
+        if ret != im.ret.clone() || !params_ok {
             let written: Vec<String> =
                 m.params.iter().map(|p| format!("{} {}", Ty::from_ast(&p.ty), p.name.name)).collect();
             self.error(
@@ -1115,12 +1104,12 @@ impl<'a> Checker<'a> {
             && let Some(im) = interface_method(name)
         {
             let params: Vec<ParamInfo> =
-                im.params.iter().map(|(n, t)| ParamInfo { name: n, ty: Some(t.ty()), required: true }).collect();
+                im.params.iter().map(|(n, t)| ParamInfo { name: n, ty: Some(t.clone()), required: true }).collect();
             if let Some(from) = self.body.node.clone() {
                 self.edge(from, Node::Method(self.current, material, im.name), callee.span);
             }
             self.typed_args(name, &params, args, span);
-            return im.ret.ty();
+            return im.ret.clone();
         }
         // 2. A local of that name.
         if self.lookup_local(name).is_some() {
