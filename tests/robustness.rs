@@ -191,6 +191,18 @@ proptest! {
         }
     }
 
+    /// Arbitrary bytes, including invalid UTF-8, through the file loader.
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+        let dir = std::env::temp_dir().join(format!("tsl-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("fuzz.tsl");
+        std::fs::write(&path, &bytes).unwrap();
+        let checked = tsl::check_file(&path, &LoadOptions::default());
+        let _ = checked.render_diagnostics();
+        prop_assert!(checked.is_ok() || !checked.diagnostics.is_empty());
+    }
+
     #[test]
     fn random_token_streams_never_panic(tokens in proptest::collection::vec(0..TOKENS.len(), 0..120)) {
         let src: Vec<&str> = tokens.iter().map(|&i| TOKENS[i]).collect();
