@@ -18,11 +18,21 @@
 //! ```
 #![cfg_attr(not(test), warn(clippy::panic, clippy::print_stdout, clippy::print_stderr, clippy::todo))]
 
+mod api;
 pub mod check;
+pub mod color;
 pub mod diag;
+pub mod globals;
+pub mod interp;
+pub mod ir;
+pub mod jit;
 pub mod load;
+pub mod runtime;
 pub mod syntax;
 
+pub use api::{Backend, Color, Compiler, Error, Function, Material, Program};
+pub use color::ColorModel;
+pub use globals::ShadingGlobals;
 pub use load::LoadOptions;
 
 use diag::{Colors, Diagnostic, Severity};

@@ -23,6 +23,39 @@ struct Cli {
 enum Command {
     /// Parse and type-check TSL files; exit 0 when clean.
     Check(CheckArgs),
+    /// Print a compilation stage of a file: the checked AST, the IR, or the
+    /// Cranelift IR of every compiled function.
+    Emit(EmitArgs),
+}
+
+#[derive(clap::Args)]
+struct EmitArgs {
+    /// The file to compile.
+    file: PathBuf,
+    /// What to print.
+    #[arg(long, value_enum, default_value_t = EmitKind::Ir)]
+    emit: EmitKind,
+    /// The color model: `rgb` or `spectralN` (e.g. `spectral16`).
+    #[arg(long, default_value = "rgb", value_parser = parse_color_model)]
+    color_model: tsl::ColorModel,
+    /// Only functions whose name starts with this (e.g. `wood.` or `rings`).
+    #[arg(long, value_name = "PREFIX")]
+    only: Option<String>,
+    /// Add a directory to the import search path.
+    #[arg(short = 'I', value_name = "DIR")]
+    include: Vec<PathBuf>,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum EmitKind {
+    Ast,
+    Ir,
+    Clif,
+}
+
+fn parse_color_model(s: &str) -> Result<tsl::ColorModel, String> {
+    tsl::ColorModel::parse(s)
+        .ok_or_else(|| format!("`{s}` is not a color model: use rgb or spectralN with N in 1..=64"))
 }
 
 #[derive(clap::Args)]
@@ -71,6 +104,7 @@ fn main() -> ExitCode {
     // stack keeps that safe for every accepted input.
     let worker = std::thread::Builder::new().stack_size(64 << 20).spawn(move || match cli.command {
         Command::Check(args) => check(args),
+        Command::Emit(args) => emit(args),
     });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,
@@ -117,6 +151,49 @@ fn check(args: CheckArgs) -> ExitCode {
         failed |= report(&checked, &args, colors);
     }
     if failed { ExitCode::from(1) } else { ExitCode::SUCCESS }
+}
+
+fn emit(args: EmitArgs) -> ExitCode {
+    let wanted = |name: &str| args.only.as_deref().is_none_or(|p| name.starts_with(p));
+    let mut out = std::io::stdout().lock();
+    if args.emit == EmitKind::Ast {
+        let options = LoadOptions { import_paths: args.include.clone(), prelude: true };
+        let checked = tsl::check_file(&args.file, &options);
+        if !checked.is_ok() {
+            eprint!("{}", checked.render_diagnostics());
+            return ExitCode::from(1);
+        }
+        for module in checked.program.loaded.modules.iter().filter(|m| !m.is_prelude) {
+            let _ = writeln!(out, "// {}", checked.program.loaded.sources.name(module.file));
+            let _ = writeln!(out, "{:#?}", module.ast);
+        }
+        return ExitCode::SUCCESS;
+    }
+    let mut compiler =
+        tsl::Compiler::new().color_model(args.color_model).file(&args.file).keep_clif(args.emit == EmitKind::Clif);
+    for dir in &args.include {
+        compiler = compiler.import_path(dir);
+    }
+    let program = match compiler.compile() {
+        Ok(p) => p,
+        Err(e) => {
+            eprint!("{e}");
+            return ExitCode::from(1);
+        }
+    };
+    match args.emit {
+        EmitKind::Ir => {
+            for f in program.ir().functions.iter().filter(|f| wanted(&f.name)) {
+                let _ = writeln!(out, "{f}");
+            }
+        }
+        _ => {
+            for (name, text) in program.clif().iter().filter(|(n, _)| wanted(n)) {
+                let _ = writeln!(out, "; {name}\n{text}");
+            }
+        }
+    }
+    ExitCode::SUCCESS
 }
 
 /// Prints the diagnostics of one file; returns whether it failed.

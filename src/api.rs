@@ -1,0 +1,417 @@
+//! The embedding API: compile TSL source to native code and call materials
+//! and generators from a host.
+//!
+//! ```
+//! use tsl::{ColorModel, Compiler, ShadingGlobals};
+//!
+//! let src = r#"
+//!     float rings(float scale = 8) { return fract(length(vec2(Pl.x, Pl.z)) * scale); }
+//!     material wood = mix(rings(), lambert(kd: rgb(0.6, 0.4, 0.2)), lambert(kd: rgb(0.35, 0.2, 0.08)));
+//! "#;
+//! let program = Compiler::new().color_model(ColorModel::Rgb).source("wood.tsl", src).compile()?;
+//! let wood = program.material("wood")?;
+//! let g = ShadingGlobals { n: [0.0, 0.0, 1.0], pl: [0.1, 0.0, 0.0], ..Default::default() };
+//! let light = program.rgb(1.0, 1.0, 1.0);
+//! let c = wood.reflection(&g, [0.0, 0.0, 1.0], &light, [0.0, 0.0, 1.0]);
+//! assert!(c.to_rgb()[0] > 0.0);
+//! # Ok::<(), tsl::Error>(())
+//! ```
+
+use crate::color::{self, ColorModel, MAX_SAMPLES};
+use crate::diag::{Colors, Diagnostic, SourceMap, render_text};
+use crate::globals::ShadingGlobals;
+use crate::ir::lower::{Entry, EntryKind, lower_program};
+use crate::ir::{Function as IrFunction, Module as IrModule};
+use crate::jit::{EntryFn, Jit, JitOptions};
+use crate::load::LoadOptions;
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A compile error: the diagnostics and the sources they point into.
+#[derive(Debug, Clone)]
+pub struct Error {
+    pub diagnostics: Vec<Diagnostic>,
+    sources: SourceMap,
+}
+
+impl Error {
+    fn plain(message: String) -> Error {
+        let mut sources = SourceMap::new();
+        let file = sources.add("<tsl>", "");
+        Error { diagnostics: vec![Diagnostic::error(crate::diag::Span::new(file, 0, 0), message)], sources }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&render_text(&self.sources, &self.diagnostics, Colors::Never))
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// Builds a [`Program`] from TSL source.
+#[derive(Debug, Clone)]
+pub struct Compiler {
+    model: ColorModel,
+    source: Option<(String, String)>,
+    file: Option<PathBuf>,
+    options: LoadOptions,
+    keep_clif: bool,
+}
+
+impl Default for Compiler {
+    fn default() -> Self {
+        Compiler { model: ColorModel::Rgb, source: None, file: None, options: LoadOptions::default(), keep_clif: false }
+    }
+}
+
+impl Compiler {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// RGB (3 floats) or spectral (N samples over 380–780 nm).
+    pub fn color_model(mut self, model: ColorModel) -> Self {
+        self.model = model;
+        self
+    }
+
+    /// The root source text; `name` appears in diagnostics and anchors imports.
+    pub fn source(mut self, name: &str, text: &str) -> Self {
+        self.source = Some((name.to_string(), text.to_string()));
+        self
+    }
+
+    /// The root source file.
+    pub fn file(mut self, path: impl Into<PathBuf>) -> Self {
+        self.file = Some(path.into());
+        self
+    }
+
+    /// Adds a directory to search for imports.
+    pub fn import_path(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.options.import_paths.push(dir.into());
+        self
+    }
+
+    /// Keeps the Cranelift IR text of each function (see [`Program::clif`]).
+    pub fn keep_clif(mut self, keep: bool) -> Self {
+        self.keep_clif = keep;
+        self
+    }
+
+    /// Parses, checks, lowers and JIT-compiles the program.
+    pub fn compile(self) -> Result<Program, Error> {
+        let checked = match (&self.file, &self.source) {
+            (Some(path), _) => crate::check_file(path, &self.options),
+            (None, Some((name, text))) => crate::check_source(name, text, &self.options),
+            (None, None) => return Err(Error::plain("no source given to the compiler".into())),
+        };
+        if !checked.is_ok() {
+            return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
+        }
+        let (ir, entries, diags) = lower_program(&checked.program, self.model);
+        if !diags.is_empty() {
+            return Err(Error { diagnostics: diags, sources: checked.program.loaded.sources });
+        }
+        let jit = crate::jit::compile(&ir, &JitOptions { keep_clif: self.keep_clif }).map_err(Error::plain)?;
+        Ok(Program { inner: Arc::new(Inner { model: self.model, ir, entries, jit }) })
+    }
+}
+
+struct Inner {
+    model: ColorModel,
+    ir: IrModule,
+    entries: Vec<Entry>,
+    jit: Jit,
+}
+
+/// A compiled program: cheap to clone, `Send + Sync`, callable from many
+/// threads at once.
+#[derive(Clone)]
+pub struct Program {
+    inner: Arc<Inner>,
+}
+
+impl fmt::Debug for Program {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Program").field("model", &self.inner.model).field("entries", &self.inner.entries.len()).finish()
+    }
+}
+
+/// Which back end runs a function: the JIT, or the reference interpreter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    Jit,
+    Interpreter,
+}
+
+impl Program {
+    pub fn color_model(&self) -> ColorModel {
+        self.inner.model
+    }
+
+    /// Every entry point: generators and material methods.
+    pub fn entries(&self) -> &[Entry] {
+        &self.inner.entries
+    }
+
+    /// The IR of every entry point.
+    pub fn ir(&self) -> &IrModule {
+        &self.inner.ir
+    }
+
+    /// Cranelift IR text per function, when compiled with `keep_clif`.
+    pub fn clif(&self) -> &[(String, String)] {
+        &self.inner.jit.clif
+    }
+
+    /// A color from RGB in this program's color model.
+    pub fn rgb(&self, r: f32, g: f32, b: f32) -> Color {
+        Color::from_lanes(self.inner.model, &color::rgb_to_lanes(self.inner.model, [r, g, b]))
+    }
+
+    /// A material defined in the program (a material tree, or a material
+    /// model whose parameters all have defaults).
+    pub fn material(&self, name: &str) -> Result<Material, Error> {
+        let mut methods = Vec::new();
+        for im in crate::check::INTERFACE {
+            let f = self.function_handle(&format!("{name}.{}", im.name));
+            match f {
+                Some(f) => methods.push(f),
+                None => {
+                    let known: Vec<&str> = self
+                        .inner
+                        .entries
+                        .iter()
+                        .filter(|e| matches!(e.kind, EntryKind::Method("reflection")))
+                        .map(|e| e.name.trim_end_matches(".reflection"))
+                        .collect();
+                    let hint = crate::diag::did_you_mean(name, known.iter().copied())
+                        .map(|s| format!(" (did you mean `{s}`?)"))
+                        .unwrap_or_default();
+                    return Err(Error::plain(format!("no material named `{name}`{hint}")));
+                }
+            }
+        }
+        Ok(Material { program: self.clone(), methods })
+    }
+
+    /// A compiled function by its entry name (`rings` or `wood.reflection`).
+    pub fn function(&self, name: &str) -> Option<Function> {
+        self.function_handle(name)
+    }
+
+    fn function_handle(&self, name: &str) -> Option<Function> {
+        let index = self.inner.ir.functions.iter().position(|f| f.name == name)?;
+        let native = self.inner.jit.function(name)?;
+        Some(Function { program: self.clone(), index, native })
+    }
+}
+
+/// One compiled entry point, callable through either back end.
+#[derive(Clone)]
+pub struct Function {
+    program: Program,
+    index: usize,
+    native: EntryFn,
+}
+
+impl Function {
+    pub fn ir(&self) -> &IrFunction {
+        &self.program.inner.ir.functions[self.index]
+    }
+
+    pub fn entry(&self) -> &Entry {
+        &self.program.inner.entries[self.index]
+    }
+
+    /// Calls with raw argument and result words (f32 bits, i32, bool as 0/1).
+    /// `args` and `out` must hold at least as many words as the function's
+    /// parameters and results; shorter slices are an error, not a crash.
+    pub fn call_words(
+        &self,
+        backend: Backend,
+        g: &ShadingGlobals,
+        args: &[u32],
+        out: &mut [u32],
+    ) -> Result<(), String> {
+        let f = self.ir();
+        if args.len() < f.params.len() || out.len() < f.results.len() {
+            return Err(format!(
+                "`{}` takes {} argument words and gives {} result words",
+                f.name,
+                f.params.len(),
+                f.results.len()
+            ));
+        }
+        match backend {
+            Backend::Interpreter => crate::interp::run(f, &g.words(), args, out),
+            Backend::Jit => {
+                // SAFETY: the function was compiled from this IR function,
+                // which reads at most `params.len()` argument words and the
+                // 32-word globals record and writes `results.len()` words;
+                // the lengths were checked above, and the code is alive as
+                // long as `self.program` is.
+                unsafe { (self.native)((g as *const ShadingGlobals).cast(), args.as_ptr(), out.as_mut_ptr()) }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A color in a program's color model: RGB or spectral samples.
+#[derive(Clone, Copy, PartialEq)]
+pub struct Color {
+    model: ColorModel,
+    lanes: [f32; MAX_SAMPLES],
+}
+
+impl fmt::Debug for Color {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Color({:?})", self.lanes())
+    }
+}
+
+impl Color {
+    pub fn from_lanes(model: ColorModel, lanes: &[f32]) -> Color {
+        let mut c = Color { model, lanes: [0.0; MAX_SAMPLES] };
+        let n = model.lanes().min(lanes.len());
+        c.lanes[..n].copy_from_slice(&lanes[..n]);
+        c
+    }
+
+    pub fn black(model: ColorModel) -> Color {
+        Color { model, lanes: [0.0; MAX_SAMPLES] }
+    }
+
+    /// RGB values, or spectral samples at the model's wavelengths.
+    pub fn lanes(&self) -> &[f32] {
+        &self.lanes[..self.model.lanes()]
+    }
+
+    /// Linear sRGB.
+    pub fn to_rgb(&self) -> [f32; 3] {
+        color::lanes_to_rgb(self.model, self.lanes())
+    }
+
+    /// CIE Y.
+    pub fn brightness(&self) -> f32 {
+        color::luminance_weights(self.model).iter().zip(self.lanes()).map(|(w, x)| w * x).sum()
+    }
+}
+
+/// A compiled material: the generic material interface, as native calls.
+#[derive(Clone)]
+pub struct Material {
+    program: Program,
+    /// In the order of `check::INTERFACE`.
+    methods: Vec<Function>,
+}
+
+impl fmt::Debug for Material {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Material").field("name", &self.methods[0].ir().name).finish()
+    }
+}
+
+/// Argument words for a method call.
+struct Args {
+    words: [u32; 3 + 2 * MAX_SAMPLES + 3],
+    len: usize,
+}
+
+impl Args {
+    fn new() -> Args {
+        Args { words: [0; 3 + 2 * MAX_SAMPLES + 3], len: 0 }
+    }
+    fn v(mut self, v: [f32; 3]) -> Args {
+        for x in v {
+            self.words[self.len] = x.to_bits();
+            self.len += 1;
+        }
+        self
+    }
+    fn f(mut self, x: f32) -> Args {
+        self.words[self.len] = x.to_bits();
+        self.len += 1;
+        self
+    }
+    fn c(mut self, c: &Color) -> Args {
+        for x in c.lanes() {
+            self.words[self.len] = x.to_bits();
+            self.len += 1;
+        }
+        self
+    }
+}
+
+impl Material {
+    fn call(&self, k: usize, g: &ShadingGlobals, args: Args) -> [u32; MAX_SAMPLES] {
+        let mut out = [0u32; MAX_SAMPLES];
+        // Argument and result sizes follow the interface, so this cannot fail.
+        let _ = self.methods[k].call_words(Backend::Jit, g, &args.words[..args.len], &mut out);
+        out
+    }
+
+    fn color(&self, words: [u32; MAX_SAMPLES]) -> Color {
+        let model = self.program.color_model();
+        let lanes: Vec<f32> = words[..model.lanes()].iter().map(|w| f32::from_bits(*w)).collect();
+        Color::from_lanes(model, &lanes)
+    }
+
+    fn vector(words: [u32; MAX_SAMPLES]) -> [f32; 3] {
+        [f32::from_bits(words[0]), f32::from_bits(words[1]), f32::from_bits(words[2])]
+    }
+
+    /// Light arriving from `wi` reflected toward `wo`.
+    pub fn reflection(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, wo: [f32; 3]) -> Color {
+        self.color(self.call(0, g, Args::new().v(wi).c(light).v(wo)))
+    }
+
+    /// Light arriving from `wi` transmitted toward `wo`.
+    pub fn refraction(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, eta: &Color, wo: [f32; 3]) -> Color {
+        self.color(self.call(1, g, Args::new().v(wi).c(light).c(eta).v(wo)))
+    }
+
+    pub fn refraction_index(&self, g: &ShadingGlobals) -> Color {
+        self.color(self.call(2, g, Args::new()))
+    }
+
+    /// The mirror direction for an outgoing `wo`; zero when there is none.
+    pub fn reflection_dir(&self, g: &ShadingGlobals, wo: [f32; 3]) -> [f32; 3] {
+        Self::vector(self.call(3, g, Args::new().v(wo)))
+    }
+
+    /// The refracted direction; zero on total internal reflection or none.
+    pub fn refraction_dir(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color) -> [f32; 3] {
+        Self::vector(self.call(4, g, Args::new().v(wo).c(eta)))
+    }
+
+    pub fn emission(&self, g: &ShadingGlobals, wo: [f32; 3]) -> Color {
+        self.color(self.call(5, g, Args::new().v(wo)))
+    }
+
+    pub fn ambient(&self, g: &ShadingGlobals, light: &Color) -> Color {
+        self.color(self.call(6, g, Args::new().c(light)))
+    }
+
+    /// The light left of `light` after `distance` inside the material.
+    pub fn absorption(&self, g: &ShadingGlobals, light: &Color, distance: f32) -> Color {
+        self.color(self.call(7, g, Args::new().c(light).f(distance)))
+    }
+
+    pub fn normal(&self, g: &ShadingGlobals) -> [f32; 3] {
+        Self::vector(self.call(8, g, Args::new()))
+    }
+
+    pub fn diffuse(&self, g: &ShadingGlobals) -> Color {
+        self.color(self.call(9, g, Args::new()))
+    }
+
+    pub fn opaque(&self, g: &ShadingGlobals) -> bool {
+        self.call(10, g, Args::new())[0] != 0
+    }
+}

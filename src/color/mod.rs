@@ -1,0 +1,572 @@
+//! Color models: the constant weights that turn TSL's opaque `color` into
+//! per-lane arithmetic.
+//!
+//! A [`ColorModel`] says what a `color` value is at run time: three lanes of
+//! linear sRGB ([`ColorModel::Rgb`]) or `samples` lanes of a spectrum
+//! ([`ColorModel::Spectral`]). The compiler lowers every color operation into
+//! scalar arithmetic per lane, so everything here is exposed as plain
+//! constant vectors and matrices of `f32` for a given model: `brightness(c)`
+//! becomes `sum_i luminance_weights[i] * lane_i`, and so on. Nothing here
+//! panics or does I/O; all arithmetic is done in `f64` and rounded to `f32`
+//! at the end. This module is a leaf: it depends on nothing else in the crate.
+//!
+//! # The maths
+//!
+//! **Lanes.** A spectral model with `n` lanes splits
+//! [`LAMBDA_MIN`]..[`LAMBDA_MAX`] (380–780 nm) into `n` equal bins; lane `i`
+//! holds the *average* of the spectrum over bin `i`
+//! (`[380 + i·Δ, 380 + (i+1)·Δ]`, `Δ = 400/n` nm), and
+//! [`ColorModel::wavelengths`] gives the bin centres. Spectra are spectral
+//! radiance (or reflectance) in arbitrary units: a "flat 1" spectrum is the
+//! equal-energy spectrum (CIE illuminant E) and it is the white of every
+//! model.
+//!
+//! **Colour matching.** The CIE 1931 2° standard observer, tabulated every
+//! 5 nm from 380 to 780 nm in `cie1931.rs` (generated from colour-science by
+//! `scripts/gen_color_data.py`), is interpolated linearly between the table
+//! rows. Its integral over each bin gives the raw tristimulus weights:
+//! `raw_X[i] = ∫_bin_i x̄(λ) dλ / ∫_380^780 ȳ(λ) dλ` (likewise Y, Z), computed
+//! exactly (the integrand is piecewise linear). So `raw = raw_weights · lanes`
+//! is the CIE XYZ of the spectrum under illuminant E, normalised so that the
+//! flat spectrum has `Y = 1`. Only 380–780 nm is integrated, in every model.
+//!
+//! **To linear sRGB, and the white point.** `raw` XYZ is multiplied by the
+//! inverse of the IEC 61966-2-1 sRGB → XYZ matrix ([`SRGB_TO_XYZ`], whose Y
+//! row is exactly 0.2126, 0.7152, 0.0722) and then each channel is divided by
+//! the same channel of the flat spectrum (a *per-channel von Kries scale in
+//! the sRGB primaries*). So the flat spectrum is exactly `(1, 1, 1)` and an
+//! RGB grey survives RGB → spectrum → RGB. This is the convention Smits
+//! (1999) designed his basis spectra for (sRGB primaries with illuminant E as
+//! white; colour-science's `RGB_COLOURSPACE_SMITS1999`): with it the Smits
+//! round trip, integrated exactly, is within 8e-3 for saturated colours and
+//! 3.5e-3 for unsaturated ones, while a Bradford adaptation from E to D65
+//! would put it off by up to 0.12 (measured with colour-science). The flat
+//! spectrum's raw XYZ over 380–780 nm is `(0.99999, 1, 0.99990)` (not exactly
+//! E's `(1, 1, 1)`: the table is cut at 380 and 780 nm), and the scale is
+//! computed from it, so the flat spectrum is white to rounding.
+//!
+//! **Lighting assumption.** A reflectance curve is therefore shown as lit by
+//! the equal-energy spectrum, which is also what a white `rgb(1, 1, 1)` light
+//! becomes under Smits' upsampling (no illuminant spectrum is multiplied in),
+//! then white-balanced as above. colour-science's usual answer for a
+//! reflectance (lit by D65, `sd_to_XYZ(sd, cmfs, D65)` then `XYZ_to_sRGB`,
+//! no adaptation) differs from this by up to 0.04 on the ColorChecker, so the
+//! test oracle is computed by colour-science with this module's convention.
+//!
+//! **XYZ and brightness.** [`to_xyz_weights`] gives the XYZ *of the displayed
+//! linear sRGB colour* (`SRGB_TO_XYZ · to_rgb`), relative to D65 (the white
+//! of sRGB), so that `to_xyz` means the same in both models: `rgb(1, 1, 1)`
+//! and the flat spectrum both give the D65 white `(0.9505, 1, 1.089)`.
+//! `brightness` ([`luminance_weights`]) is the Y row of that: it equals
+//! `0.2126 R + 0.7152 G + 0.0722 B` of `to_rgb` in both models, and it is 1 for
+//! the flat spectrum. (It differs from the plain `∫ ȳ` of the spectrum by the
+//! white balance above.)
+//!
+//! **RGB to spectrum (Smits 1999).** Constant `rgb(r, g, b)` literals are
+//! upsampled with B. Smits, "An RGB-to-Spectrum Conversion for Reflectances",
+//! Journal of Graphics Tools 4(4), 1999: the spectrum is a non-negative sum of
+//! seven basis spectra (white, cyan, magenta, yellow, red, green, blue) whose
+//! multiples come from a few comparisons of the components
+//! ([`smits_coefficients`]). The basis table is the paper's: 10 bins of 34 nm
+//! from 380 to 720 nm, the last bin's value held to 780 nm (the numbers of
+//! colour-science's `DATA_SMITS1999`; `smits1999.rs`). The bins are averaged
+//! into the model's lanes ([`smits_basis`]). colour-science's own
+//! `RGB_to_sd_Smits1999` places the same ten numbers at ten points 380, 417.8,
+//! …, 720 nm and interpolates between them, which puts the round trip of
+//! saturated colours off by up to 0.09 (0.05 for unsaturated ones); the
+//! paper's bins are what the numbers were optimised for. Smits' coefficients
+//! are linear in `(r, g, b)` for a given ordering of the components, so
+//! emission values above 1 scale linearly.
+//!
+//! **Measured curves.** [`resample_weights`] takes the wavelengths of a curve
+//! given as `(λ_j, value_j)` samples, interpolated linearly and held constant
+//! beyond its ends, and returns the matrix that averages it into the lanes:
+//! lane values are `weights · values`, so the values may vary at run time
+//! while the wavelengths are constant. For the RGB model the matrix gives the
+//! linear sRGB of the curve through the same spectral → XYZ → sRGB path, with
+//! the integrals taken exactly (the limit of an infinitely fine spectral
+//! model).
+//!
+//! # Accuracy (checked by the tests)
+//!
+//! Worst channel error against colour-science 0.4.7 (1 nm CIE table, same
+//! conventions; `tests/data/color_oracle.json`):
+//!
+//! | model | ColorChecker N Ohta, linear sRGB | Smits round trip, saturated / unsaturated |
+//! |-------|------------------|------------------|
+//! | `rgb` | 3.7e-4 | 0 (identity) |
+//! | exact integrals (`resample_weights(Rgb, ..)`) | 3.7e-4 | 8.8e-3 / 3.6e-3 |
+//! | `spectral8` | 4.7e-2 | 4.8e-2 / 2.9e-2 |
+//! | `spectral16` | 1.08e-2 | 2.0e-2 / 1.1e-2 |
+//! | `spectral32` | 2.6e-3 | 1.5e-2 / 6.1e-3 |
+//! | `spectral64` | 9.1e-4 | 1.1e-2 / 4.4e-3 |
+//!
+//! The ColorChecker's 24 patches are resampled with [`resample_weights`]
+//! from their measured 380–780 nm data. The RGB model's error is the 5 nm
+//! table's interpolation; the spectral models add the error of box-averaged
+//! lanes (second order for smooth curves, first order for Smits' stepped
+//! spectra). Greys survive RGB → spectrum → RGB within 6e-4 relative in every
+//! model (the white basis spectrum dips to 0.9992), and the flat spectrum is
+//! `(1, 1, 1)` with brightness 1 to `f32` rounding.
+
+mod cie1931;
+mod smits1999;
+#[cfg(test)]
+mod tests;
+
+use cie1931::{CMF_1931, CMF_START_NM, CMF_STEP_NM};
+use smits1999::{SMITS_1999, SMITS_BINS, SMITS_END_NM, SMITS_START_NM};
+
+/// The most lanes a spectral model may have.
+pub const MAX_SAMPLES: usize = 64;
+/// Lower end of the spectral range, nm.
+pub const LAMBDA_MIN: f32 = 380.0;
+/// Upper end of the spectral range, nm.
+pub const LAMBDA_MAX: f32 = 780.0;
+
+const LO: f64 = LAMBDA_MIN as f64;
+const HI: f64 = LAMBDA_MAX as f64;
+
+/// Linear sRGB → CIE XYZ (D65), the matrix of IEC 61966-2-1 (as in
+/// colour-science's `RGB_COLOURSPACE_sRGB.matrix_RGB_to_XYZ`). Rows are X, Y,
+/// Z; the Y row is the Rec. 709 luminance 0.2126, 0.7152, 0.0722.
+pub const SRGB_TO_XYZ: [[f64; 3]; 3] = [[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]];
+
+/// CIE XYZ (D65) → linear sRGB: the exact inverse of [`SRGB_TO_XYZ`]
+/// (computed here rather than the standard's rounded inverse, so that
+/// `xyz_to_linear_srgb(linear_srgb_to_xyz(c)) == c` up to rounding).
+pub const XYZ_TO_SRGB: [[f64; 3]; 3] = invert3(SRGB_TO_XYZ);
+
+/// What a `color` is at run time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ColorModel {
+    /// Three lanes of linear sRGB.
+    Rgb,
+    /// `samples` lanes, each the average of a spectrum over one of `samples`
+    /// equal bins of 380–780 nm. Valid models have `samples` in
+    /// `1..=MAX_SAMPLES` (see [`ColorModel::spectral`]); the functions of this
+    /// module do not panic on others (0 lanes gives empty vectors; more than
+    /// `MAX_SAMPLES` works, at a cost in proportion).
+    Spectral { samples: usize },
+}
+
+impl ColorModel {
+    /// A spectral model, or `None` unless `1 <= samples <= MAX_SAMPLES`.
+    pub fn spectral(samples: usize) -> Option<ColorModel> {
+        (1..=MAX_SAMPLES).contains(&samples).then_some(ColorModel::Spectral { samples })
+    }
+
+    /// True for `Rgb` and for spectral models with `1..=MAX_SAMPLES` lanes.
+    pub fn is_valid(self) -> bool {
+        match self {
+            ColorModel::Rgb => true,
+            ColorModel::Spectral { samples } => (1..=MAX_SAMPLES).contains(&samples),
+        }
+    }
+
+    /// Number of `f32` lanes of a color: 3 for `Rgb`, `samples` for `Spectral`.
+    pub fn lanes(self) -> usize {
+        match self {
+            ColorModel::Rgb => 3,
+            ColorModel::Spectral { samples } => samples,
+        }
+    }
+
+    /// Bin centres in nm (empty for `Rgb`): `380 + (i + 0.5) · 400 / samples`.
+    pub fn wavelengths(self) -> Vec<f32> {
+        match self {
+            ColorModel::Rgb => Vec::new(),
+            ColorModel::Spectral { samples } => {
+                (0..samples).map(|i| to_f32(0.5 * (bin(samples, i).0 + bin(samples, i).1))).collect()
+            }
+        }
+    }
+
+    /// `"rgb"` or `"spectral<N>"`, e.g. `"spectral16"`; [`ColorModel::parse`]
+    /// reads it back.
+    pub fn name(self) -> String {
+        match self {
+            ColorModel::Rgb => "rgb".to_string(),
+            ColorModel::Spectral { samples } => format!("spectral{samples}"),
+        }
+    }
+
+    /// Reads a [`ColorModel::name`]: `"rgb"` or `"spectral<N>"` with
+    /// `1 <= N <= MAX_SAMPLES`; `None` otherwise.
+    pub fn parse(name: &str) -> Option<ColorModel> {
+        if name == "rgb" {
+            return Some(ColorModel::Rgb);
+        }
+        let digits = name.strip_prefix("spectral")?;
+        if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        ColorModel::spectral(digits.parse().ok()?)
+    }
+}
+
+/// Weights of `brightness(c) = sum_i weights[i] * lane_i`: the CIE Y of
+/// [`to_xyz_weights`] (D65-relative Y of the displayed linear sRGB color).
+/// `Rgb`: exactly `[0.2126, 0.7152, 0.0722]` (Rec. 709 / IEC 61966-2-1).
+/// `Spectral`: the Y row of the spectral → XYZ weights described in the module
+/// documentation; they sum to 1, so a flat spectrum of 1 has brightness 1.
+pub fn luminance_weights(model: ColorModel) -> Vec<f32> {
+    match model {
+        ColorModel::Rgb => vec![0.2126, 0.7152, 0.0722],
+        ColorModel::Spectral { .. } => {
+            let [_, y, _] = to_xyz_weights(model);
+            y
+        }
+    }
+}
+
+/// Weights of `to_xyz(c)`: rows X, Y, Z, each with one weight per lane, so
+/// `X = sum_i rows[0][i] * lane_i`. The result is the CIE XYZ (D65-relative)
+/// of the color's linear sRGB, `SRGB_TO_XYZ · to_rgb(c)`: for `Rgb` the rows
+/// of [`SRGB_TO_XYZ`]; for `Spectral` the CIE 1931 functions integrated over
+/// each bin, then white-balanced as described in the module documentation.
+pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
+    match model {
+        ColorModel::Rgb => SRGB_TO_XYZ.map(|row| row.iter().map(|&w| to_f32(w)).collect()),
+        ColorModel::Spectral { samples } => {
+            let rgb = spectral_rgb_weights(samples);
+            mat_times_rows(&SRGB_TO_XYZ, &rgb).map(|row| to_f32s(&row))
+        }
+    }
+}
+
+/// Weights of `to_rgb(c)`: linear sRGB rows R, G, B, one weight per lane.
+/// `Rgb`: the identity. `Spectral`: CIE 1931 integrated over each bin
+/// (illuminant E, Y of the flat spectrum = 1), [`XYZ_TO_SRGB`], then a
+/// per-channel scale that makes the flat spectrum exactly `(1, 1, 1)`.
+pub fn to_rgb_weights(model: ColorModel) -> [Vec<f32>; 3] {
+    match model {
+        ColorModel::Rgb => [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+        ColorModel::Spectral { samples } => spectral_rgb_weights(samples).map(|row| to_f32s(&row)),
+    }
+}
+
+/// The seven basis spectra of Smits (1999), each with one value per lane.
+///
+/// For `Spectral`: the paper's 10-bin table (380–720 nm, last bin held to
+/// 780 nm) averaged over each lane's bin. For `Rgb`: the ideal colours
+/// (white = (1, 1, 1), cyan = (0, 1, 1), …, blue = (0, 0, 1)), with which
+/// Smits' algorithm is exactly the identity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SmitsBasis {
+    pub white: Vec<f32>,
+    pub cyan: Vec<f32>,
+    pub magenta: Vec<f32>,
+    pub yellow: Vec<f32>,
+    pub red: Vec<f32>,
+    pub green: Vec<f32>,
+    pub blue: Vec<f32>,
+}
+
+impl SmitsBasis {
+    /// The seven spectra in the order of [`smits_coefficients`]: white, cyan,
+    /// magenta, yellow, red, green, blue.
+    pub fn spectra(&self) -> [&[f32]; 7] {
+        [&self.white, &self.cyan, &self.magenta, &self.yellow, &self.red, &self.green, &self.blue]
+    }
+}
+
+/// The Smits (1999) basis spectra in the model's lanes; see [`SmitsBasis`].
+pub fn smits_basis(model: ColorModel) -> SmitsBasis {
+    let spectra: [Vec<f32>; 7] = match model {
+        ColorModel::Rgb => {
+            [[1., 1., 1.], [0., 1., 1.], [1., 0., 1.], [1., 1., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]]
+                .map(|c: [f32; 3]| c.to_vec())
+        }
+        ColorModel::Spectral { samples } => {
+            SMITS_1999.map(|table| (0..samples).map(|i| to_f32(smits_bin_average(&table, samples, i))).collect())
+        }
+    };
+    let [white, cyan, magenta, yellow, red, green, blue] = spectra;
+    SmitsBasis { white, cyan, magenta, yellow, red, green, blue }
+}
+
+/// Smits' (1999) multiples of the seven basis spectra for `rgb`, in the
+/// order white, cyan, magenta, yellow, red, green, blue; the color's lanes
+/// are `sum_k coef[k] * basis_k` ([`smits_basis`]).
+///
+/// The logic (the branchy part of the algorithm, which the compiler can emit
+/// as is): if red is the smallest component, take `r` of white, then
+/// `min(g, b) - r` of cyan and `|g - b|` of blue (if `g <= b`) or of green;
+/// if green is smallest, `g` of white, `min(r, b) - g` of magenta and
+/// `|r - b|` of blue (`r <= b`) or red; otherwise `b` of white,
+/// `min(r, g) - b` of yellow and `|r - g|` of green (`r <= g`) or red. Ties
+/// go to the first case that applies, as in the paper and colour-science.
+pub fn smits_coefficients(rgb: [f32; 3]) -> [f32; 7] {
+    let [r, g, b] = rgb;
+    let mut c = [0.0f32; 7];
+    const WHITE: usize = 0;
+    const CYAN: usize = 1;
+    const MAGENTA: usize = 2;
+    const YELLOW: usize = 3;
+    const RED: usize = 4;
+    const GREEN: usize = 5;
+    const BLUE: usize = 6;
+    if r <= g && r <= b {
+        c[WHITE] = r;
+        if g <= b {
+            c[CYAN] = g - r;
+            c[BLUE] = b - g;
+        } else {
+            c[CYAN] = b - r;
+            c[GREEN] = g - b;
+        }
+    } else if g <= r && g <= b {
+        c[WHITE] = g;
+        if r <= b {
+            c[MAGENTA] = r - g;
+            c[BLUE] = b - r;
+        } else {
+            c[MAGENTA] = b - g;
+            c[RED] = r - b;
+        }
+    } else {
+        c[WHITE] = b;
+        if r <= g {
+            c[YELLOW] = r - b;
+            c[GREEN] = g - r;
+        } else {
+            c[YELLOW] = g - b;
+            c[RED] = r - g;
+        }
+    }
+    c
+}
+
+/// The lanes of the constant `rgb(r, g, b)` (linear sRGB): `Rgb` → the triple
+/// itself; `Spectral` → Smits (1999) upsampling,
+/// `sum_k smits_coefficients(rgb)[k] * smits_basis(model)_k`.
+pub fn rgb_to_lanes(model: ColorModel, rgb: [f32; 3]) -> Vec<f32> {
+    match model {
+        ColorModel::Rgb => rgb.to_vec(),
+        ColorModel::Spectral { samples } => {
+            let coef = smits_coefficients(rgb);
+            let mut lanes = vec![0.0f64; samples];
+            for (table, &k) in SMITS_1999.iter().zip(&coef) {
+                if k == 0.0 {
+                    continue;
+                }
+                for (i, lane) in lanes.iter_mut().enumerate() {
+                    *lane += f64::from(k) * smits_bin_average(table, samples, i);
+                }
+            }
+            to_f32s(&lanes)
+        }
+    }
+}
+
+/// CIE XYZ (D65-relative, Y = 1 for white) → linear sRGB, with
+/// [`XYZ_TO_SRGB`].
+pub fn xyz_to_linear_srgb(xyz: [f32; 3]) -> [f32; 3] {
+    mat3_apply(&XYZ_TO_SRGB, xyz)
+}
+
+/// Linear sRGB → CIE XYZ (D65), with [`SRGB_TO_XYZ`] (IEC 61966-2-1).
+pub fn linear_srgb_to_xyz(rgb: [f32; 3]) -> [f32; 3] {
+    mat3_apply(&SRGB_TO_XYZ, rgb)
+}
+
+/// The matrix (lanes × inputs) that resamples a measured curve into the
+/// model's lanes: `lane_i = sum_j w[i][j] * value_j`.
+///
+/// The curve is given by samples `(wavelengths_nm[j], value_j)`, interpolated
+/// linearly and held constant beyond the first and last sample (a single
+/// sample is a constant curve). For `Spectral`, lane `i` is the exact average
+/// of the curve over bin `i`, so every row sums to 1 and a flat curve stays
+/// flat. For `Rgb`, the three rows give the linear sRGB of the curve through
+/// the spectral → XYZ → sRGB path of [`to_rgb_weights`], with the integrals of
+/// curve × colour matching function taken exactly (Simpson's rule on the
+/// merged knots, exact for these piecewise quadratics): a flat curve of 1
+/// gives `(1, 1, 1)`.
+///
+/// Wavelengths need not be sorted (samples are sorted by wavelength, ties
+/// kept in order, which makes a step); a sample with a non-finite wavelength
+/// is ignored (its column is 0), and with no usable sample every weight is 0.
+pub fn resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f32>> {
+    let inputs = wavelengths_nm.len();
+    let mut order: Vec<usize> = (0..inputs).filter(|&j| wavelengths_nm[j].is_finite()).collect();
+    order.sort_by(|&a, &b| wavelengths_nm[a].total_cmp(&wavelengths_nm[b]));
+    let xs: Vec<f64> = order.iter().map(|&j| f64::from(wavelengths_nm[j])).collect();
+    // Rows over the sorted samples, then scattered back to the caller's order.
+    let sorted_rows: Vec<Vec<f64>> = match model {
+        ColorModel::Spectral { samples } => (0..samples)
+            .map(|i| {
+                let (a, b) = bin(samples, i);
+                hat_integrals(&xs, a, b, |_| 1.0, &[]).into_iter().map(|w| w / (b - a)).collect()
+            })
+            .collect(),
+        ColorModel::Rgb => {
+            let knots = cmf_knots();
+            let y_norm = cmf_integral(LO, HI)[1];
+            let raw: [Vec<f64>; 3] = [0, 1, 2]
+                .map(|c| hat_integrals(&xs, LO, HI, |l| cmf(l)[c], &knots).into_iter().map(|w| w / y_norm).collect());
+            let scale = white_scale();
+            let rgb = mat_times_rows(&XYZ_TO_SRGB, &raw);
+            (0..3).map(|c| rgb[c].iter().map(|w| w * scale[c]).collect()).collect()
+        }
+    };
+    sorted_rows
+        .into_iter()
+        .map(|row| {
+            let mut out = vec![0.0f32; inputs];
+            for (&j, w) in order.iter().zip(row) {
+                out[j] = to_f32(w);
+            }
+            out
+        })
+        .collect()
+}
+
+/// The linear sRGB of a color's lanes, `to_rgb_weights(model) · lanes`
+/// (identity for `Rgb`). Missing lanes count as 0, extra lanes are ignored.
+pub fn lanes_to_rgb(model: ColorModel, lanes: &[f32]) -> [f32; 3] {
+    to_rgb_weights(model)
+        .map(|row| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32)
+}
+
+// ---------------------------------------------------------------------------
+// Internals, all in f64.
+
+fn to_f32(x: f64) -> f32 {
+    x as f32
+}
+
+fn to_f32s(xs: &[f64]) -> Vec<f32> {
+    xs.iter().map(|&x| to_f32(x)).collect()
+}
+
+/// Bin `i` of `n` equal bins of 380–780 nm.
+fn bin(n: usize, i: usize) -> (f64, f64) {
+    let width = (HI - LO) / n as f64;
+    (LO + width * i as f64, if i + 1 == n { HI } else { LO + width * (i + 1) as f64 })
+}
+
+/// The wavelengths of the rows of the CIE table.
+fn cmf_knots() -> Vec<f64> {
+    (0..CMF_1931.len()).map(|k| CMF_START_NM + CMF_STEP_NM * k as f64).collect()
+}
+
+/// The CIE 1931 functions at `l` nm, interpolated linearly between the table
+/// rows and held constant beyond them (only 380–780 nm is ever integrated).
+fn cmf(l: f64) -> [f64; 3] {
+    let last = CMF_1931.len() - 1;
+    let t = ((l - CMF_START_NM) / CMF_STEP_NM).clamp(0.0, last as f64);
+    let k = (t.floor() as usize).min(last - 1);
+    let f = t - k as f64;
+    let (a, b) = (CMF_1931[k], CMF_1931[k + 1]);
+    [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * f)
+}
+
+/// `∫_a^b` of each colour matching function.
+fn cmf_integral(a: f64, b: f64) -> [f64; 3] {
+    let w = hat_integrals(&cmf_knots(), a, b, |_| 1.0, &[]);
+    [0, 1, 2].map(|c| w.iter().zip(&CMF_1931).map(|(w, row)| w * row[c]).sum())
+}
+
+/// Per-channel scale that makes the flat spectrum `(1, 1, 1)`:
+/// `1 / (XYZ_TO_SRGB · flat raw XYZ)`.
+fn white_scale() -> [f64; 3] {
+    let xyz = cmf_integral(LO, HI);
+    let flat = xyz.map(|v| v / xyz[1]);
+    [0, 1, 2].map(|c| 1.0 / (0..3).map(|k| XYZ_TO_SRGB[c][k] * flat[k]).sum::<f64>())
+}
+
+/// `to_rgb` weights of a spectral model with `n` lanes, in f64.
+fn spectral_rgb_weights(n: usize) -> [Vec<f64>; 3] {
+    let y_norm = cmf_integral(LO, HI)[1];
+    let per_bin: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let (a, b) = bin(n, i);
+            cmf_integral(a, b).map(|v| v / y_norm)
+        })
+        .collect();
+    let raw: [Vec<f64>; 3] = [0, 1, 2].map(|c| per_bin.iter().map(|v| v[c]).collect());
+    let scale = white_scale();
+    let rgb = mat_times_rows(&XYZ_TO_SRGB, &raw);
+    [0, 1, 2].map(|c| rgb[c].iter().map(|w| w * scale[c]).collect())
+}
+
+/// `m · rows`, where `rows` are three vectors of equal length.
+fn mat_times_rows(m: &[[f64; 3]; 3], rows: &[Vec<f64>; 3]) -> [Vec<f64>; 3] {
+    let len = rows[0].len();
+    m.map(|mr| (0..len).map(|i| mr[0] * rows[0][i] + mr[1] * rows[1][i] + mr[2] * rows[2][i]).collect())
+}
+
+fn mat3_apply(m: &[[f64; 3]; 3], v: [f32; 3]) -> [f32; 3] {
+    m.map(|row| to_f32(row[0] * f64::from(v[0]) + row[1] * f64::from(v[1]) + row[2] * f64::from(v[2])))
+}
+
+/// The inverse of a 3×3 matrix (by cofactors), usable in constants.
+const fn invert3(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1];
+    let c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2];
+    let c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+    let det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
+    let d = 1.0 / det;
+    [
+        [c00 * d, (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * d, (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * d],
+        [c01 * d, (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * d, (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * d],
+        [c02 * d, (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * d, (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * d],
+    ]
+}
+
+/// Average over lane `i` of `n` of a Smits basis spectrum: piecewise constant
+/// on 10 bins of 34 nm from 380 nm, the last bin held to 780 nm.
+fn smits_bin_average(table: &[f64; SMITS_BINS], n: usize, i: usize) -> f64 {
+    let (a, b) = bin(n, i);
+    let width = (SMITS_END_NM - SMITS_START_NM) / SMITS_BINS as f64;
+    let mut sum = 0.0;
+    for (k, value) in table.iter().enumerate() {
+        let lo = SMITS_START_NM + width * k as f64;
+        let hi = if k + 1 == SMITS_BINS { f64::INFINITY } else { lo + width };
+        let overlap = b.min(hi) - a.max(lo);
+        if overlap > 0.0 {
+            sum += value * overlap;
+        }
+    }
+    sum / (b - a)
+}
+
+/// For the curve through knots `xs` (sorted; interpolated linearly, constant
+/// beyond the ends), the weights `w_j` with
+/// `∫_a^b curve(λ) g(λ) dλ = sum_j w_j value_j`. Exact when `g` is linear
+/// between consecutive `g_knots` (and between the curve's knots): each piece
+/// of the product is a quadratic, integrated by Simpson's rule.
+fn hat_integrals(xs: &[f64], a: f64, b: f64, g: impl Fn(f64) -> f64, g_knots: &[f64]) -> Vec<f64> {
+    let n = xs.len();
+    let mut w = vec![0.0; n];
+    if n == 0 || b <= a {
+        return w;
+    }
+    let mut cuts: Vec<f64> = std::iter::once(a)
+        .chain(xs.iter().chain(g_knots).copied().filter(|&x| x > a && x < b))
+        .chain(std::iter::once(b))
+        .collect();
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    for pair in cuts.windows(2) {
+        let (u, v) = (pair[0], pair[1]);
+        let mid = 0.5 * (u + v);
+        // The piece lies inside one segment of the curve: find it by its middle.
+        let m = xs.partition_point(|&x| x <= mid);
+        let h = (v - u) / 6.0;
+        for (p, simpson) in [(u, h), (mid, 4.0 * h), (v, h)] {
+            let weight = simpson * g(p);
+            if m == 0 {
+                w[0] += weight;
+            } else if m == n {
+                w[n - 1] += weight;
+            } else {
+                let t = (p - xs[m - 1]) / (xs[m] - xs[m - 1]);
+                w[m - 1] += weight * (1.0 - t);
+                w[m] += weight * t;
+            }
+        }
+    }
+    w
+}

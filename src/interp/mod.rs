@@ -1,0 +1,209 @@
+//! The reference interpreter of the IR: the oracle the JIT is tested
+//! against. Small and direct on purpose; speed is the JIT's job.
+//!
+//! Every operation here must give the same bits as the JIT's: natives are
+//! the same Rust functions, and the semantics of `FMin`, integer division
+//! and conversions are spelled out in `ir`.
+
+use crate::check::MAX_LOOP_ITERATIONS;
+use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
+use crate::runtime::{NativeFn, native};
+
+/// Runs `func` on the given globals and argument words, writing the result
+/// words into `out`.
+pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
+    let mut m = Machine {
+        func,
+        globals,
+        args,
+        values: vec![0; func.values.len()],
+        vars: vec![0; func.vars.len()],
+        arrays: func.arrays.iter().map(|(_, n)| vec![0u32; *n as usize]).collect(),
+        out,
+    };
+    let _ = m.body(&func.body);
+}
+
+/// How a body ended.
+enum Flow {
+    Normal,
+    Break(Label),
+    Continue(Label),
+}
+
+struct Machine<'a, 'o> {
+    func: &'a Function,
+    globals: &'a [u32],
+    args: &'a [u32],
+    values: Vec<u32>,
+    vars: Vec<u32>,
+    arrays: Vec<Vec<u32>>,
+    out: &'o mut [u32],
+}
+
+fn f(x: u32) -> f32 {
+    f32::from_bits(x)
+}
+
+fn i(x: u32) -> i32 {
+    x as i32
+}
+
+fn fw(x: f32) -> u32 {
+    x.to_bits()
+}
+
+fn iw(x: i32) -> u32 {
+    x as u32
+}
+
+fn bw(x: bool) -> u32 {
+    u32::from(x)
+}
+
+/// Integer division as the IR defines it: wrapping, and 0 for a zero divisor.
+pub fn int_div(a: i32, b: i32) -> i32 {
+    if b == 0 { 0 } else { a.wrapping_div(b) }
+}
+
+pub fn int_rem(a: i32, b: i32) -> i32 {
+    if b == 0 { 0 } else { a.wrapping_rem(b) }
+}
+
+/// Clamps an array index into `0..len`.
+pub fn clamp_index(index: i32, len: usize) -> usize {
+    (index.max(0) as usize).min(len.saturating_sub(1))
+}
+
+impl Machine<'_, '_> {
+    fn v(&self, v: crate::ir::Value) -> u32 {
+        self.values[v.0 as usize]
+    }
+
+    fn body(&mut self, body: &[Inst]) -> Flow {
+        for inst in body {
+            match inst {
+                Inst::Def(v, op) => {
+                    let x = self.op(op);
+                    self.values[v.0 as usize] = x;
+                }
+                Inst::Set(var, v) => self.vars[var.0 as usize] = self.v(*v),
+                Inst::Store { array, index, value } => {
+                    let a = &mut self.arrays[array.0 as usize];
+                    let k = clamp_index(i(self.values[index.0 as usize]), a.len());
+                    a[k] = self.values[value.0 as usize];
+                }
+                Inst::Output(k, v) => self.out[*k as usize] = self.v(*v),
+                Inst::If { cond, then_body, else_body } => {
+                    let flow = if self.v(*cond) != 0 { self.body(then_body) } else { self.body(else_body) };
+                    if !matches!(flow, Flow::Normal) {
+                        return flow;
+                    }
+                }
+                Inst::Block { label, body } => match self.body(body) {
+                    Flow::Break(l) if l == *label => {}
+                    Flow::Normal => {}
+                    other => return other,
+                },
+                Inst::Loop { label, counter, start, end, body } => {
+                    let (start, end) = (i(self.v(*start)), i(self.v(*end)));
+                    let trips = (i64::from(end) - i64::from(start)).clamp(0, MAX_LOOP_ITERATIONS);
+                    for k in 0..trips {
+                        self.vars[counter.0 as usize] = iw((i64::from(start) + k) as i32);
+                        match self.body(body) {
+                            Flow::Normal => {}
+                            Flow::Continue(l) if l == *label => {}
+                            Flow::Break(l) if l == *label => break,
+                            other => return other,
+                        }
+                    }
+                }
+                Inst::Break(l) => return Flow::Break(*l),
+                Inst::Continue(l) => return Flow::Continue(*l),
+            }
+        }
+        Flow::Normal
+    }
+
+    fn op(&mut self, op: &Op) -> u32 {
+        match op {
+            Op::F32(x) => fw(*x),
+            Op::I32(x) => iw(*x),
+            Op::Bool(b) => bw(*b),
+            Op::Param(k) => self.args[*k as usize],
+            Op::Global(k) => self.globals[*k as usize],
+            Op::Get(var) => self.vars[var.0 as usize],
+            Op::Load { array, index } => {
+                let a = &self.arrays[array.0 as usize];
+                a[clamp_index(i(self.v(*index)), a.len())]
+            }
+            Op::Unary(u, a) => {
+                let a = self.v(*a);
+                match u {
+                    UnOp::FNeg => fw(-f(a)),
+                    UnOp::FAbs => fw(f(a).abs()),
+                    UnOp::Sqrt => fw(f(a).sqrt()),
+                    UnOp::Floor => fw(f(a).floor()),
+                    UnOp::Ceil => fw(f(a).ceil()),
+                    UnOp::Trunc => fw(f(a).trunc()),
+                    UnOp::INeg => iw(i(a).wrapping_neg()),
+                    UnOp::Not => bw(a == 0),
+                    UnOp::IToF => fw(i(a) as f32),
+                    // `as` saturates and maps NaN to 0, like fcvt_to_sint_sat.
+                    UnOp::FToI => iw(f(a) as i32),
+                    UnOp::BToI => a,
+                }
+            }
+            Op::Binary(b, x, y) => {
+                let (x, y) = (self.v(*x), self.v(*y));
+                match b {
+                    BinOp::FAdd => fw(f(x) + f(y)),
+                    BinOp::FSub => fw(f(x) - f(y)),
+                    BinOp::FMul => fw(f(x) * f(y)),
+                    BinOp::FDiv => fw(f(x) / f(y)),
+                    BinOp::FMin => fw(if f(x) < f(y) { f(x) } else { f(y) }),
+                    BinOp::FMax => fw(if f(x) > f(y) { f(x) } else { f(y) }),
+                    BinOp::IAdd => iw(i(x).wrapping_add(i(y))),
+                    BinOp::ISub => iw(i(x).wrapping_sub(i(y))),
+                    BinOp::IMul => iw(i(x).wrapping_mul(i(y))),
+                    BinOp::IDiv => iw(int_div(i(x), i(y))),
+                    BinOp::IRem => iw(int_rem(i(x), i(y))),
+                    BinOp::FLt => bw(f(x) < f(y)),
+                    BinOp::FLe => bw(f(x) <= f(y)),
+                    BinOp::FEq => bw(f(x) == f(y)),
+                    BinOp::ILt => bw(i(x) < i(y)),
+                    BinOp::ILe => bw(i(x) <= i(y)),
+                    BinOp::IEq | BinOp::BEq => bw(x == y),
+                    BinOp::And => bw(x != 0 && y != 0),
+                    BinOp::Or => bw(x != 0 || y != 0),
+                }
+            }
+            Op::Select { cond, then_value, else_value } => {
+                if self.v(*cond) != 0 {
+                    self.v(*then_value)
+                } else {
+                    self.v(*else_value)
+                }
+            }
+            Op::Call { native: name, args } => {
+                let a: Vec<f32> = args.iter().map(|v| f(self.v(*v))).collect();
+                let r = match native(name).map(|n| &n.f) {
+                    Some(NativeFn::F1(g)) => g(a[0]),
+                    Some(NativeFn::F2(g)) => g(a[0], a[1]),
+                    Some(NativeFn::F3(g)) => g(a[0], a[1], a[2]),
+                    Some(NativeFn::F4(g)) => g(a[0], a[1], a[2], a[3]),
+                    Some(NativeFn::F6(g)) => g(a[0], a[1], a[2], a[3], a[4], a[5]),
+                    None => f32::NAN,
+                };
+                fw(r)
+            }
+        }
+    }
+}
+
+impl Machine<'_, '_> {
+    #[allow(dead_code)]
+    fn name(&self) -> &str {
+        &self.func.name
+    }
+}

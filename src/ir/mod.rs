@@ -1,0 +1,287 @@
+//! The typed, scalar IR shared by the interpreter and the JIT.
+//!
+//! Lowering (`lower`) turns a checked program into one IR [`Function`] per
+//! entry point: each method of each material (the whole texture tree
+//! flattened into it) and each generator function. Everything is inlined,
+//! which is possible because TSL has no recursion, and every value is a
+//! scalar: vectors are three lanes, colors as many lanes as the color model
+//! has, so back ends never see a color type.
+//!
+//! Invariants:
+//! - Control flow is structured (`If`, `Block`, `Loop`), and a [`Value`] is
+//!   only used where its definition dominates the use; values that cross
+//!   control flow go through [`Var`]s.
+//! - Every operation is total: integer division by zero gives 0, array
+//!   indices are clamped, loops run at most `MAX_LOOP_ITERATIONS` times,
+//!   float to int conversion saturates. No IR program can trap or hang.
+
+pub mod lower;
+
+use std::fmt::{self, Write};
+
+/// The type of a scalar.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Scalar {
+    F32,
+    I32,
+    Bool,
+}
+
+/// A value defined once by an [`Inst::Def`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Value(pub u32);
+
+/// A mutable scalar variable.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Var(pub u32);
+
+/// A mutable array of scalars, indexed with clamping.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct ArrayId(pub u32);
+
+/// A target for `Break` and `Continue`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Label(pub u32);
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum UnOp {
+    FNeg,
+    FAbs,
+    Sqrt,
+    Floor,
+    Ceil,
+    Trunc,
+    INeg,
+    Not,
+    /// int → float.
+    IToF,
+    /// float → int, saturating; NaN gives 0.
+    FToI,
+    /// bool → int (0 or 1).
+    BToI,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum BinOp {
+    FAdd,
+    FSub,
+    FMul,
+    FDiv,
+    /// `a < b ? a : b`, the same on every back end (NaN handling included).
+    FMin,
+    FMax,
+    IAdd,
+    ISub,
+    IMul,
+    /// Wrapping; division by zero gives 0.
+    IDiv,
+    /// Wrapping; remainder by zero gives 0.
+    IRem,
+    FLt,
+    FLe,
+    FEq,
+    ILt,
+    ILe,
+    IEq,
+    BEq,
+    And,
+    Or,
+}
+
+impl BinOp {
+    pub fn result(self) -> Scalar {
+        use BinOp::*;
+        match self {
+            FAdd | FSub | FMul | FDiv | FMin | FMax => Scalar::F32,
+            IAdd | ISub | IMul | IDiv | IRem => Scalar::I32,
+            FLt | FLe | FEq | ILt | ILe | IEq | BEq | And | Or => Scalar::Bool,
+        }
+    }
+}
+
+/// A value-producing operation.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Op {
+    F32(f32),
+    I32(i32),
+    Bool(bool),
+    /// Word `i` of the argument array.
+    Param(u32),
+    /// Word `i` of the shading globals (see `ShadingGlobals`).
+    Global(u32),
+    Get(Var),
+    Load {
+        array: ArrayId,
+        index: Value,
+    },
+    Unary(UnOp, Value),
+    Binary(BinOp, Value, Value),
+    Select {
+        cond: Value,
+        then_value: Value,
+        else_value: Value,
+    },
+    /// A native function from `runtime` (f32 arguments, f32 result).
+    Call {
+        native: &'static str,
+        args: Vec<Value>,
+    },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Inst {
+    Def(Value, Op),
+    Set(Var, Value),
+    Store {
+        array: ArrayId,
+        index: Value,
+        value: Value,
+    },
+    /// Word `i` of the result array.
+    Output(u32, Value),
+    If {
+        cond: Value,
+        then_body: Vec<Inst>,
+        else_body: Vec<Inst>,
+    },
+    /// A block that `Break(label)` leaves early.
+    Block {
+        label: Label,
+        body: Vec<Inst>,
+    },
+    /// `counter` runs from `start` while below `end`, at most
+    /// `MAX_LOOP_ITERATIONS` times. `Break(label)` leaves the loop,
+    /// `Continue(label)` goes to the next iteration.
+    Loop {
+        label: Label,
+        counter: Var,
+        start: Value,
+        end: Value,
+        body: Vec<Inst>,
+    },
+    Break(Label),
+    Continue(Label),
+}
+
+/// One entry point: `extern "C" fn(globals, args, out)`.
+#[derive(Debug, Clone, Default)]
+pub struct Function {
+    pub name: String,
+    /// The argument words and their types.
+    pub params: Vec<Scalar>,
+    /// The result words and their types.
+    pub results: Vec<Scalar>,
+    pub values: Vec<Scalar>,
+    pub vars: Vec<Scalar>,
+    /// Element type and length of each array.
+    pub arrays: Vec<(Scalar, u32)>,
+    pub labels: u32,
+    pub body: Vec<Inst>,
+}
+
+impl Function {
+    pub fn value_type(&self, v: Value) -> Scalar {
+        self.values[v.0 as usize]
+    }
+}
+
+/// All entry points of a program, for one color model.
+#[derive(Debug, Clone, Default)]
+pub struct Module {
+    pub functions: Vec<Function>,
+}
+
+impl Module {
+    pub fn function(&self, name: &str) -> Option<&Function> {
+        self.functions.iter().find(|f| f.name == name)
+    }
+}
+
+// ---------------------------------------------------------------- printing
+
+impl fmt::Display for Module {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, func) in self.functions.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{func}")?;
+        }
+        Ok(())
+    }
+}
+
+fn scalar_name(s: Scalar) -> &'static str {
+    match s {
+        Scalar::F32 => "f32",
+        Scalar::I32 => "i32",
+        Scalar::Bool => "bool",
+    }
+}
+
+impl fmt::Display for Function {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let list = |xs: &[Scalar]| xs.iter().map(|s| scalar_name(*s)).collect::<Vec<_>>().join(", ");
+        writeln!(f, "fn {}(args: [{}]) -> [{}] {{", self.name, list(&self.params), list(&self.results))?;
+        let mut out = String::new();
+        print_body(&mut out, self, &self.body, 1);
+        f.write_str(&out)?;
+        writeln!(f, "}}")
+    }
+}
+
+fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
+    let pad = "    ".repeat(depth);
+    for inst in body {
+        let _ = match inst {
+            Inst::Def(v, op) => {
+                writeln!(out, "{pad}v{}: {} = {}", v.0, scalar_name(func.value_type(*v)), print_op(op))
+            }
+            Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
+            Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
+            Inst::Output(i, v) => writeln!(out, "{pad}out[{i}] = v{}", v.0),
+            Inst::If { cond, then_body, else_body } => {
+                let _ = writeln!(out, "{pad}if v{} {{", cond.0);
+                print_body(out, func, then_body, depth + 1);
+                if !else_body.is_empty() {
+                    let _ = writeln!(out, "{pad}}} else {{");
+                    print_body(out, func, else_body, depth + 1);
+                }
+                writeln!(out, "{pad}}}")
+            }
+            Inst::Block { label, body } => {
+                let _ = writeln!(out, "{pad}block L{} {{", label.0);
+                print_body(out, func, body, depth + 1);
+                writeln!(out, "{pad}}}")
+            }
+            Inst::Loop { label, counter, start, end, body } => {
+                let _ = writeln!(out, "{pad}loop L{} x{} in v{}..v{} {{", label.0, counter.0, start.0, end.0);
+                print_body(out, func, body, depth + 1);
+                writeln!(out, "{pad}}}")
+            }
+            Inst::Break(l) => writeln!(out, "{pad}break L{}", l.0),
+            Inst::Continue(l) => writeln!(out, "{pad}continue L{}", l.0),
+        };
+    }
+}
+
+fn print_op(op: &Op) -> String {
+    match op {
+        Op::F32(x) => format!("{x:?}"),
+        Op::I32(x) => format!("{x}i"),
+        Op::Bool(b) => format!("{b}"),
+        Op::Param(i) => format!("args[{i}]"),
+        Op::Global(i) => format!("globals[{i}]"),
+        Op::Get(v) => format!("x{}", v.0),
+        Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
+        Op::Unary(u, a) => format!("{u:?}(v{})", a.0).to_lowercase(),
+        Op::Binary(b, x, y) => format!("{}(v{}, v{})", format!("{b:?}").to_lowercase(), x.0, y.0),
+        Op::Select { cond, then_value, else_value } => {
+            format!("select(v{}, v{}, v{})", cond.0, then_value.0, else_value.0)
+        }
+        Op::Call { native, args } => {
+            let args: Vec<String> = args.iter().map(|a| format!("v{}", a.0)).collect();
+            format!("{native}({})", args.join(", "))
+        }
+    }
+}

@@ -1,0 +1,471 @@
+//! Cranelift code generation: one native `extern "C"` function per IR
+//! function, `fn(globals: *const ShadingGlobals, args: *const u32, out: *mut u32)`.
+//!
+//! All `unsafe` of the crate lives here. The generated code reads only the
+//! globals record, the argument words and its own stack slots, and writes
+//! only the result words: IR operations are total (clamped indices, guarded
+//! integer division, saturating conversions, bounded loops), so the code
+//! cannot trap or hang. Its memory is freed when the [`Jit`] is dropped.
+
+use crate::check::MAX_LOOP_ITERATIONS;
+use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
+use crate::runtime::natives;
+use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
+use cranelift_codegen::ir::{
+    AbiParam, Block, FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Type, types,
+};
+use cranelift_codegen::settings::{self, Configurable};
+use cranelift_codegen::{Context, ir::Value as ClValue};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
+use cranelift_jit::{JITBuilder, JITModule};
+use cranelift_module::{FuncId, Linkage, Module};
+use std::collections::HashMap;
+
+/// The native signature of every entry point.
+pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, out: *mut u32);
+
+/// Compiled code for a whole IR module.
+pub struct Jit {
+    module: Option<JITModule>,
+    functions: HashMap<String, EntryFn>,
+    /// Cranelift IR text per function, when asked for (`tslc emit --emit clif`).
+    pub clif: Vec<(String, String)>,
+}
+
+// SAFETY: after `finalize_definitions` the code is immutable and the entry
+// points are plain function pointers; the module itself is touched again only
+// by `Drop`, which has `&mut self`.
+unsafe impl Send for Jit {}
+// SAFETY: as above; calling the functions from many threads at once is safe
+// because they only read their inputs and write their own outputs.
+unsafe impl Sync for Jit {}
+
+impl Drop for Jit {
+    fn drop(&mut self) {
+        if let Some(module) = self.module.take() {
+            // SAFETY: the `Jit` owns the only copies of the function pointers
+            // (`function` hands out copies whose use is tied to `&self`), so
+            // nothing can call into the code after this.
+            unsafe { module.free_memory() };
+        }
+    }
+}
+
+impl Jit {
+    /// The compiled entry point of an IR function.
+    pub fn function(&self, name: &str) -> Option<EntryFn> {
+        self.functions.get(name).copied()
+    }
+}
+
+/// Options for code generation.
+#[derive(Debug, Clone, Default)]
+pub struct JitOptions {
+    /// Keep the Cranelift IR text of each function in [`Jit::clif`].
+    pub keep_clif: bool,
+}
+
+/// Compiles every function of an IR module.
+pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String> {
+    let mut flags = settings::builder();
+    for (k, v) in [("use_colocated_libcalls", "false"), ("is_pic", "false"), ("opt_level", "speed")] {
+        flags.set(k, v).map_err(|e| e.to_string())?;
+    }
+    let isa = cranelift_native::builder()
+        .map_err(|e| format!("this machine is not supported by Cranelift: {e}"))?
+        .finish(settings::Flags::new(flags))
+        .map_err(|e| e.to_string())?;
+    let mut builder = JITBuilder::with_isa(isa, cranelift_module::default_libcall_names());
+    for n in natives() {
+        builder.symbol(n.name, n.ptr);
+    }
+    let mut jit = JITModule::new(builder);
+    let ptr = jit.target_config().pointer_type();
+
+    // Natives: f32 x arity -> f32.
+    let mut native_ids: HashMap<&'static str, FuncId> = HashMap::new();
+    for n in natives() {
+        let mut sig = jit.make_signature();
+        sig.params.extend((0..n.arity).map(|_| AbiParam::new(types::F32)));
+        sig.returns.push(AbiParam::new(types::F32));
+        let id = jit.declare_function(n.name, Linkage::Import, &sig).map_err(|e| e.to_string())?;
+        native_ids.insert(n.name, id);
+    }
+
+    let mut entry_sig = jit.make_signature();
+    entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
+    let mut ids = Vec::new();
+    for (k, f) in module.functions.iter().enumerate() {
+        // Symbol names are positional: IR names may contain dots.
+        let id =
+            jit.declare_function(&format!("tsl_entry_{k}"), Linkage::Local, &entry_sig).map_err(|e| e.to_string())?;
+        ids.push(id);
+        let _ = f;
+    }
+
+    let mut ctx = Context::new();
+    let mut fctx = FunctionBuilderContext::new();
+    let mut clif = Vec::new();
+    for (f, id) in module.functions.iter().zip(&ids) {
+        ctx.func.signature = entry_sig.clone();
+        {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
+            let mut natives_used: HashMap<&'static str, FuncRef> = HashMap::new();
+            for (name, nid) in &native_ids {
+                natives_used.insert(name, jit.declare_func_in_func(*nid, b.func));
+            }
+            let mut g = Gen::new(&mut b, f, natives_used, ptr);
+            g.entry();
+            g.body(&f.body);
+            g.finish();
+            b.seal_all_blocks();
+            b.finalize(jit.target_config());
+        }
+        if options.keep_clif {
+            clif.push((f.name.clone(), ctx.func.display().to_string()));
+        }
+        jit.define_function(*id, &mut ctx).map_err(|e| format!("cannot compile `{}`: {e:?}", f.name))?;
+        jit.clear_context(&mut ctx);
+    }
+    jit.finalize_definitions().map_err(|e| e.to_string())?;
+    let mut functions = HashMap::new();
+    for (f, id) in module.functions.iter().zip(&ids) {
+        let code = jit.get_finalized_function(*id);
+        // SAFETY: the function was defined with `entry_sig`, the platform C
+        // ABI taking three pointers and returning nothing: exactly `EntryFn`.
+        let entry = unsafe { std::mem::transmute::<*const u8, EntryFn>(code) };
+        functions.insert(f.name.clone(), entry);
+    }
+    Ok(Jit { module: Some(jit), functions, clif })
+}
+
+fn cl_type(s: Scalar) -> Type {
+    match s {
+        Scalar::F32 => types::F32,
+        Scalar::I32 => types::I32,
+        Scalar::Bool => types::I8,
+    }
+}
+
+/// Translates one IR function.
+struct Gen<'a, 'b> {
+    b: &'a mut FunctionBuilder<'b>,
+    func: &'a ir::Function,
+    values: Vec<Option<ClValue>>,
+    vars: Vec<Variable>,
+    arrays: Vec<cranelift_codegen::ir::StackSlot>,
+    /// Exit block and, for loops, the continue block of each label.
+    labels: HashMap<Label, (Block, Option<Block>)>,
+    natives: HashMap<&'static str, FuncRef>,
+    ptr: Type,
+    globals: ClValue,
+    args: ClValue,
+    out: ClValue,
+}
+
+impl<'a, 'b> Gen<'a, 'b> {
+    fn new(
+        b: &'a mut FunctionBuilder<'b>,
+        func: &'a ir::Function,
+        natives: HashMap<&'static str, FuncRef>,
+        ptr: Type,
+    ) -> Self {
+        let entry = b.create_block();
+        b.append_block_params_for_function_params(entry);
+        b.switch_to_block(entry);
+        let params = b.block_params(entry).to_vec();
+        Gen {
+            b,
+            func,
+            values: vec![None; func.values.len()],
+            vars: Vec::new(),
+            arrays: Vec::new(),
+            labels: HashMap::new(),
+            natives,
+            ptr,
+            globals: params[0],
+            args: params[1],
+            out: params[2],
+        }
+    }
+
+    fn entry(&mut self) {
+        for ty in &self.func.vars {
+            let var = self.b.declare_var(cl_type(*ty));
+            // Every variable starts defined (at zero), as in the interpreter.
+            let zero = self.zero(*ty);
+            self.b.def_var(var, zero);
+            self.vars.push(var);
+        }
+        for (ty, len) in &self.func.arrays {
+            let _ = ty;
+            let slot =
+                self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 4 * len.max(&1), 2));
+            self.arrays.push(slot);
+        }
+    }
+
+    fn finish(&mut self) {
+        self.b.ins().return_(&[]);
+    }
+
+    fn zero(&mut self, ty: Scalar) -> ClValue {
+        match ty {
+            Scalar::F32 => self.b.ins().f32const(0.0),
+            Scalar::I32 => self.b.ins().iconst(types::I32, 0),
+            Scalar::Bool => self.b.ins().iconst(types::I8, 0),
+        }
+    }
+
+    fn v(&self, v: ir::Value) -> ClValue {
+        // Lowering defines every value before its uses (dominance invariant).
+        self.values[v.0 as usize].expect("IR value used before its definition")
+    }
+
+    /// After a jump, code that follows in the same IR body is unreachable;
+    /// it goes into a fresh block with no predecessors.
+    fn start_dead_block(&mut self) {
+        let dead = self.b.create_block();
+        self.b.switch_to_block(dead);
+    }
+
+    fn body(&mut self, body: &[Inst]) {
+        for inst in body {
+            self.inst(inst);
+        }
+    }
+
+    fn word_addr(&mut self, base: ClValue, index: ClValue) -> ClValue {
+        let wide = self.b.ins().uextend(self.ptr, index);
+        let offset = self.b.ins().ishl_imm_u(wide, 2);
+        self.b.ins().iadd(base, offset)
+    }
+
+    /// Clamps an index into `0..len` (the IR's semantics).
+    fn clamp_index(&mut self, index: ClValue, len: u32) -> ClValue {
+        let zero = self.b.ins().iconst(types::I32, 0);
+        let last = self.b.ins().iconst(types::I32, i64::from(len.max(1) - 1));
+        let lo = self.b.ins().smax(index, zero);
+        self.b.ins().smin(lo, last)
+    }
+
+    fn inst(&mut self, inst: &Inst) {
+        let trusted = MemFlagsData::trusted();
+        match inst {
+            Inst::Def(v, op) => {
+                let ty = self.func.value_type(*v);
+                let x = self.op(op, ty);
+                self.values[v.0 as usize] = Some(x);
+            }
+            Inst::Set(var, v) => {
+                let x = self.v(*v);
+                self.b.def_var(self.vars[var.0 as usize], x);
+            }
+            Inst::Store { array, index, value } => {
+                let len = self.func.arrays[array.0 as usize].1;
+                let i = self.v(*index);
+                let i = self.clamp_index(i, len);
+                let base = self.b.ins().stack_addr(self.ptr, self.arrays[array.0 as usize], 0);
+                let addr = self.word_addr(base, i);
+                let x = self.v(*value);
+                let x =
+                    if self.func.value_type(*value) == Scalar::Bool { self.b.ins().uextend(types::I32, x) } else { x };
+                self.b.ins().store(trusted, x, addr, 0);
+            }
+            Inst::Output(k, v) => {
+                let x = self.v(*v);
+                let x = if self.func.value_type(*v) == Scalar::Bool { self.b.ins().uextend(types::I32, x) } else { x };
+                self.b.ins().store(trusted, x, self.out, (*k * 4) as i32);
+            }
+            Inst::If { cond, then_body, else_body } => {
+                let c = self.v(*cond);
+                let (then_b, else_b, merge) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+                self.b.ins().brif(c, then_b, &[], else_b, &[]);
+                self.b.switch_to_block(then_b);
+                self.body(then_body);
+                self.b.ins().jump(merge, &[]);
+                self.b.switch_to_block(else_b);
+                self.body(else_body);
+                self.b.ins().jump(merge, &[]);
+                self.b.switch_to_block(merge);
+            }
+            Inst::Block { label, body } => {
+                let exit = self.b.create_block();
+                self.labels.insert(*label, (exit, None));
+                self.body(body);
+                self.b.ins().jump(exit, &[]);
+                self.b.switch_to_block(exit);
+            }
+            Inst::Loop { label, counter, start, end, body } => {
+                // Trip count, computed in 64 bits so no bound can overflow:
+                // clamp(end - start, 0, MAX_LOOP_ITERATIONS).
+                let s = self.v(*start);
+                let e = self.v(*end);
+                let s64 = self.b.ins().sextend(types::I64, s);
+                let e64 = self.b.ins().sextend(types::I64, e);
+                let d = self.b.ins().isub(e64, s64);
+                let zero = self.b.ins().iconst(types::I64, 0);
+                let max = self.b.ins().iconst(types::I64, MAX_LOOP_ITERATIONS);
+                let d = self.b.ins().smax(d, zero);
+                let trips = self.b.ins().smin(d, max);
+                let k = self.b.declare_var(types::I64);
+                self.b.def_var(k, zero);
+                let (header, body_b, latch, exit) =
+                    (self.b.create_block(), self.b.create_block(), self.b.create_block(), self.b.create_block());
+                self.b.ins().jump(header, &[]);
+                self.b.switch_to_block(header);
+                let kv = self.b.use_var(k);
+                let more = self.b.ins().icmp(IntCC::SignedLessThan, kv, trips);
+                self.b.ins().brif(more, body_b, &[], exit, &[]);
+                self.b.switch_to_block(body_b);
+                let kv = self.b.use_var(k);
+                let i64v = self.b.ins().iadd(s64, kv);
+                let i = self.b.ins().ireduce(types::I32, i64v);
+                self.b.def_var(self.vars[counter.0 as usize], i);
+                self.labels.insert(*label, (exit, Some(latch)));
+                self.body(body);
+                self.b.ins().jump(latch, &[]);
+                self.b.switch_to_block(latch);
+                let kv = self.b.use_var(k);
+                let next = self.b.ins().iadd_imm_s(kv, 1);
+                self.b.def_var(k, next);
+                self.b.ins().jump(header, &[]);
+                self.b.switch_to_block(exit);
+            }
+            Inst::Break(l) => {
+                if let Some((exit, _)) = self.labels.get(l).copied() {
+                    self.b.ins().jump(exit, &[]);
+                    self.start_dead_block();
+                }
+            }
+            Inst::Continue(l) => {
+                if let Some((_, Some(latch))) = self.labels.get(l).copied() {
+                    self.b.ins().jump(latch, &[]);
+                    self.start_dead_block();
+                }
+            }
+        }
+    }
+
+    fn op(&mut self, op: &Op, ty: Scalar) -> ClValue {
+        let readonly = MemFlagsData::trusted().with_readonly();
+        match op {
+            Op::F32(x) => self.b.ins().f32const(*x),
+            Op::I32(x) => self.b.ins().iconst(types::I32, i64::from(*x)),
+            Op::Bool(x) => self.b.ins().iconst(types::I8, i64::from(*x)),
+            Op::Param(k) => self.load_word(self.args, *k, ty, readonly),
+            Op::Global(k) => self.load_word(self.globals, *k, ty, readonly),
+            Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
+            Op::Load { array, index } => {
+                let len = self.func.arrays[array.0 as usize].1;
+                let i = self.v(*index);
+                let i = self.clamp_index(i, len);
+                let base = self.b.ins().stack_addr(self.ptr, self.arrays[array.0 as usize], 0);
+                let addr = self.word_addr(base, i);
+                let word = if ty == Scalar::F32 { types::F32 } else { types::I32 };
+                let x = self.b.ins().load(word, MemFlagsData::trusted(), addr, 0);
+                if ty == Scalar::Bool { self.b.ins().ireduce(types::I8, x) } else { x }
+            }
+            Op::Unary(u, a) => {
+                let a = self.v(*a);
+                let ins = self.b.ins();
+                match u {
+                    UnOp::FNeg => ins.fneg(a),
+                    UnOp::FAbs => ins.fabs(a),
+                    UnOp::Sqrt => ins.sqrt(a),
+                    UnOp::Floor => ins.floor(a),
+                    UnOp::Ceil => ins.ceil(a),
+                    UnOp::Trunc => ins.trunc(a),
+                    UnOp::INeg => ins.ineg(a),
+                    UnOp::Not => ins.bxor_imm_u(a, 1),
+                    UnOp::IToF => ins.fcvt_from_sint(types::F32, a),
+                    UnOp::FToI => ins.fcvt_to_sint_sat(types::I32, a),
+                    UnOp::BToI => ins.uextend(types::I32, a),
+                }
+            }
+            Op::Binary(bop, x, y) => {
+                let (x, y) = (self.v(*x), self.v(*y));
+                self.binary(*bop, x, y)
+            }
+            Op::Select { cond, then_value, else_value } => {
+                let (c, a, z) = (self.v(*cond), self.v(*then_value), self.v(*else_value));
+                self.b.ins().select(c, a, z)
+            }
+            Op::Call { native, args } => {
+                let args: Vec<ClValue> = args.iter().map(|a| self.v(*a)).collect();
+                match self.natives.get(native).copied() {
+                    Some(f) => {
+                        let call = self.b.ins().call(f, &args);
+                        self.b.inst_results(call)[0]
+                    }
+                    // Lowering only names natives that exist; NaN keeps an
+                    // inconsistency visible rather than crashing.
+                    None => self.b.ins().f32const(f32::NAN),
+                }
+            }
+        }
+    }
+
+    fn load_word(&mut self, base: ClValue, k: u32, ty: Scalar, flags: MemFlagsData) -> ClValue {
+        let offset = (k * 4) as i32;
+        match ty {
+            Scalar::F32 => self.b.ins().load(types::F32, flags, base, offset),
+            Scalar::I32 => self.b.ins().load(types::I32, flags, base, offset),
+            Scalar::Bool => {
+                let w = self.b.ins().load(types::I32, flags, base, offset);
+                let nz = self.b.ins().icmp_imm_s(IntCC::NotEqual, w, 0);
+                // icmp gives an i8 0/1, the IR's bool.
+                nz
+            }
+        }
+    }
+
+    fn binary(&mut self, op: BinOp, x: ClValue, y: ClValue) -> ClValue {
+        let ins = self.b.ins();
+        match op {
+            BinOp::FAdd => ins.fadd(x, y),
+            BinOp::FSub => ins.fsub(x, y),
+            BinOp::FMul => ins.fmul(x, y),
+            BinOp::FDiv => ins.fdiv(x, y),
+            BinOp::FMin => {
+                let c = ins.fcmp(FloatCC::LessThan, x, y);
+                self.b.ins().select(c, x, y)
+            }
+            BinOp::FMax => {
+                let c = ins.fcmp(FloatCC::GreaterThan, x, y);
+                self.b.ins().select(c, x, y)
+            }
+            BinOp::IAdd => ins.iadd(x, y),
+            BinOp::ISub => ins.isub(x, y),
+            BinOp::IMul => ins.imul(x, y),
+            BinOp::IDiv | BinOp::IRem => self.safe_div(op, x, y),
+            BinOp::FLt => ins.fcmp(FloatCC::LessThan, x, y),
+            BinOp::FLe => ins.fcmp(FloatCC::LessThanOrEqual, x, y),
+            BinOp::FEq => ins.fcmp(FloatCC::Equal, x, y),
+            BinOp::ILt => ins.icmp(IntCC::SignedLessThan, x, y),
+            BinOp::ILe => ins.icmp(IntCC::SignedLessThanOrEqual, x, y),
+            BinOp::IEq | BinOp::BEq => ins.icmp(IntCC::Equal, x, y),
+            BinOp::And => ins.band(x, y),
+            BinOp::Or => ins.bor(x, y),
+        }
+    }
+
+    /// Integer division without traps: a zero divisor gives 0, and
+    /// `MIN / -1` wraps (as the interpreter's `wrapping_div`).
+    fn safe_div(&mut self, op: BinOp, x: ClValue, y: ClValue) -> ClValue {
+        let ins = self.b.ins();
+        let zero = ins.iconst(types::I32, 0);
+        let one = self.b.ins().iconst(types::I32, 1);
+        let is_zero = self.b.ins().icmp_imm_s(IntCC::Equal, y, 0);
+        let is_minus_one = self.b.ins().icmp_imm_s(IntCC::Equal, y, -1);
+        let special = self.b.ins().bor(is_zero, is_minus_one);
+        let divisor = self.b.ins().select(special, one, y);
+        let (plain, by_minus_one) = if op == BinOp::IDiv {
+            (self.b.ins().sdiv(x, divisor), self.b.ins().ineg(x))
+        } else {
+            (self.b.ins().srem(x, divisor), zero)
+        };
+        let r = self.b.ins().select(is_minus_one, by_minus_one, plain);
+        self.b.ins().select(is_zero, zero, r)
+    }
+}

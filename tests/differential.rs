@@ -1,0 +1,169 @@
+//! Differential tests: the JIT and the reference interpreter agree on every
+//! generator and material method of `stdlib/`, `examples/` and
+//! `tests/check/ok/`, at 1,000 random shading points each, in the RGB and a
+//! spectral color model.
+
+use tsl::check::Ty;
+use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
+
+const POINTS: usize = 1000;
+
+/// A small deterministic generator (xorshift), so failures reproduce.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+    /// Uniform in [lo, hi).
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
+    }
+    fn unit(&mut self) -> [f32; 3] {
+        loop {
+            let v = [self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0)];
+            let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            if l > 0.1 && l <= 1.0 {
+                return [v[0] / l, v[1] / l, v[2] / l];
+            }
+        }
+    }
+}
+
+fn globals(rng: &mut Rng) -> ShadingGlobals {
+    let p = [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)];
+    let n = rng.unit();
+    ShadingGlobals {
+        p,
+        pl: [p[0] * 0.5, p[1] * 0.5, p[2] * 0.5],
+        n,
+        ng: n,
+        u: rng.range(0.0, 1.0),
+        v: rng.range(0.0, 1.0),
+        dpdu: rng.unit(),
+        dpdv: rng.unit(),
+        face: (rng.next() % 6) as i32,
+        t: rng.range(0.0, 10.0),
+        dpdx: [rng.range(0.0, 0.01), 0.0, 0.0],
+        dpdy: [0.0, rng.range(0.0, 0.01), 0.0],
+        dudx: rng.range(0.0, 0.01),
+        dudy: 0.0,
+        dvdx: 0.0,
+        dvdy: rng.range(0.0, 0.01),
+    }
+}
+
+/// Random argument words for a parameter list: unit directions for
+/// vectors, colors in [0, 1], small ints.
+fn args(rng: &mut Rng, params: &[(String, Ty)], model: ColorModel) -> Vec<u32> {
+    let mut words = Vec::new();
+    for (name, ty) in params {
+        match ty {
+            Ty::Float if name == "distance" => words.push(rng.range(0.0, 5.0).to_bits()),
+            Ty::Float => words.push(rng.range(-2.0, 2.0).to_bits()),
+            Ty::Int => words.push((rng.next() % 8) as u32),
+            Ty::Bool => words.push((rng.next() % 2) as u32),
+            Ty::Vec2 => words.extend([rng.range(-2.0, 2.0).to_bits(), rng.range(-2.0, 2.0).to_bits()]),
+            Ty::Vector | Ty::Point | Ty::Normal => words.extend(rng.unit().map(f32::to_bits)),
+            Ty::Color if name == "eta" => words.extend((0..model.lanes()).map(|_| rng.range(1.0, 2.0).to_bits())),
+            Ty::Color => words.extend((0..model.lanes()).map(|_| rng.range(0.0, 1.0).to_bits())),
+            Ty::Matrix => words.extend((0..12).map(|_| rng.range(-1.0, 1.0).to_bits())),
+            _ => {}
+        }
+    }
+    words
+}
+
+fn close(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
+    if a == b {
+        return true;
+    }
+    if ty != tsl::ir::Scalar::F32 {
+        return false;
+    }
+    let (x, y) = (f32::from_bits(a), f32::from_bits(b));
+    (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-5 * x.abs().max(y.abs()).max(1.0)
+}
+
+/// Compares both back ends on every entry whose name passes `keep`.
+fn compare(program: &Program, keep: impl Fn(&str) -> bool, seed: u64) -> usize {
+    let mut rng = Rng(seed);
+    let mut checked = 0;
+    for entry in program.entries().iter().filter(|e| keep(&e.name)) {
+        let f = program.function(&entry.name).expect("every entry is compiled");
+        let results = f.ir().results.clone();
+        let mut out_jit = vec![0u32; results.len()];
+        let mut out_int = vec![0u32; results.len()];
+        for point in 0..POINTS {
+            let g = globals(&mut rng);
+            let a = args(&mut rng, &entry.params, program.color_model());
+            f.call_words(Backend::Jit, &g, &a, &mut out_jit).unwrap();
+            f.call_words(Backend::Interpreter, &g, &a, &mut out_int).unwrap();
+            for (k, ty) in results.iter().enumerate() {
+                assert!(
+                    close(out_jit[k], out_int[k], *ty),
+                    "{} ({}) word {k} at point {point}: jit {:?} vs interpreter {:?}\nglobals {g:?}\nargs {a:?}",
+                    entry.name,
+                    program.color_model().name(),
+                    f32::from_bits(out_jit[k]),
+                    f32::from_bits(out_int[k]),
+                );
+            }
+        }
+        checked += 1;
+    }
+    checked
+}
+
+const MODELS: [ColorModel; 2] = [ColorModel::Rgb, ColorModel::Spectral { samples: 16 }];
+
+#[test]
+fn stdlib_agrees() {
+    for model in MODELS {
+        let program =
+            Compiler::new().color_model(model).source("empty.tsl", "const float UNUSED = 0;").compile().unwrap();
+        let n = compare(&program, |_| true, 1);
+        assert!(n >= 40, "only {n} stdlib entries were compared");
+    }
+}
+
+/// Entries defined in the file itself (the prelude is covered above).
+fn own_entries(path: &std::path::Path) -> Vec<String> {
+    let checked = tsl::check_file(path, &tsl::LoadOptions::default());
+    let root = checked.program.loaded.modules.iter().position(|m| !m.is_prelude).unwrap();
+    checked.program.symbols.iter().filter(|(_, s)| s.module >= root).map(|(n, _)| n.clone()).collect()
+}
+
+fn compare_files(dir: &str) {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "tsl"))
+        .collect();
+    files.sort();
+    for path in files {
+        let names = own_entries(&path);
+        for model in MODELS {
+            let program = Compiler::new()
+                .color_model(model)
+                .file(&path)
+                .compile()
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let keep = |entry: &str| names.iter().any(|n| entry == n || entry.starts_with(&format!("{n}.")));
+            compare(&program, keep, 7);
+        }
+    }
+}
+
+#[test]
+fn examples_agree() {
+    compare_files("examples");
+}
+
+#[test]
+fn ok_fixtures_agree() {
+    compare_files("tests/check/ok");
+}
