@@ -317,101 +317,111 @@ impl fmt::Debug for Material {
     }
 }
 
-/// Argument words for a method call.
+/// The most argument words a method takes: `refraction(wi, light, eta, wo)`.
+const MAX_ARG_WORDS: usize = 3 + 2 * MAX_SAMPLES + 3;
+
+/// Argument words for a method call, filled front to back.
 struct Args {
-    words: [u32; 3 + 2 * MAX_SAMPLES + 3],
+    words: [std::mem::MaybeUninit<u32>; MAX_ARG_WORDS],
     len: usize,
 }
 
 impl Args {
     fn new() -> Args {
-        Args { words: [0; 3 + 2 * MAX_SAMPLES + 3], len: 0 }
+        // No zeroing: only the first `len` words are ever read.
+        Args { words: [std::mem::MaybeUninit::uninit(); MAX_ARG_WORDS], len: 0 }
+    }
+    fn push(&mut self, x: f32) {
+        self.words[self.len] = std::mem::MaybeUninit::new(x.to_bits());
+        self.len += 1;
     }
     fn v(mut self, v: [f32; 3]) -> Args {
-        for x in v {
-            self.words[self.len] = x.to_bits();
-            self.len += 1;
-        }
+        v.into_iter().for_each(|x| self.push(x));
         self
     }
     fn f(mut self, x: f32) -> Args {
-        self.words[self.len] = x.to_bits();
-        self.len += 1;
+        self.push(x);
         self
     }
     fn c(mut self, c: &Color) -> Args {
-        for x in c.lanes() {
-            self.words[self.len] = x.to_bits();
-            self.len += 1;
-        }
+        c.lanes().iter().for_each(|x| self.push(*x));
         self
     }
 }
 
 impl Material {
-    fn call(&self, k: usize, g: &ShadingGlobals, args: Args) -> [u32; MAX_SAMPLES] {
-        let mut out = [0u32; MAX_SAMPLES];
-        // Argument and result sizes follow the interface, so this cannot fail.
-        let _ = self.methods[k].call_words(Backend::Jit, g, &args.words[..args.len], &mut out);
-        out
+    /// Calls method `k`, writing its result words into `out`.
+    fn call_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: *mut u32) {
+        let f = &self.methods[k];
+        debug_assert_eq!(args.len, f.ir().params.len());
+        // SAFETY: `args` holds exactly the words method `k` of the material
+        // interface takes (the wrappers below build them from the
+        // interface signature, checked in debug builds), all initialised;
+        // `out` has room for its results (at most MAX_SAMPLES words); the
+        // code lives as long as `self.program`.
+        unsafe { (f.native)((g as *const ShadingGlobals).cast(), args.words.as_ptr().cast(), out) }
     }
 
-    fn color(&self, words: [u32; MAX_SAMPLES]) -> Color {
-        let model = self.program.color_model();
-        let lanes: Vec<f32> = words[..model.lanes()].iter().map(|w| f32::from_bits(*w)).collect();
-        Color::from_lanes(model, &lanes)
+    fn color(&self, k: usize, g: &ShadingGlobals, args: Args) -> Color {
+        let mut c = Color::black(self.program.color_model());
+        self.call_into(k, g, &args, c.lanes.as_mut_ptr().cast());
+        c
     }
 
-    fn vector(words: [u32; MAX_SAMPLES]) -> [f32; 3] {
-        [f32::from_bits(words[0]), f32::from_bits(words[1]), f32::from_bits(words[2])]
+    fn vector(&self, k: usize, g: &ShadingGlobals, args: Args) -> [f32; 3] {
+        let mut v = [0.0f32; 3];
+        self.call_into(k, g, &args, v.as_mut_ptr().cast());
+        v
     }
 
     /// Light arriving from `wi` reflected toward `wo`.
     pub fn reflection(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, wo: [f32; 3]) -> Color {
-        self.color(self.call(0, g, Args::new().v(wi).c(light).v(wo)))
+        self.color(0, g, Args::new().v(wi).c(light).v(wo))
     }
 
     /// Light arriving from `wi` transmitted toward `wo`.
     pub fn refraction(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, eta: &Color, wo: [f32; 3]) -> Color {
-        self.color(self.call(1, g, Args::new().v(wi).c(light).c(eta).v(wo)))
+        self.color(1, g, Args::new().v(wi).c(light).c(eta).v(wo))
     }
 
     pub fn refraction_index(&self, g: &ShadingGlobals) -> Color {
-        self.color(self.call(2, g, Args::new()))
+        self.color(2, g, Args::new())
     }
 
     /// The mirror direction for an outgoing `wo`; zero when there is none.
     pub fn reflection_dir(&self, g: &ShadingGlobals, wo: [f32; 3]) -> [f32; 3] {
-        Self::vector(self.call(3, g, Args::new().v(wo)))
+        self.vector(3, g, Args::new().v(wo))
     }
 
     /// The refracted direction; zero on total internal reflection or none.
     pub fn refraction_dir(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color) -> [f32; 3] {
-        Self::vector(self.call(4, g, Args::new().v(wo).c(eta)))
+        self.vector(4, g, Args::new().v(wo).c(eta))
     }
 
     pub fn emission(&self, g: &ShadingGlobals, wo: [f32; 3]) -> Color {
-        self.color(self.call(5, g, Args::new().v(wo)))
+        self.color(5, g, Args::new().v(wo))
     }
 
     pub fn ambient(&self, g: &ShadingGlobals, light: &Color) -> Color {
-        self.color(self.call(6, g, Args::new().c(light)))
+        self.color(6, g, Args::new().c(light))
     }
 
     /// The light left of `light` after `distance` inside the material.
     pub fn absorption(&self, g: &ShadingGlobals, light: &Color, distance: f32) -> Color {
-        self.color(self.call(7, g, Args::new().c(light).f(distance)))
+        self.color(7, g, Args::new().c(light).f(distance))
     }
 
     pub fn normal(&self, g: &ShadingGlobals) -> [f32; 3] {
-        Self::vector(self.call(8, g, Args::new()))
+        self.vector(8, g, Args::new())
     }
 
     pub fn diffuse(&self, g: &ShadingGlobals) -> Color {
-        self.color(self.call(9, g, Args::new()))
+        self.color(9, g, Args::new())
     }
 
     pub fn opaque(&self, g: &ShadingGlobals) -> bool {
-        self.call(10, g, Args::new())[0] != 0
+        let mut word = 0u32;
+        self.call_into(10, g, &Args::new(), &mut word);
+        word != 0
     }
 }

@@ -151,6 +151,9 @@ struct Builder {
     consts: HashMap<Value, Const>,
     memo: Vec<HashMap<MemoKey, Vec<Value>>>,
     globals: HashMap<u32, Value>,
+    /// Values defined in the prologue (constants, global loads): they
+    /// dominate everything.
+    in_prologue: std::collections::HashSet<Value>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,9 +165,45 @@ enum Const {
 
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 enum MemoKey {
-    Op(String),
+    Op(OpKey),
+    Const(ConstKey),
     Call { item: (usize, usize), ctx: u32, args: Vec<Value> },
     Method { instance: u32, method: &'static str, ctx: u32, args: Vec<Value> },
+}
+
+/// An operation as a value-numbering key: floats compare by bits, so
+/// `0.0` and `-0.0` (or two NaNs) are never confused.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+enum OpKey {
+    Param(u32),
+    Global(u32),
+    Unary(UnOp, Value),
+    Binary(BinOp, Value, Value),
+    Select(Value, Value, Value),
+    Call(&'static str, Vec<Value>),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum ConstKey {
+    F(u32),
+    I(i32),
+    B(bool),
+}
+
+impl OpKey {
+    /// The key of a pure operation; `None` for reads of mutable state and
+    /// for constants (keyed separately).
+    fn of(op: &Op) -> Option<OpKey> {
+        Some(match op {
+            Op::Param(k) => OpKey::Param(*k),
+            Op::Global(k) => OpKey::Global(*k),
+            Op::Unary(u, a) => OpKey::Unary(*u, *a),
+            Op::Binary(b, x, y) => OpKey::Binary(*b, *x, *y),
+            Op::Select { cond, then_value, else_value } => OpKey::Select(*cond, *then_value, *else_value),
+            Op::Call { native, args } => OpKey::Call(native, args.clone()),
+            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Get(_) | Op::Load { .. } => return None,
+        })
+    }
 }
 
 impl Builder {
@@ -176,6 +215,7 @@ impl Builder {
             consts: HashMap::new(),
             memo: vec![HashMap::new()],
             globals: HashMap::new(),
+            in_prologue: std::collections::HashSet::new(),
         }
     }
 
@@ -183,6 +223,7 @@ impl Builder {
         let body = self.stack.pop().unwrap_or_default();
         self.prologue.extend(body);
         self.func.body = self.prologue;
+        super::opt::eliminate_dead_code(&mut self.func);
         self.func
     }
 
@@ -228,24 +269,30 @@ impl Builder {
         if let Some(c) = self.fold(&op) {
             return self.constant(c);
         }
-        let pure = !matches!(op, Op::Get(_) | Op::Load { .. });
-        let key = MemoKey::Op(format!("{op:?}"));
-        if pure && let Some(v) = self.lookup(&key) {
+        let key = OpKey::of(&op).map(MemoKey::Op);
+        if let Some(v) = key.as_ref().and_then(|k| self.lookup(k)) {
             return v[0];
         }
         let v = self.fresh_value(ty);
         match op {
-            Op::Global(_) => self.prologue.push(Inst::Def(v, op)),
+            Op::Global(_) => {
+                self.in_prologue.insert(v);
+                self.prologue.push(Inst::Def(v, op));
+            }
             op => self.push(Inst::Def(v, op)),
         }
-        if pure {
+        if let Some(key) = key {
             self.remember(key, vec![v]);
         }
         v
     }
 
     fn constant(&mut self, c: Const) -> Value {
-        let key = MemoKey::Op(format!("const {c:?}"));
+        let key = MemoKey::Const(match c {
+            Const::F(x) => ConstKey::F(x.to_bits()),
+            Const::I(x) => ConstKey::I(x),
+            Const::B(x) => ConstKey::B(x),
+        });
         if let Some(v) = self.memo[0].get(&key) {
             return v[0];
         }
@@ -257,6 +304,7 @@ impl Builder {
         let v = self.fresh_value(ty);
         // Constants live in the prologue so they dominate everything.
         self.prologue.push(Inst::Def(v, op));
+        self.in_prologue.insert(v);
         self.consts.insert(v, c);
         self.memo[0].insert(key, vec![v]);
         v
@@ -415,23 +463,36 @@ impl Builder {
             _ => {}
         }
         let vars: Vec<Var> = tys.iter().map(|t| self.var(*t)).collect();
+        let mut then_vals = Vec::new();
         let then_body = self.nested(|b| {
-            let vals = then_f(b, cx);
-            for (var, v) in vars.iter().zip(vals) {
-                b.push(Inst::Set(*var, v));
+            then_vals = then_f(b, cx);
+            for (var, v) in vars.iter().zip(&then_vals) {
+                b.push(Inst::Set(*var, *v));
             }
         });
+        let mut else_vals = Vec::new();
         let else_body = self.nested(|b| {
-            let vals = else_f(b, cx);
-            for (var, v) in vars.iter().zip(vals) {
-                b.push(Inst::Set(*var, v));
+            else_vals = else_f(b, cx);
+            for (var, v) in vars.iter().zip(&else_vals) {
+                b.push(Inst::Set(*var, *v));
             }
         });
+        // Both sides gave the same values, which therefore come from before
+        // the branch (values made inside a branch are never shared with the
+        // other side): the branch is not needed. Its bodies only write
+        // variables of their own, so dropping them is safe.
+        if then_vals == else_vals {
+            return then_vals;
+        }
         self.push(Inst::If { cond, then_body, else_body });
         vars.iter().map(|v| self.get(*v)).collect()
     }
 
     /// `if cond { body }`, giving `otherwise` when the condition is false.
+    /// A body whose result was already computed before the branch (say, a
+    /// default method returning its argument) needs no branch: its values
+    /// are returned as they are. Callers use `otherwise` to skip work, never
+    /// for its value, so that is sound.
     fn guarded<C>(
         &mut self,
         cx: &mut C,
@@ -439,8 +500,23 @@ impl Builder {
         otherwise: Vec<Value>,
         f: impl FnOnce(&mut Builder, &mut C) -> Vec<Value>,
     ) -> Vec<Value> {
-        let tys: Vec<Scalar> = otherwise.iter().map(|v| self.ty(*v)).collect();
-        self.branch(cx, cond, &tys, f, |_, _| otherwise)
+        match self.konst(cond) {
+            Some(Const::B(true)) => return f(self, cx),
+            Some(Const::B(false)) => return otherwise,
+            _ => {}
+        }
+        let start = self.func.values.len() as u32;
+        let mut vals = Vec::new();
+        let mut then_body = self.nested(|b| vals = f(b, cx));
+        if vals.iter().all(|v| v.0 < start || self.in_prologue.contains(v)) {
+            // The body's own code computes nothing the result needs.
+            return vals;
+        }
+        let vars: Vec<Var> = otherwise.iter().map(|v| self.var(self.ty(*v))).collect();
+        then_body.extend(vars.iter().zip(&vals).map(|(var, v)| Inst::Set(*var, *v)));
+        let else_body = vars.iter().zip(&otherwise).map(|(var, v)| Inst::Set(*var, *v)).collect();
+        self.push(Inst::If { cond, then_body, else_body });
+        vars.iter().map(|v| self.get(*v)).collect()
     }
 }
 
@@ -2722,6 +2798,10 @@ impl<'p> Lowerer<'p> {
         let zeros = b.zeros(n);
         let va = b.guarded(self, need_a, zeros.clone(), |b, me| me.mat_method(b, a, im, args, ctx));
         let vc = b.guarded(self, need_c, zeros, |b, me| me.mat_method(b, c, im, args, ctx));
+        if va == vc {
+            // Both children agree (typically the same constant): no blend.
+            return va;
+        }
         let blended = b.lerp(t, &va, &vc);
         if im.name == "normal" { b.normalize(&blended) } else { blended }
     }
@@ -2749,13 +2829,20 @@ impl<'p> Lowerer<'p> {
             return vec![acc];
         }
         let n = self.lanes_of(&im.ret);
-        let mut acc = b.zeros(n);
+        let mut results = Vec::new();
         for (wk, item) in w.iter().zip(items) {
             let used = b.feq(*wk, zero);
             let used = b.not(used);
             let zeros = b.zeros(n);
-            let v = b.guarded(self, used, zeros, |b, me| me.mat_method(b, item, im, args, ctx));
-            let s = b.scale(&v, *wk);
+            results.push(b.guarded(self, used, zeros, |b, me| me.mat_method(b, item, im, args, ctx)));
+        }
+        if results.windows(2).all(|r| r[0] == r[1]) {
+            // All children agree: the weights (which sum to one) change nothing.
+            return results.pop().unwrap_or_else(|| b.zeros(n));
+        }
+        let mut acc = b.zeros(n);
+        for (wk, v) in w.iter().zip(&results) {
+            let s = b.scale(v, *wk);
             acc = b.map2(BinOp::FAdd, &acc, &s);
         }
         if im.name == "normal" { b.normalize(&acc) } else { acc }

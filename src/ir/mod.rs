@@ -16,6 +16,7 @@
 //!   float to int conversion saturates. No IR program can trap or hang.
 
 pub mod lower;
+pub mod opt;
 
 use std::fmt::{self, Write};
 

@@ -1,0 +1,285 @@
+//! `cargo bench --bench shading`: how fast compiled materials shade.
+//!
+//! Prints `name: value unit` lines:
+//! - marble and wood, 1M shading points: JIT vs interpreter vs the same
+//!   shader hand-written in Rust (calling the same noise natives);
+//!   goals: JIT ≥ 20× the interpreter, within 1.3× of hand-written Rust;
+//! - compile time, source to callable code, for the stdlib and each example;
+//!   goal: under 50 ms;
+//! - spectral (16 samples) vs RGB cost of the same material.
+//!
+//! Ratios are measured in one run, interleaved, so machine noise affects
+//! both sides alike.
+
+use std::f32::consts::PI;
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+use tsl::runtime::{tsl_noise3, tsl_pow, tsl_sin};
+use tsl::{Backend, ColorModel, Compiler, Material, Program, ShadingGlobals};
+
+const SOURCE: &str = r#"
+float marble_fbm(point p) {
+    float sum = 0;
+    float amp = 0.5;
+    point q = p;
+    for o in 0..6 {
+        sum += amp * noise(q);
+        q = q * 2.03;
+        amp *= 0.5;
+    }
+    return sum;
+}
+
+// Marble: fBm noise, a color spline, Phong.
+material marble(color ks = gray(0.25), float ns = 40) {
+    color reflection(vector wi, color light, vector wo) {
+        float t = 0.5 + 0.5 * sin(Pl.x * 4 + 6 * marble_fbm(Pl * 2));
+        color kd = blend(t, [rgb(0.9, 0.9, 0.85), rgb(0.55, 0.5, 0.5), rgb(0.2, 0.2, 0.25), rgb(0.9, 0.88, 0.8)], spline: true);
+        float cos_i = dot(N, wi);
+        if cos_i <= 0 {
+            return black();
+        }
+        vector r = reflect(-wi, N);
+        float lobe = pow(max(dot(r, wo), 0), ns) * (ns + 2) / (2 * PI);
+        return light * (kd / PI + ks * lobe) * cos_i;
+    }
+}
+
+float rings() { return fract(length(vec2(Pl.x, Pl.z)) * 8 + 0.3 * noise(Pl * 2)); }
+
+// Wood: a texture tree, two Phong materials mixed by a ring generator.
+material wood = mix(rings(), phong(kd: rgb(0.6, 0.4, 0.2)), phong(kd: rgb(0.35, 0.2, 0.08)));
+"#;
+
+// ---------------------------------------------------------------- hand-written Rust
+
+type V3 = [f32; 3];
+
+fn dot(a: V3, b: V3) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn reflect(i: V3, n: V3) -> V3 {
+    let d = 2.0 * dot(n, i);
+    [i[0] - d * n[0], i[1] - d * n[1], i[2] - d * n[2]]
+}
+
+fn marble_fbm(p: V3) -> f32 {
+    let (mut sum, mut amp, mut q) = (0.0, 0.5, p);
+    for _ in 0..6 {
+        sum += amp * tsl_noise3(q[0], q[1], q[2]);
+        q = [q[0] * 2.03, q[1] * 2.03, q[2] * 2.03];
+        amp *= 0.5;
+    }
+    sum
+}
+
+fn spline(t: f32, knots: &[[f32; 3]; 4]) -> [f32; 3] {
+    let x = t.clamp(0.0, 1.0) * 3.0;
+    let seg = x.floor().min(2.0);
+    let f = x - seg;
+    let s = seg as i32;
+    let (f2, f3) = (f * f, f * f * f);
+    let w = [
+        0.5 * (-f3 + 2.0 * f2 - f),
+        0.5 * (3.0 * f3 - 5.0 * f2 + 2.0),
+        0.5 * (-3.0 * f3 + 4.0 * f2 + f),
+        0.5 * (f3 - f2),
+    ];
+    let mut c = [0.0; 3];
+    for (j, wj) in w.iter().enumerate() {
+        let k = (s + j as i32 - 1).clamp(0, 3) as usize;
+        for ch in 0..3 {
+            c[ch] += wj * knots[k][ch];
+        }
+    }
+    c
+}
+
+fn marble_rust(g: &ShadingGlobals, wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] {
+    let pl = g.pl;
+    let t = 0.5 + 0.5 * tsl_sin(pl[0] * 4.0 + 6.0 * marble_fbm([pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0]));
+    let kd = spline(t, &[[0.9, 0.9, 0.85], [0.55, 0.5, 0.5], [0.2, 0.2, 0.25], [0.9, 0.88, 0.8]]);
+    let cos_i = dot(g.n, wi);
+    if cos_i <= 0.0 {
+        return [0.0; 3];
+    }
+    let r = reflect([-wi[0], -wi[1], -wi[2]], g.n);
+    let (ks, ns) = (0.25, 40.0);
+    let lobe = tsl_pow(dot(r, wo).max(0.0), ns) * (ns + 2.0) / (2.0 * PI);
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        out[c] = light[c] * (kd[c] / PI + ks * lobe) * cos_i;
+    }
+    out
+}
+
+fn phong_rust(g: &ShadingGlobals, kd: [f32; 3], wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] {
+    let mut n = g.n;
+    if dot(n, [-wo[0], -wo[1], -wo[2]]) >= 0.0 {
+        n = [-n[0], -n[1], -n[2]];
+    }
+    let cos_i = dot(n, wi);
+    if cos_i <= 0.0 {
+        return [0.0; 3];
+    }
+    let r = reflect([-wi[0], -wi[1], -wi[2]], n);
+    let ns = 32.0;
+    let lobe = tsl_pow(dot(r, wo).max(0.0), ns) * (ns + 2.0) / (2.0 * PI);
+    let mut out = [0.0; 3];
+    for c in 0..3 {
+        out[c] = light[c] * (kd[c] / PI + 0.2 * lobe) * cos_i;
+    }
+    out
+}
+
+fn wood_rust(g: &ShadingGlobals, wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] {
+    let pl = g.pl;
+    let len = (pl[0] * pl[0] + pl[2] * pl[2]).sqrt();
+    let x = len * 8.0 + 0.3 * tsl_noise3(pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0);
+    let t = x - x.floor();
+    let a = if t != 1.0 { phong_rust(g, [0.6, 0.4, 0.2], wi, light, wo) } else { [0.0; 3] };
+    let b = if t != 0.0 { phong_rust(g, [0.35, 0.2, 0.08], wi, light, wo) } else { [0.0; 3] };
+    [a[0] * (1.0 - t) + b[0] * t, a[1] * (1.0 - t) + b[1] * t, a[2] * (1.0 - t) + b[2] * t]
+}
+
+// ---------------------------------------------------------------- harness
+
+/// Shading points on a sphere seen from +z: normals toward the viewer.
+fn points(n: usize) -> Vec<ShadingGlobals> {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let (x, y) = (next() * 2.0 - 1.0, next() * 2.0 - 1.0);
+            let z = (1.0 - (x * x + y * y).min(1.0)).sqrt();
+            let p = [x, y, z];
+            ShadingGlobals { p, pl: p, n: p, ng: p, u: next(), v: next(), ..Default::default() }
+        })
+        .collect()
+}
+
+const WI: V3 = [-0.48, 0.6, 0.64];
+const WO: V3 = [0.0, 0.0, 1.0];
+
+fn time(reps: usize, pts: &[ShadingGlobals], mut f: impl FnMut(&ShadingGlobals) -> f32) -> Duration {
+    let start = Instant::now();
+    let mut acc = 0.0;
+    for _ in 0..reps {
+        for g in pts {
+            acc += f(g);
+        }
+    }
+    black_box(acc);
+    start.elapsed()
+}
+
+fn best_of(runs: usize, mut f: impl FnMut() -> Duration) -> Duration {
+    (0..runs).map(|_| f()).min().unwrap_or_default()
+}
+
+fn ns_per_point(d: Duration, n: usize) -> f64 {
+    d.as_secs_f64() * 1e9 / n as f64
+}
+
+fn program(model: ColorModel) -> Program {
+    Compiler::new().color_model(model).source("bench.tsl", SOURCE).compile().expect("the benchmark program compiles")
+}
+
+fn bench_material(name: &str, m: &Material, p: &Program, rust: fn(&ShadingGlobals, V3, [f32; 3], V3) -> [f32; 3]) {
+    let pts = points(1 << 16);
+    let reps = 16; // 1M points in all
+    let light = p.rgb(1.0, 1.0, 1.0);
+    // The hand-written shader must compute what the TSL one does.
+    for g in pts.iter().take(64) {
+        let a = m.reflection(g, WI, &light, WO).lanes().to_vec();
+        let b = rust(g, WI, [1.0; 3], WO);
+        for c in 0..3 {
+            assert!((a[c] - b[c]).abs() <= 1e-4 * a[c].abs().max(1.0), "{name}: jit {a:?} vs rust {b:?}");
+        }
+    }
+    let f = p.function(&format!("{name}.reflection")).expect("compiled");
+    let mut args: Vec<u32> = Vec::new();
+    args.extend(WI.map(f32::to_bits));
+    args.extend([1.0f32; 3].map(f32::to_bits));
+    args.extend(WO.map(f32::to_bits));
+    let mut out = [0u32; 3];
+    let mut jit = Duration::MAX;
+    let mut raw = Duration::MAX;
+    let mut hand = Duration::MAX;
+    for _ in 0..5 {
+        jit = jit.min(time(reps, &pts, |g| m.reflection(g, WI, &light, WO).lanes()[0]));
+        raw = raw.min(time(reps, &pts, |g| {
+            let _ = f.call_words(Backend::Jit, g, &args, &mut out);
+            f32::from_bits(out[0])
+        }));
+        hand = hand.min(time(reps, &pts, |g| rust(g, WI, [1.0; 3], WO)[0]));
+    }
+    let interp_pts = &pts[..1 << 13];
+    let interp = best_of(3, || {
+        time(1, interp_pts, |g| {
+            let _ = f.call_words(Backend::Interpreter, g, &args, &mut out);
+            f32::from_bits(out[0])
+        })
+    });
+    let n = pts.len() * reps;
+    let (jit_ns, raw_ns, hand_ns) = (ns_per_point(jit, n), ns_per_point(raw, n), ns_per_point(hand, n));
+    let interp_ns = ns_per_point(interp, interp_pts.len());
+    println!("{name} jit (Material::reflection): {jit_ns:.1} ns/point");
+    println!("{name} jit (raw call): {raw_ns:.1} ns/point");
+    println!("{name} hand-written rust: {hand_ns:.1} ns/point");
+    println!("{name} interpreter: {interp_ns:.1} ns/point");
+    println!("{name} jit/native: {:.2} x", jit_ns / hand_ns);
+    println!("{name} interpreter/jit: {:.1} x", interp_ns / jit_ns);
+}
+
+fn main() {
+    let rgb = program(ColorModel::Rgb);
+    for (name, rust) in [("marble", marble_rust as fn(&_, _, _, _) -> _), ("wood", wood_rust)] {
+        let m = rgb.material(name).expect("material exists");
+        bench_material(name, &m, &rgb, rust);
+    }
+
+    // Spectral vs RGB, same material, same points.
+    let spectral = program(ColorModel::Spectral { samples: 16 });
+    let pts = points(1 << 16);
+    for name in ["marble", "wood"] {
+        let (mr, ms) = (rgb.material(name).unwrap(), spectral.material(name).unwrap());
+        let (lr, ls) = (rgb.rgb(1.0, 1.0, 1.0), spectral.rgb(1.0, 1.0, 1.0));
+        let mut t_rgb = Duration::MAX;
+        let mut t_spec = Duration::MAX;
+        for _ in 0..5 {
+            t_rgb = t_rgb.min(time(4, &pts, |g| mr.reflection(g, WI, &lr, WO).lanes()[0]));
+            t_spec = t_spec.min(time(4, &pts, |g| ms.reflection(g, WI, &ls, WO).lanes()[0]));
+        }
+        println!("{name} spectral16/rgb: {:.2} x", t_spec.as_secs_f64() / t_rgb.as_secs_f64());
+    }
+
+    // Compile time, source to callable code.
+    let mut sources: Vec<(String, String)> = vec![("stdlib".into(), "const float UNUSED = 0;".into())];
+    let mut examples: Vec<_> =
+        std::fs::read_dir("examples").map(|d| d.filter_map(Result::ok).map(|e| e.path()).collect()).unwrap_or_default();
+    examples.retain(|p| p.extension().is_some_and(|e| e == "tsl"));
+    examples.sort();
+    for p in examples {
+        if let Ok(text) = std::fs::read_to_string(&p) {
+            sources.push((p.display().to_string(), text));
+        }
+    }
+    for (name, text) in &sources {
+        let t = best_of(5, || {
+            let start = Instant::now();
+            let program = Compiler::new().source(name, text).compile().expect("examples compile");
+            let elapsed = start.elapsed();
+            black_box(program.entries().len());
+            elapsed
+        });
+        let n = Compiler::new().source(name, text).compile().map(|p| p.entries().len()).unwrap_or(0);
+        println!("compile {name} ({n} entry points): {:.1} ms", t.as_secs_f64() * 1e3);
+    }
+}
