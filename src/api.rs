@@ -17,16 +17,17 @@
 //! # Ok::<(), tsl::Error>(())
 //! ```
 
+use crate::check::{self, SymbolKind};
 use crate::color::{self, ColorModel, MAX_SAMPLES};
 use crate::diag::{Colors, Diagnostic, SourceMap, render_text};
 use crate::globals::ShadingGlobals;
-use crate::ir::lower::{Entry, EntryKind, lower_program};
+use crate::ir::lower::{Entry, lower_entries};
 use crate::ir::{Function as IrFunction, Module as IrModule};
 use crate::jit::{EntryFn, Jit, JitOptions};
 use crate::load::LoadOptions;
 use std::fmt;
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, RwLock};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]
@@ -59,11 +60,19 @@ pub struct Compiler {
     file: Option<PathBuf>,
     options: LoadOptions,
     keep_clif: bool,
+    eager_prelude: bool,
 }
 
 impl Default for Compiler {
     fn default() -> Self {
-        Compiler { model: ColorModel::Rgb, source: None, file: None, options: LoadOptions::default(), keep_clif: false }
+        Compiler {
+            model: ColorModel::Rgb,
+            source: None,
+            file: None,
+            options: LoadOptions::default(),
+            keep_clif: false,
+            eager_prelude: false,
+        }
     }
 }
 
@@ -96,6 +105,14 @@ impl Compiler {
         self
     }
 
+    /// Compiles every prelude material and generator up front. By default
+    /// they are compiled on first use ([`Program::material`],
+    /// [`Program::function`]), so a program pays only for what it uses.
+    pub fn eager_prelude(mut self, eager: bool) -> Self {
+        self.eager_prelude = eager;
+        self
+    }
+
     /// Keeps the Cranelift IR text of each function (see [`Program::clif`]).
     pub fn keep_clif(mut self, keep: bool) -> Self {
         self.keep_clif = keep;
@@ -112,20 +129,52 @@ impl Compiler {
         if !checked.is_ok() {
             return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
         }
-        let (ir, entries, diags) = lower_program(&checked.program, self.model);
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: checked.program.loaded.sources });
-        }
-        let jit = crate::jit::compile(&ir, &JitOptions { keep_clif: self.keep_clif }).map_err(Error::plain)?;
-        Ok(Program { inner: Arc::new(Inner { model: self.model, ir, entries, jit }) })
+        let program = checked.program;
+        let eager = self.eager_prelude;
+        let jit_options = JitOptions { keep_clif: self.keep_clif };
+        let first = compile_part(&program, self.model, &jit_options, |_, sym| {
+            eager || !program.loaded.modules[sym.module].is_prelude
+        })?;
+        Ok(Program {
+            inner: Arc::new(Inner {
+                model: self.model,
+                program,
+                jit_options,
+                parts: RwLock::new(vec![Arc::new(first)]),
+            }),
+        })
     }
+}
+
+/// Lowers and JIT-compiles the entry points of the names `keep` accepts.
+fn compile_part(
+    program: &check::Program,
+    model: ColorModel,
+    options: &JitOptions,
+    keep: impl Fn(&str, &check::Symbol) -> bool,
+) -> Result<Part, Error> {
+    let (ir, entries, diags) = lower_entries(program, model, keep);
+    if !diags.is_empty() {
+        return Err(Error { diagnostics: diags, sources: program.loaded.sources.clone() });
+    }
+    let jit = crate::jit::compile(&ir, options).map_err(Error::plain)?;
+    Ok(Part { ir, entries, jit })
+}
+
+/// Entry points compiled together into one JIT module.
+struct Part {
+    ir: IrModule,
+    entries: Vec<Entry>,
+    jit: Jit,
 }
 
 struct Inner {
     model: ColorModel,
-    ir: IrModule,
-    entries: Vec<Entry>,
-    jit: Jit,
+    /// The checked program, kept to compile prelude entries on first use.
+    program: check::Program,
+    jit_options: JitOptions,
+    /// The program's own entries first, then prelude entries as requested.
+    parts: RwLock<Vec<Arc<Part>>>,
 }
 
 /// A compiled program: cheap to clone, `Send + Sync`, callable from many
@@ -137,7 +186,7 @@ pub struct Program {
 
 impl fmt::Debug for Program {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Program").field("model", &self.inner.model).field("entries", &self.inner.entries.len()).finish()
+        f.debug_struct("Program").field("model", &self.inner.model).field("entries", &self.entries().len()).finish()
     }
 }
 
@@ -153,19 +202,24 @@ impl Program {
         self.inner.model
     }
 
-    /// Every entry point: generators and material methods.
-    pub fn entries(&self) -> &[Entry] {
-        &self.inner.entries
+    fn parts(&self) -> Vec<Arc<Part>> {
+        self.inner.parts.read().map(|p| p.clone()).unwrap_or_default()
     }
 
-    /// The IR of every entry point.
-    pub fn ir(&self) -> &IrModule {
-        &self.inner.ir
+    /// The entry points compiled so far: the program's own generators and
+    /// material methods, and any prelude ones already used.
+    pub fn entries(&self) -> Vec<Entry> {
+        self.parts().iter().flat_map(|p| p.entries.iter().cloned()).collect()
+    }
+
+    /// The IR of the entry points compiled so far.
+    pub fn ir(&self) -> IrModule {
+        IrModule { functions: self.parts().iter().flat_map(|p| p.ir.functions.iter().cloned()).collect() }
     }
 
     /// Cranelift IR text per function, when compiled with `keep_clif`.
-    pub fn clif(&self) -> &[(String, String)] {
-        &self.inner.jit.clif
+    pub fn clif(&self) -> Vec<(String, String)> {
+        self.parts().iter().flat_map(|p| p.jit.clif.iter().cloned()).collect()
     }
 
     /// A color from RGB in this program's color model.
@@ -184,10 +238,11 @@ impl Program {
                 None => {
                     let known: Vec<&str> = self
                         .inner
-                        .entries
+                        .program
+                        .symbols
                         .iter()
-                        .filter(|e| matches!(e.kind, EntryKind::Method("reflection")))
-                        .map(|e| e.name.trim_end_matches(".reflection"))
+                        .filter(|(_, s)| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree))
+                        .map(|(n, _)| n.as_str())
                         .collect();
                     let hint = crate::diag::did_you_mean(name, known.iter().copied())
                         .map(|s| format!(" (did you mean `{s}`?)"))
@@ -205,27 +260,50 @@ impl Program {
     }
 
     fn function_handle(&self, name: &str) -> Option<Function> {
-        let index = self.inner.ir.functions.iter().position(|f| f.name == name)?;
-        let native = self.inner.jit.function(name)?;
-        Some(Function { program: self.clone(), index, native })
+        if let Some(f) = self.find(name) {
+            return Some(f);
+        }
+        // A prelude name not compiled yet: compile all its entries now.
+        let base = name.split('.').next().unwrap_or(name);
+        let sym = *self.inner.program.symbols.get(base)?;
+        if !self.inner.program.loaded.modules[sym.module].is_prelude {
+            return None;
+        }
+        let mut parts = self.inner.parts.write().ok()?;
+        if !parts.iter().any(|p| p.entries.iter().any(|e| e.name == name)) {
+            let part =
+                compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base).ok()?;
+            parts.push(Arc::new(part));
+        }
+        drop(parts);
+        self.find(name)
+    }
+
+    fn find(&self, name: &str) -> Option<Function> {
+        self.parts().into_iter().find_map(|part| {
+            let index = part.ir.functions.iter().position(|f| f.name == name)?;
+            let native = part.jit.function(name)?;
+            Some(Function { part, index, native })
+        })
     }
 }
 
-/// One compiled entry point, callable through either back end.
+/// One compiled entry point, callable through either back end. It keeps
+/// its code alive.
 #[derive(Clone)]
 pub struct Function {
-    program: Program,
+    part: Arc<Part>,
     index: usize,
     native: EntryFn,
 }
 
 impl Function {
     pub fn ir(&self) -> &IrFunction {
-        &self.program.inner.ir.functions[self.index]
+        &self.part.ir.functions[self.index]
     }
 
     pub fn entry(&self) -> &Entry {
-        &self.program.inner.entries[self.index]
+        &self.part.entries[self.index]
     }
 
     /// Calls with raw argument and result words (f32 bits, i32, bool as 0/1).
@@ -254,7 +332,7 @@ impl Function {
                 // which reads at most `params.len()` argument words and the
                 // 32-word globals record and writes `results.len()` words;
                 // the lengths were checked above, and the code is alive as
-                // long as `self.program` is.
+                // long as `self.part` is.
                 unsafe { (self.native)((g as *const ShadingGlobals).cast(), args.as_ptr(), out.as_mut_ptr()) }
             }
         }
@@ -335,15 +413,15 @@ impl Args {
         self.words[self.len] = std::mem::MaybeUninit::new(x.to_bits());
         self.len += 1;
     }
-    fn v(mut self, v: [f32; 3]) -> Args {
+    fn v(&mut self, v: [f32; 3]) -> &mut Args {
         v.into_iter().for_each(|x| self.push(x));
         self
     }
-    fn f(mut self, x: f32) -> Args {
+    fn f(&mut self, x: f32) -> &mut Args {
         self.push(x);
         self
     }
-    fn c(mut self, c: &Color) -> Args {
+    fn c(&mut self, c: &Color) -> &mut Args {
         c.lanes().iter().for_each(|x| self.push(*x));
         self
     }
@@ -358,19 +436,19 @@ impl Material {
         // interface takes (the wrappers below build them from the
         // interface signature, checked in debug builds), all initialised;
         // `out` has room for its results (at most MAX_SAMPLES words); the
-        // code lives as long as `self.program`.
+        // code lives as long as the method's part.
         unsafe { (f.native)((g as *const ShadingGlobals).cast(), args.words.as_ptr().cast(), out) }
     }
 
-    fn color(&self, k: usize, g: &ShadingGlobals, args: Args) -> Color {
+    fn color(&self, k: usize, g: &ShadingGlobals, args: &Args) -> Color {
         let mut c = Color::black(self.program.color_model());
-        self.call_into(k, g, &args, c.lanes.as_mut_ptr().cast());
+        self.call_into(k, g, args, c.lanes.as_mut_ptr().cast());
         c
     }
 
-    fn vector(&self, k: usize, g: &ShadingGlobals, args: Args) -> [f32; 3] {
+    fn vector(&self, k: usize, g: &ShadingGlobals, args: &Args) -> [f32; 3] {
         let mut v = [0.0f32; 3];
-        self.call_into(k, g, &args, v.as_mut_ptr().cast());
+        self.call_into(k, g, args, v.as_mut_ptr().cast());
         v
     }
 
@@ -379,13 +457,39 @@ impl Material {
         self.color(0, g, Args::new().v(wi).c(light).v(wo))
     }
 
+    /// [`Material::reflection`] without a [`Color`] by value, for hot loops:
+    /// `light` and `out` hold the color model's lanes (3 for RGB).
+    ///
+    /// ```
+    /// # use tsl::{Compiler, ShadingGlobals};
+    /// let program = Compiler::new().source("m.tsl", "material m = lambert;").compile()?;
+    /// let m = program.material("m")?;
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ..Default::default() };
+    /// let mut out = [0.0f32; 3];
+    /// m.reflection_into(&g, [0.0, 0.0, 1.0], &[1.0, 1.0, 1.0], [0.0, 0.0, 1.0], &mut out);
+    /// assert!((out[0] - 0.8 / std::f32::consts::PI).abs() < 1e-6);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    ///
+    /// # Panics
+    /// When `light` or `out` is shorter than the color model's lane count.
+    pub fn reflection_into(&self, g: &ShadingGlobals, wi: [f32; 3], light: &[f32], wo: [f32; 3], out: &mut [f32]) {
+        let lanes = self.program.color_model().lanes();
+        assert!(light.len() >= lanes && out.len() >= lanes, "light and out need {lanes} lanes");
+        let mut args = Args::new();
+        args.v(wi);
+        light[..lanes].iter().for_each(|x| args.push(*x));
+        args.v(wo);
+        self.call_into(0, g, &args, out.as_mut_ptr().cast());
+    }
+
     /// Light arriving from `wi` transmitted toward `wo`.
     pub fn refraction(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, eta: &Color, wo: [f32; 3]) -> Color {
         self.color(1, g, Args::new().v(wi).c(light).c(eta).v(wo))
     }
 
     pub fn refraction_index(&self, g: &ShadingGlobals) -> Color {
-        self.color(2, g, Args::new())
+        self.color(2, g, &Args::new())
     }
 
     /// The mirror direction for an outgoing `wo`; zero when there is none.
@@ -412,11 +516,11 @@ impl Material {
     }
 
     pub fn normal(&self, g: &ShadingGlobals) -> [f32; 3] {
-        self.vector(8, g, Args::new())
+        self.vector(8, g, &Args::new())
     }
 
     pub fn diffuse(&self, g: &ShadingGlobals) -> Color {
-        self.color(9, g, Args::new())
+        self.color(9, g, &Args::new())
     }
 
     pub fn opaque(&self, g: &ShadingGlobals) -> bool {

@@ -123,8 +123,12 @@ const MODELS: [ColorModel; 2] = [ColorModel::Rgb, ColorModel::Spectral { samples
 #[test]
 fn stdlib_agrees() {
     for model in MODELS {
-        let program =
-            Compiler::new().color_model(model).source("empty.tsl", "const float UNUSED = 0;").compile().unwrap();
+        let program = Compiler::new()
+            .color_model(model)
+            .eager_prelude(true)
+            .source("empty.tsl", "const float UNUSED = 0;")
+            .compile()
+            .unwrap();
         let n = compare(&program, |_| true, 1);
         assert!(n >= 40, "only {n} stdlib entries were compared");
     }

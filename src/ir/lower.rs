@@ -40,11 +40,21 @@ pub struct Entry {
 /// parameters and result are plain values, and each interface method of
 /// each material that needs no arguments.
 pub fn lower_program(program: &Program, model: ColorModel) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    lower_entries(program, model, |_, _| true)
+}
+
+/// Lowers the entry points of the global names `keep` accepts.
+pub fn lower_entries(
+    program: &Program,
+    model: ColorModel,
+    keep: impl Fn(&str, &Symbol) -> bool,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
     let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
     let mut module = Module::default();
     let mut entries = Vec::new();
     let mut names: Vec<(&String, &Symbol)> = program.symbols.iter().collect();
     names.sort_by_key(|(n, s)| (s.module, s.item, n.as_str()));
+    names.retain(|(n, s)| keep(n, s));
     for (name, sym) in names {
         match (sym.kind, lw.item(*sym)) {
             (SymbolKind::Function, Item::Function(f)) => {
@@ -1881,6 +1891,23 @@ impl<'p> Lowerer<'p> {
                 let y = arg(self, b, 1, n);
                 let op = if name == "min" { BinOp::FMin } else { BinOp::FMax };
                 Val::Lanes(b.map2(op, &x, &y))
+            }
+            "clamp" if ty == Ty::Int => {
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let lo = self.scalar_arg(b, &bound, 1, fr, ctx);
+                let hi = self.scalar_arg(b, &bound, 2, fr, ctx);
+                let below = b.bin(BinOp::ILt, x, lo);
+                let x = b.select(below, lo, x);
+                let above = b.bin(BinOp::ILt, hi, x);
+                Val::Lanes(vec![b.select(above, hi, x)])
+            }
+            "mod" if ty == Ty::Int => {
+                // Floored modulo: ((a % b) + b) % b, zero for b == 0.
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let y = self.scalar_arg(b, &bound, 1, fr, ctx);
+                let r = b.bin(BinOp::IRem, x, y);
+                let r = b.bin(BinOp::IAdd, r, y);
+                Val::Lanes(vec![b.bin(BinOp::IRem, r, y)])
             }
             "clamp" => {
                 let x = arg(self, b, 0, n);
