@@ -1,0 +1,113 @@
+//! What lowering promises: material instances specialise on constant
+//! parameters, generators shared by several children of a texture tree run
+//! once, and `mix` at exactly 0 or 1 runs only one child.
+
+use tsl::ir::{Function, Inst, Op};
+use tsl::{Compiler, Program, ShadingGlobals};
+
+fn compile(src: &str) -> Program {
+    Compiler::new().source("t.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn ir(p: &Program, name: &str) -> Function {
+    p.function(name).unwrap_or_else(|| panic!("no entry {name}")).ir().clone()
+}
+
+/// Every operation in a body, depth first.
+fn ops(body: &[Inst], out: &mut Vec<Op>) {
+    for inst in body {
+        match inst {
+            Inst::Def(_, op) => out.push(op.clone()),
+            Inst::If { then_body, else_body, .. } => {
+                ops(then_body, out);
+                ops(else_body, out);
+            }
+            Inst::Block { body, .. } | Inst::Loop { body, .. } => ops(body, out),
+            _ => {}
+        }
+    }
+}
+
+fn all_ops(f: &Function) -> Vec<Op> {
+    let mut out = Vec::new();
+    ops(&f.body, &mut out);
+    out
+}
+
+fn calls(f: &Function, native: &str) -> usize {
+    all_ops(f).iter().filter(|op| matches!(op, Op::Call { native: n, .. } if *n == native)).count()
+}
+
+#[test]
+fn constant_parameters_are_folded_into_the_code() {
+    let p = compile("material red = phong(kd: rgb(1, 0, 0));");
+    let diffuse = ir(&p, "red.diffuse");
+    assert!(
+        all_ops(&diffuse).iter().all(|op| matches!(op, Op::F32(_))),
+        "diffuse() of a constant instance is constants only:\n{diffuse}"
+    );
+    // In reflection, `ns + 2` (ns = 32 by default) and `kd * INV_PI` are
+    // computed at compile time: the constants 34 and 1/π appear, and the
+    // only inputs are the method's nine argument words.
+    let reflection = ir(&p, "red.reflection");
+    let text = reflection.to_string();
+    assert!(text.contains("= 34.0") && text.contains("= 0.31830987"), "{text}");
+    assert_eq!(reflection.params.len(), 9);
+}
+
+#[test]
+fn a_generator_shared_by_children_runs_once() {
+    let p = compile(
+        r#"
+        float grain() { return noise(Pl * 7); }
+        material m = mix(grain(), scale(gray(grain()), lambert), bump(grain(), 0.1, lambert));
+        "#,
+    );
+    let f = ir(&p, "m.diffuse");
+    // grain() at the shading point is shared by the mix and the scale node;
+    // bump also evaluates it at two offset points (other contexts).
+    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+    let refl = ir(&p, "m.reflection");
+    assert_eq!(calls(&refl, "tsl_noise3"), 3, "the point plus bump's two offsets:\n{refl}");
+}
+
+#[test]
+fn mix_runs_one_child_at_zero_and_one() {
+    // `bad` reflects NaN; blending it with weight 0 would poison the result.
+    let p = compile(
+        r#"
+        material bad() { color reflection(vector wi, color light, vector wo) { return light * (0.0 / 0.0); } }
+        material at_zero = mix(u, lambert, bad);
+        material at_one = mix(u, bad, lambert);
+        "#,
+    );
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let n = [0.0, 0.0, 1.0];
+    for (name, u) in [("at_zero", 0.0), ("at_one", 1.0)] {
+        let g = ShadingGlobals { n, ng: n, u, ..Default::default() };
+        let c = p.material(name).unwrap().reflection(&g, n, &light, n);
+        assert!(c.lanes().iter().all(|x| x.is_finite() && *x > 0.0), "{name}: {c:?}");
+        // Strictly between, both run (and the NaN shows).
+        let g = ShadingGlobals { u: 0.5, ..g };
+        let c = p.material(name).unwrap().reflection(&g, n, &light, n);
+        assert!(c.lanes().iter().all(|x| x.is_nan()), "{name} at 0.5: {c:?}");
+    }
+}
+
+#[test]
+fn methods_a_tree_does_not_vary_compile_to_constants() {
+    let p = compile("material m = select(face, [mix(noise(P), lambert, phong), bump(noise(P * 3), 0.2, mirror)]);");
+    let opaque = ir(&p, "m.opaque");
+    assert!(all_ops(&opaque).iter().all(|op| matches!(op, Op::Bool(true))), "{opaque}");
+}
+
+#[test]
+fn prelude_materials_compile_on_first_use() {
+    let p = compile("material mine = lambert;");
+    let before = p.entries().len();
+    assert_eq!(before, 11, "only the program's own material");
+    let glass = p.material("glass").expect("prelude materials are available by name");
+    assert!(!glass.opaque(&ShadingGlobals::default()));
+    assert_eq!(p.entries().len(), before + 11);
+    assert!(p.material("glas").unwrap_err().to_string().contains("did you mean `glass`"));
+}
