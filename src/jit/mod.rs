@@ -10,15 +10,18 @@
 use crate::check::MAX_LOOP_ITERATIONS;
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
 use crate::runtime::natives;
+use cranelift_codegen::control::ControlPlane;
+use cranelift_codegen::ir::UserFuncName;
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{
     AbiParam, Block, FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Type, types,
 };
+use cranelift_codegen::isa::TargetIsa;
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_codegen::{Context, ir::Value as ClValue};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
-use cranelift_module::{FuncId, Linkage, Module};
+use cranelift_module::{FuncId, Linkage, Module, ModuleReloc};
 use std::collections::HashMap;
 
 /// The native signature of every entry point.
@@ -103,17 +106,20 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         let _ = f;
     }
 
-    let mut ctx = Context::new();
+    // Translate sequentially (importing natives needs the module), then let
+    // Cranelift compile the functions on every core, then define the code.
     let mut fctx = FunctionBuilderContext::new();
     let mut clif = Vec::new();
-    for (f, id) in module.functions.iter().zip(&ids) {
-        ctx.func.signature = entry_sig.clone();
+    let mut funcs = Vec::with_capacity(module.functions.len());
+    for (k, f) in module.functions.iter().enumerate() {
+        let mut func =
+            cranelift_codegen::ir::Function::with_name_signature(UserFuncName::user(0, k as u32), entry_sig.clone());
         {
-            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fctx);
             let mut natives_used: HashMap<&'static str, FuncRef> = HashMap::new();
             for (name, nid) in &native_ids {
-                natives_used.insert(name, jit.declare_func_in_func(*nid, b.func));
+                natives_used.insert(name, jit.declare_func_in_func(*nid, &mut func));
             }
+            let mut b = FunctionBuilder::new(&mut func, &mut fctx);
             let mut g = Gen::new(&mut b, f, natives_used, ptr);
             g.entry();
             g.body(&f.body);
@@ -122,10 +128,13 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
             b.finalize(jit.target_config());
         }
         if options.keep_clif {
-            clif.push((f.name.clone(), ctx.func.display().to_string()));
+            clif.push((f.name.clone(), func.display().to_string()));
         }
-        jit.define_function(*id, &mut ctx).map_err(|e| format!("cannot compile `{}`: {e:?}", f.name))?;
-        jit.clear_context(&mut ctx);
+        funcs.push(func);
+    }
+    let compiled = compile_parallel(jit.isa(), funcs, &ids, &module.functions)?;
+    for (id, code) in ids.iter().zip(compiled) {
+        jit.define_function_bytes(*id, code.alignment, &code.bytes, &code.relocs).map_err(|e| e.to_string())?;
     }
     jit.finalize_definitions().map_err(|e| e.to_string())?;
     let mut functions = HashMap::new();
@@ -137,6 +146,77 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         functions.insert(f.name.clone(), entry);
     }
     Ok(Jit { module: Some(jit), functions, clif })
+}
+
+/// Machine code of one function, ready to define in the module.
+struct Code {
+    bytes: Vec<u8>,
+    alignment: u64,
+    relocs: Vec<ModuleReloc>,
+}
+
+/// Compiles functions on all available cores (each is independent).
+fn compile_parallel(
+    isa: &dyn TargetIsa,
+    funcs: Vec<cranelift_codegen::ir::Function>,
+    ids: &[FuncId],
+    ir_functions: &[ir::Function],
+) -> Result<Vec<Code>, String> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(funcs.len().max(1));
+    let jobs: Vec<(usize, cranelift_codegen::ir::Function)> = funcs.into_iter().enumerate().collect();
+    let chunk = jobs.len().div_ceil(threads).max(1);
+    let mut results: Vec<Option<Result<Code, String>>> = (0..jobs.len()).map(|_| None).collect();
+    let mut chunks: Vec<Vec<(usize, cranelift_codegen::ir::Function)>> = Vec::new();
+    let mut rest = jobs;
+    while !rest.is_empty() {
+        let tail = rest.split_off(chunk.min(rest.len()));
+        chunks.push(rest);
+        rest = tail;
+    }
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = chunks
+            .into_iter()
+            .map(|work| {
+                scope.spawn(move || {
+                    work.into_iter()
+                        .map(|(k, func)| {
+                            let name = &ir_functions[k].name;
+                            let mut ctx = Context::for_function(func);
+                            ctx.compile(isa, &mut ControlPlane::default())
+                                .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
+                            let compiled = ctx.compiled_code().ok_or_else(|| format!("no code for `{name}`"))?;
+                            let alignment = u64::from(compiled.buffer.alignment)
+                                .max(u64::from(isa.function_alignment().minimum))
+                                .max(isa.symbol_alignment());
+                            let bytes = compiled.code_buffer().to_vec();
+                            let relocs = compiled
+                                .buffer
+                                .relocs()
+                                .iter()
+                                .map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, ids[k]))
+                                .collect();
+                            Ok((k, Code { bytes, alignment, relocs }))
+                        })
+                        .collect::<Vec<Result<(usize, Code), String>>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            match h.join() {
+                Ok(done) => {
+                    for r in done {
+                        match r {
+                            Ok((k, code)) => results[k] = Some(Ok(code)),
+                            Err(e) => return Err(e),
+                        }
+                    }
+                }
+                Err(_) => return Err("a code generation thread panicked".to_string()),
+            }
+        }
+        Ok(())
+    })?;
+    results.into_iter().map(|r| r.unwrap_or_else(|| Err("a function was not compiled".into()))).collect()
 }
 
 fn cl_type(s: Scalar) -> Type {
