@@ -164,14 +164,12 @@ fn compile_parallel(
 ) -> Result<Vec<Code>, String> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(funcs.len().max(1));
     let jobs: Vec<(usize, cranelift_codegen::ir::Function)> = funcs.into_iter().enumerate().collect();
-    let chunk = jobs.len().div_ceil(threads).max(1);
     let mut results: Vec<Option<Result<Code, String>>> = (0..jobs.len()).map(|_| None).collect();
-    let mut chunks: Vec<Vec<(usize, cranelift_codegen::ir::Function)>> = Vec::new();
-    let mut rest = jobs;
-    while !rest.is_empty() {
-        let tail = rest.split_off(chunk.min(rest.len()));
-        chunks.push(rest);
-        rest = tail;
+    // Round robin: the methods of one material are neighbours and alike in
+    // size, so contiguous chunks would load one thread with all the big ones.
+    let mut chunks: Vec<Vec<(usize, cranelift_codegen::ir::Function)>> = (0..threads).map(|_| Vec::new()).collect();
+    for (n, job) in jobs.into_iter().enumerate() {
+        chunks[n % threads].push(job);
     }
     std::thread::scope(|scope| {
         let handles: Vec<_> = chunks
