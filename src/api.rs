@@ -25,9 +25,10 @@ use crate::ir::lower::{Entry, lower_entries};
 use crate::ir::{Function as IrFunction, Module as IrModule};
 use crate::jit::{EntryFn, Jit, JitOptions};
 use crate::load::LoadOptions;
+use std::collections::HashSet;
 use std::fmt;
 use std::path::PathBuf;
-use std::sync::{Arc, RwLock};
+use std::sync::{Arc, Mutex, RwLock};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]
@@ -141,6 +142,7 @@ impl Compiler {
                 program,
                 jit_options,
                 parts: RwLock::new(vec![Arc::new(first)]),
+                tried: Mutex::new(HashSet::new()),
             }),
         })
     }
@@ -175,6 +177,8 @@ struct Inner {
     jit_options: JitOptions,
     /// The program's own entries first, then prelude entries as requested.
     parts: RwLock<Vec<Arc<Part>>>,
+    /// Prelude names already compiled (or found to have no entries).
+    tried: Mutex<HashSet<String>>,
 }
 
 /// A compiled program: cheap to clone, `Send + Sync`, callable from many
@@ -269,13 +273,19 @@ impl Program {
         if !self.inner.program.loaded.modules[sym.module].is_prelude {
             return None;
         }
-        let mut parts = self.inner.parts.write().ok()?;
-        if !parts.iter().any(|p| p.entries.iter().any(|e| e.name == name)) {
-            let part =
-                compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base).ok()?;
-            parts.push(Arc::new(part));
+        {
+            let mut tried = self.inner.tried.lock().ok()?;
+            // Each prelude name is compiled at most once, whether or not it
+            // had the entry asked for (`lambert.nope`, or a constant).
+            if tried.insert(base.to_string()) {
+                let part =
+                    compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base)
+                        .ok()?;
+                if !part.entries.is_empty() {
+                    self.inner.parts.write().ok()?.push(Arc::new(part));
+                }
+            }
         }
-        drop(parts);
         self.find(name)
     }
 

@@ -323,7 +323,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         "blend" => {
             expect(args, 0, &Ty::Float)?;
             let e = array_elem(args, 1, "`blend`")?;
-            if !(e.is_float_like() || matches!(e, Ty::Color | Ty::Material | Ty::Error)) {
+            if !(e.is_float_like() || matches!(e, Ty::Int | Ty::Color | Ty::Material | Ty::Error)) {
                 return Err(err(1, format!("`blend` cannot interpolate `{e}`")));
             }
             expect(args, 2, &Ty::Bool)?;

@@ -5,7 +5,7 @@
 //! the same Rust functions, and the semantics of `FMin`, integer division
 //! and conversions are spelled out in `ir`.
 
-use crate::check::MAX_LOOP_ITERATIONS;
+use crate::check::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
 use crate::runtime::{NativeFn, native};
 
@@ -13,12 +13,12 @@ use crate::runtime::{NativeFn, native};
 /// words into `out`.
 pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
     let mut m = Machine {
-        func,
         globals,
         args,
         values: vec![0; func.values.len()],
         vars: vec![0; func.vars.len()],
         arrays: func.arrays.iter().map(|(_, n)| vec![0u32; *n as usize]).collect(),
+        budget: MAX_CALL_ITERATIONS,
         out,
     };
     let _ = m.body(&func.body);
@@ -32,12 +32,13 @@ enum Flow {
 }
 
 struct Machine<'a, 'o> {
-    func: &'a Function,
     globals: &'a [u32],
     args: &'a [u32],
     values: Vec<u32>,
     vars: Vec<u32>,
     arrays: Vec<Vec<u32>>,
+    /// Loop iterations this call may still run, over all loops.
+    budget: i64,
     out: &'o mut [u32],
 }
 
@@ -109,6 +110,10 @@ impl Machine<'_, '_> {
                     let (start, end) = (i(self.v(*start)), i(self.v(*end)));
                     let trips = (i64::from(end) - i64::from(start)).clamp(0, MAX_LOOP_ITERATIONS);
                     for k in 0..trips {
+                        if self.budget <= 0 {
+                            break;
+                        }
+                        self.budget -= 1;
                         self.vars[counter.0 as usize] = iw((i64::from(start) + k) as i32);
                         match self.body(body) {
                             Flow::Normal => {}
@@ -198,12 +203,5 @@ impl Machine<'_, '_> {
                 fw(r)
             }
         }
-    }
-}
-
-impl Machine<'_, '_> {
-    #[allow(dead_code)]
-    fn name(&self) -> &str {
-        &self.func.name
     }
 }

@@ -12,7 +12,8 @@
 //!   only used where its definition dominates the use; values that cross
 //!   control flow go through [`Var`]s.
 //! - Every operation is total: integer division by zero gives 0, array
-//!   indices are clamped, loops run at most `MAX_LOOP_ITERATIONS` times,
+//!   indices are clamped, a loop runs at most `MAX_LOOP_ITERATIONS` times
+//!   and a call at most `MAX_CALL_ITERATIONS` loop iterations in all,
 //!   float to int conversion saturates. No IR program can trap or hang.
 
 pub mod lower;
@@ -151,7 +152,8 @@ pub enum Inst {
         body: Vec<Inst>,
     },
     /// `counter` runs from `start` while below `end`, at most
-    /// `MAX_LOOP_ITERATIONS` times. `Break(label)` leaves the loop,
+    /// `MAX_LOOP_ITERATIONS` times and while the call's budget of
+    /// `MAX_CALL_ITERATIONS` iterations over all loops lasts. `Break(label)` leaves the loop,
     /// `Continue(label)` goes to the next iteration.
     Loop {
         label: Label,

@@ -7,7 +7,7 @@
 //! integer division, saturating conversions, bounded loops), so the code
 //! cannot trap or hang. Its memory is freed when the [`Jit`] is dropped.
 
-use crate::check::MAX_LOOP_ITERATIONS;
+use crate::check::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
 use crate::runtime::natives;
 use cranelift_codegen::control::ControlPlane;
@@ -231,6 +231,8 @@ struct Gen<'a, 'b> {
     func: &'a ir::Function,
     values: Vec<Option<ClValue>>,
     vars: Vec<Variable>,
+    /// Loop iterations the call may still run, over all loops (i64).
+    budget: Option<Variable>,
     arrays: Vec<cranelift_codegen::ir::StackSlot>,
     /// Exit block and, for loops, the continue block of each label.
     labels: HashMap<Label, (Block, Option<Block>)>,
@@ -257,6 +259,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             func,
             values: vec![None; func.values.len()],
             vars: Vec::new(),
+            budget: None,
             arrays: Vec::new(),
             labels: HashMap::new(),
             natives,
@@ -268,6 +271,10 @@ impl<'a, 'b> Gen<'a, 'b> {
     }
 
     fn entry(&mut self) {
+        let budget = self.b.declare_var(types::I64);
+        let max = self.b.ins().iconst(types::I64, MAX_CALL_ITERATIONS);
+        self.b.def_var(budget, max);
+        self.budget = Some(budget);
         for ty in &self.func.vars {
             let var = self.b.declare_var(cl_type(*ty));
             // Every variable starts defined (at zero), as in the interpreter.
@@ -393,9 +400,18 @@ impl<'a, 'b> Gen<'a, 'b> {
                 self.b.ins().jump(header, &[]);
                 self.b.switch_to_block(header);
                 let kv = self.b.use_var(k);
-                let more = self.b.ins().icmp(IntCC::SignedLessThan, kv, trips);
+                let in_range = self.b.ins().icmp(IntCC::SignedLessThan, kv, trips);
+                // Every loop of the call draws on one budget, so nested
+                // loops cannot multiply their caps.
+                let budget = self.budget.expect("entry() declares the budget");
+                let left = self.b.use_var(budget);
+                let funded = self.b.ins().icmp_imm_s(IntCC::SignedGreaterThan, left, 0);
+                let more = self.b.ins().band(in_range, funded);
                 self.b.ins().brif(more, body_b, &[], exit, &[]);
                 self.b.switch_to_block(body_b);
+                let left = self.b.use_var(budget);
+                let spent = self.b.ins().iadd_imm_s(left, -1);
+                self.b.def_var(budget, spent);
                 let kv = self.b.use_var(k);
                 let i64v = self.b.ins().iadd(s64, kv);
                 let i = self.b.ins().ireduce(types::I32, i64v);

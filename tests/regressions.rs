@@ -1,0 +1,115 @@
+//! Minimal programs for bugs found by `tests/random_programs.rs` and
+//! `tests/safety.rs`. Fixed ones stay as guards; the ones marked FIXME fail
+//! today.
+
+use std::sync::mpsc;
+use std::time::Duration;
+use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
+
+fn compile(src: &str) -> Program {
+    Compiler::new()
+        .color_model(ColorModel::Rgb)
+        .source("regression.tsl", src)
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Calls `name` on both back ends; they must agree. Returns the first word.
+fn call(p: &Program, name: &str, args: &[u32]) -> u32 {
+    let f = p.function(name).unwrap();
+    let (mut jit, mut int) = ([0u32; 4], [0u32; 4]);
+    f.call_words(Backend::Jit, &ShadingGlobals::default(), args, &mut jit).unwrap();
+    f.call_words(Backend::Interpreter, &ShadingGlobals::default(), args, &mut int).unwrap();
+    assert_eq!(jit, int, "{name}({args:?}): jit vs interpreter");
+    jit[0]
+}
+
+// Found by random_programs at b7494fa; fixed in 55df2cd. `mod` and `clamp`
+// of ints were typed `int` by the checker but lowered to float operations,
+// so integer code using the result failed the Cranelift verifier
+// ("v20 = sdiv.f32 v11, v19: invalid controlling type f32"), and
+// `mod(7, 3)` returned the bits of 1.0f32 as an int.
+#[test]
+fn integer_mod_and_clamp_stay_integers() {
+    let p = compile(
+        r#"
+        int mod_div(int a, int b) { return mod(a, b) / 2; }
+        int clamp_div(int a, int b) { return clamp(a, 0, b) / 2; }
+        int clamp_index(int a, int b) { int[3] x = [10, 20, 30]; return x[clamp(a, 0, b)]; }
+        int plain_mod(int a, int b) { return mod(a, b); }
+        "#,
+    );
+    assert_eq!(call(&p, "mod_div", &[7, 3]), 0);
+    assert_eq!(call(&p, "plain_mod", &[7, 3]), 1);
+    assert_eq!(call(&p, "plain_mod", &[(-7i32) as u32, 3]), 2);
+    assert_eq!(call(&p, "clamp_div", &[7, 5]), 2);
+    assert_eq!(call(&p, "clamp_index", &[7, 1]), 20);
+}
+
+// Found by the random_programs work (a hand-written spot check); fixed.
+// `blend` rejects an array of ints ("`blend` cannot interpolate `int`"),
+// although `int` is accepted wherever `float` is expected, `mix(t, 2, 4)`
+// is accepted, and the typing rule in src/check/builtins.rs already maps an
+// `int` element type to `float` after the (too strict) check.
+#[test]
+fn blend_of_ints_is_a_float_blend() {
+    let checked =
+        tsl::check_source("blend.tsl", "float f() { return blend(0.25, [0, 10, 20]); }", &tsl::LoadOptions::default());
+    assert!(checked.is_ok(), "{}", checked.render_diagnostics());
+    let p = compile("float f() { return blend(0.25, [0, 10, 20]); }");
+    assert_eq!(f32::from_bits(call(&p, "f", &[])), 5.0);
+}
+
+// Found by the safety tests; fixed.
+// Every `for` loop is capped at 1,000,000 iterations on its own, so nested
+// loops multiply the caps: three nested `0..2000000000` loops run 10^18
+// iterations (the JIT does about 10^9 a second here; the interpreter about
+// 10^7), so a three-line shader hangs its host, against "a shader must not
+// be able to hang its host". A budget per call (or per loop nest) would
+// bound it.
+#[test]
+fn nested_loops_cannot_hang_the_host() {
+    let p = compile(
+        r#"
+        int spin() {
+            int n = 0;
+            for i in 0..2000000000 { for j in 0..2000000000 { for k in 0..2000000000 { n += 1; } } }
+            return n;
+        }
+        "#,
+    );
+    let f = p.function("spin").unwrap();
+    let (done, finished) = mpsc::channel();
+    // Detached on purpose: if the call never returns, the test still ends
+    // (the thread dies with the process).
+    std::thread::spawn(move || {
+        let mut out = [0u32; 1];
+        f.call_words(Backend::Jit, &ShadingGlobals::default(), &[], &mut out).unwrap();
+        let _ = done.send(out[0]);
+    });
+    match finished.recv_timeout(Duration::from_secs(10)) {
+        Ok(_) => {}
+        Err(_) => panic!("a shader with three nested capped loops was still running after 10 s"),
+    }
+}
+
+// Found by the safety tests; fixed.
+// Looking up a name that is not an entry but starts with a prelude name
+// (`lambert.no_such_method`, or a prelude constant such as `PI`) compiles
+// that prelude item again on every call and keeps the new JIT part: here
+// the entry list grows by 11 methods per lookup (1,156 entries after 100
+// lookups of `cook_torrance.nope`, 22 ms each in a debug build), and the
+// memory is only freed with the Program.
+#[test]
+fn failed_prelude_lookups_do_not_recompile() {
+    let p = compile("float f() { return 1; }");
+    let start = p.entries().len();
+    for _ in 0..10 {
+        assert!(p.function("lambert.no_such_method").is_none());
+        assert!(p.function("PI").is_none());
+    }
+    let after = p.entries().len();
+    assert!(after <= start + 11, "{start} entries before 10 failed lookups, {after} after");
+    // The real methods are still found.
+    assert!(p.function("lambert.reflection").is_some());
+}
