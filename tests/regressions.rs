@@ -1,6 +1,5 @@
 //! Minimal programs for bugs found by `tests/random_programs.rs` and
-//! `tests/safety.rs`. Fixed ones stay as guards; the ones marked FIXME fail
-//! today.
+//! `tests/safety.rs`, kept as guards now that they are fixed.
 
 use std::sync::mpsc;
 use std::time::Duration;
@@ -112,4 +111,14 @@ fn failed_prelude_lookups_do_not_recompile() {
     assert!(after <= start + 11, "{start} entries before 10 failed lookups, {after} after");
     // The real methods are still found.
     assert!(p.function("lambert.reflection").is_some());
+}
+
+// Found by the random-program work; fixed. A bool argument word other than
+// 0 or 1 (say 2) was true for the JIT but compared unequal to `true` in the
+// interpreter. Both now read any non-zero word as true.
+#[test]
+fn bool_argument_words_are_true_when_non_zero() {
+    let p = compile("bool f(bool b) { return b == true; }");
+    assert_eq!(call(&p, "f", &[2]), 1);
+    assert_eq!(call(&p, "f", &[0]), 0);
 }

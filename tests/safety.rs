@@ -278,6 +278,18 @@ fn loops_are_capped_at_a_million_iterations() {
         int last_index(int lo, int hi) { int last = -1; for i in lo..hi { last = i; } return last; }
         int nested(int a, int b) { int n = 0; for i in 0..a { for j in 0..b { n += 1; } } return n; }
         int with_continue() { int n = 0; for i in 0..2000000000 { if i % 2 == 0 { continue; } n += 1; } return n; }
+        int spin() {
+            int n = 0;
+            for i in 0..2000000000 { for j in 0..2000000000 { for k in 0..2000000000 { n += 1; } } }
+            return n;
+        }
+        int after_budget() {
+            int n = 0;
+            for i in 0..2000000000 { for j in 0..2000000000 { n += 0; } }
+            for k in 0..10 { n += 1; }
+            return n;
+        }
+        int two_loops() { int n = 0; for i in 0..1000000 { n += 1; } for i in 0..1000000 { n += 1; } return n; }
         "#,
     );
     let start = std::time::Instant::now();
@@ -293,6 +305,12 @@ fn loops_are_capped_at_a_million_iterations() {
     assert_eq!(call_i(&p, "nested", &[i(1000), i(1000)]), 1_000_000);
     // Each loop is capped separately: 2 outer iterations of a capped inner loop.
     assert_eq!(call_i(&p, "nested", &[i(2), i(i32::MAX)]), 2_000_000);
+    // A call has a budget of 2^24 iterations over all its loops, so nested
+    // capped loops cannot multiply the cap; once it is spent, every loop ends.
+    let spun = call_i(&p, "spin", &[]);
+    assert!(spun <= 1 << 24 && spun > (1 << 24) - 100, "{spun}");
+    assert_eq!(call_i(&p, "after_budget", &[]), 0);
+    assert_eq!(call_i(&p, "two_loops", &[]), 2_000_000);
     eprintln!("capped loops on both back ends: {:?}", start.elapsed());
 }
 

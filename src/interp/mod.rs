@@ -12,9 +12,15 @@ use crate::runtime::{NativeFn, native};
 /// Runs `func` on the given globals and argument words, writing the result
 /// words into `out`.
 pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
+    // A bool argument is true when its word is non-zero, as in the JIT.
+    let args: Vec<u32> = args
+        .iter()
+        .zip(func.params.iter().map(Some).chain(std::iter::repeat(None)))
+        .map(|(w, ty)| if ty == Some(&crate::ir::Scalar::Bool) { bw(*w != 0) } else { *w })
+        .collect();
     let mut m = Machine {
         globals,
-        args,
+        args: &args,
         values: vec![0; func.values.len()],
         vars: vec![0; func.vars.len()],
         arrays: func.arrays.iter().map(|(_, n)| vec![0u32; *n as usize]).collect(),
