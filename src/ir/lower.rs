@@ -1830,41 +1830,9 @@ impl<'p> Lowerer<'p> {
                     .collect(),
             ),
             "sqrt" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Sqrt, x)).collect()),
-            "round" => {
+            n_ if unary_native_name(n_).is_some() => {
                 let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_round", x)
-            }
-            "exp" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_exp", x)
-            }
-            "log" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_log", x)
-            }
-            "sin" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_sin", x)
-            }
-            "cos" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_cos", x)
-            }
-            "tan" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_tan", x)
-            }
-            "asin" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_asin", x)
-            }
-            "acos" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_acos", x)
-            }
-            "atan" => {
-                let x = arg(self, b, 0, n);
-                unary_native(b, "tsl_atan", x)
+                unary_native(b, unary_native_name(name).unwrap_or("tsl_round"), x)
             }
             "radians" | "degrees" => {
                 let k =
@@ -2217,6 +2185,23 @@ impl<'p> Lowerer<'p> {
             })
             .collect()
     }
+}
+
+/// The native computing an elementwise builtin that Cranelift has no
+/// instruction for.
+fn unary_native_name(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "round" => "tsl_round",
+        "exp" => "tsl_exp",
+        "log" => "tsl_log",
+        "sin" => "tsl_sin",
+        "cos" => "tsl_cos",
+        "tan" => "tsl_tan",
+        "asin" => "tsl_asin",
+        "acos" => "tsl_acos",
+        "atan" => "tsl_atan",
+        _ => return None,
+    })
 }
 
 fn native_name(name: &str, width: usize) -> &'static str {
