@@ -337,13 +337,7 @@ impl<'a> Checker<'a> {
                 );
                 continue;
             }
-            self.declare(Local {
-                name: p.name.name.clone(),
-                ty,
-                span: p.name.span,
-                kind: LocalKind::Param,
-                used: true,
-            });
+            self.declare_param(&p.name, ty);
         }
     }
 
@@ -436,13 +430,7 @@ impl<'a> Checker<'a> {
             // signature is one error, not one per `return`.
             for p in &m.params {
                 let ty = Ty::from_ast(&p.ty);
-                self.declare(Local {
-                    name: p.name.name.clone(),
-                    ty,
-                    span: p.name.span,
-                    kind: LocalKind::Param,
-                    used: true,
-                });
+                self.declare_param(&p.name, ty);
             }
             let ret = Ty::from_ast(&m.ret);
             self.body.ret = Some(ret.clone());
@@ -554,6 +542,11 @@ impl<'a> Checker<'a> {
             return;
         }
         scope.push(local);
+    }
+
+    /// Parameters are never reported unused: interface methods often ignore some.
+    fn declare_param(&mut self, name: &Ident, ty: Ty) {
+        self.declare(Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Param, used: true });
     }
 
     fn lookup_local(&mut self, name: &str) -> Option<&mut Local> {
