@@ -27,6 +27,7 @@ pub mod interp;
 pub mod ir;
 pub mod jit;
 pub mod load;
+pub mod render;
 pub mod runtime;
 pub mod syntax;
 
