@@ -49,7 +49,7 @@ material tree{i} = bump(gen{i}(), 0.02, mix(gen{i}(octaves: 3), shiny{i}(), shin
         i += 1;
     }
     src.push_str(
-        "scene {\n    camera { from (0, 1, -4); to (0, 1, 0); fov 40; }\n    light point { at (2, 4, -3); power rgb(60, 60, 60); }\n    object sphere { center (0, 1, 0); radius 1; material tree0; }\n}\n",
+        "scene {\n    camera { from (0, 1, -4); to (0, 1, 0); fov 40; }\n    light point { at (2, 4, -3); intensity rgb(60, 60, 60); }\n    object sphere { center (0, 1, 0); radius 1; material tree0; }\n}\n",
     );
     src
 }

@@ -38,7 +38,7 @@ pub struct Error {
 }
 
 impl Error {
-    fn plain(message: String) -> Error {
+    pub(crate) fn plain(message: String) -> Error {
         let mut sources = SourceMap::new();
         let file = sources.add("<tsl>", "");
         Error { diagnostics: vec![Diagnostic::error(crate::diag::Span::new(file, 0, 0), message)], sources }
@@ -231,6 +231,63 @@ impl Program {
         Color::from_lanes(self.inner.model, &color::rgb_to_lanes(self.inner.model, [r, g, b]))
     }
 
+    /// The checked program: its syntax trees, symbols and expression types.
+    pub fn checked(&self) -> &check::Program {
+        &self.inner.program
+    }
+
+    /// An error pointing into this program's sources.
+    pub(crate) fn error(&self, diagnostic: Diagnostic) -> Error {
+        Error { diagnostics: vec![diagnostic], sources: self.inner.program.loaded.sources.clone() }
+    }
+
+    /// Evaluates an expression of the root program that reads no shading
+    /// global (a scene property) to its words, converted to `to`.
+    pub(crate) fn eval_value(&self, expr: &crate::syntax::ast::Expr, to: &check::Ty) -> Result<Vec<u32>, Error> {
+        let (f, diags) = crate::ir::lower::lower_value(&self.inner.program, self.inner.model, "value", expr, to);
+        if !diags.is_empty() {
+            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
+        }
+        let globals = ShadingGlobals::default().words();
+        let mut out = vec![0u32; f.results.len()];
+        crate::interp::run(&f, &globals, &[], &mut out);
+        Ok(out)
+    }
+
+    /// Compiles material expressions of the root program (scene objects'
+    /// `material` values) together, one [`Material`] per expression. `name`s
+    /// must be unique and not TSL identifiers (for example `@object3`).
+    pub(crate) fn compile_material_exprs(
+        &self,
+        materials: &[(String, &crate::syntax::ast::Expr)],
+    ) -> Result<Vec<Material>, Error> {
+        let (ir, entries, diags) =
+            crate::ir::lower::lower_material_exprs(&self.inner.program, self.inner.model, materials);
+        if !diags.is_empty() {
+            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
+        }
+        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
+        let part = Arc::new(Part { ir, entries, jit });
+        let mut out = Vec::with_capacity(materials.len());
+        for (name, _) in materials {
+            let mut methods = Vec::with_capacity(crate::check::INTERFACE.len());
+            for im in crate::check::INTERFACE {
+                let fname = format!("{name}.{}", im.name);
+                let index = part.ir.functions.iter().position(|f| f.name == fname);
+                let native = part.jit.function(&fname);
+                let (Some(index), Some(native)) = (index, native) else {
+                    return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
+                };
+                methods.push(Function { part: part.clone(), index, native });
+            }
+            out.push(Material { program: self.clone(), methods });
+        }
+        if let Ok(mut parts) = self.inner.parts.write() {
+            parts.push(part);
+        }
+        Ok(out)
+    }
+
     /// A material defined in the program (a material tree, or a material
     /// model whose parameters all have defaults).
     pub fn material(&self, name: &str) -> Result<Material, Error> {
@@ -375,6 +432,17 @@ impl Color {
         Color { model, lanes: [0.0; MAX_SAMPLES] }
     }
 
+    pub fn model(&self) -> ColorModel {
+        self.model
+    }
+
+    /// The color times `s`.
+    pub fn scaled(&self, s: f32) -> Color {
+        let mut c = *self;
+        c.lanes.iter_mut().for_each(|x| *x *= s);
+        c
+    }
+
     /// RGB values, or spectral samples at the model's wavelengths.
     pub fn lanes(&self) -> &[f32] {
         &self.lanes[..self.model.lanes()]
@@ -491,6 +559,99 @@ impl Material {
         light[..lanes].iter().for_each(|x| args.push(*x));
         args.v(wo);
         self.call_into(0, g, &args, out.as_mut_ptr().cast());
+    }
+
+    /// Calls a color method with `args` words, writing the model's lanes
+    /// to `out`.
+    fn color_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: &mut [f32]) {
+        let lanes = self.program.color_model().lanes();
+        assert!(out.len() >= lanes, "out needs {lanes} lanes");
+        self.call_into(k, g, args, out.as_mut_ptr().cast());
+    }
+
+    /// [`Material::refraction`] on lane slices (see [`Material::reflection_into`]).
+    pub fn refraction_into(
+        &self,
+        g: &ShadingGlobals,
+        wi: [f32; 3],
+        light: &[f32],
+        eta: &[f32],
+        wo: [f32; 3],
+        out: &mut [f32],
+    ) {
+        let lanes = self.program.color_model().lanes();
+        assert!(light.len() >= lanes && eta.len() >= lanes, "light and eta need {lanes} lanes");
+        let mut args = Args::new();
+        args.v(wi);
+        light[..lanes].iter().for_each(|x| args.push(*x));
+        eta[..lanes].iter().for_each(|x| args.push(*x));
+        args.v(wo);
+        self.color_into(1, g, &args, out);
+    }
+
+    /// [`Material::refraction_index`] into a lane slice.
+    pub fn refraction_index_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
+        self.color_into(2, g, &Args::new(), out);
+    }
+
+    /// [`Material::refraction_dir`] with `eta` as a lane slice.
+    pub fn refraction_dir_lanes(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &[f32]) -> [f32; 3] {
+        let lanes = self.program.color_model().lanes();
+        assert!(eta.len() >= lanes, "eta needs {lanes} lanes");
+        let mut args = Args::new();
+        args.v(wo);
+        eta[..lanes].iter().for_each(|x| args.push(*x));
+        self.vector(4, g, &args)
+    }
+
+    /// [`Material::emission`] into a lane slice.
+    pub fn emission_into(&self, g: &ShadingGlobals, wo: [f32; 3], out: &mut [f32]) {
+        self.color_into(5, g, Args::new().v(wo), out);
+    }
+
+    /// [`Material::absorption`] on lane slices.
+    pub fn absorption_into(&self, g: &ShadingGlobals, light: &[f32], distance: f32, out: &mut [f32]) {
+        let lanes = self.program.color_model().lanes();
+        assert!(light.len() >= lanes, "light needs {lanes} lanes");
+        let mut args = Args::new();
+        light[..lanes].iter().for_each(|x| args.push(*x));
+        args.f(distance);
+        self.color_into(7, g, &args, out);
+    }
+
+    /// [`Material::diffuse`] into a lane slice.
+    pub fn diffuse_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
+        self.color_into(9, g, &Args::new(), out);
+    }
+
+    /// False when `emission` is the interface default (black everywhere),
+    /// known from the compiled code: renderers skip such materials when
+    /// they look for light sources.
+    pub fn may_emit(&self) -> bool {
+        match self.methods[5].ir().constant_results() {
+            Some(words) => words.iter().any(|w| f32::from_bits(*w) != 0.0),
+            None => true,
+        }
+    }
+
+    /// False when `reflection_dir` is the default (no mirror direction).
+    pub fn may_reflect_dir(&self) -> bool {
+        !self.methods[3].ir().constant_results().is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0))
+    }
+
+    /// False when `refraction_dir` is the default (nothing passes through).
+    pub fn may_refract(&self) -> bool {
+        !self.methods[4].ir().constant_results().is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0))
+    }
+
+    /// True when `opaque` is the constant `true`: shadow rays need not ask.
+    pub fn always_opaque(&self) -> bool {
+        self.methods[10].ir().constant_results().is_some_and(|w| w.first() == Some(&1))
+    }
+
+    /// The color model the material was compiled for.
+    pub fn color_model(&self) -> ColorModel {
+        self.program.color_model()
     }
 
     /// Light arriving from `wi` transmitted toward `wo`.

@@ -57,16 +57,23 @@ struct Prop {
     required: bool,
     /// Transforms may be given several times; they apply in order.
     repeats: bool,
+    /// Properties with the same non-zero group are alternatives: exactly
+    /// one of them must be given (`intensity` or `power`).
+    group: u8,
 }
 
 const fn req(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: true, repeats: false }
+    Prop { name, want, required: true, repeats: false, group: 0 }
 }
 const fn opt(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: false, repeats: false }
+    Prop { name, want, required: false, repeats: false, group: 0 }
 }
 const fn many(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: false, repeats: true }
+    Prop { name, want, required: false, repeats: true, group: 0 }
+}
+/// One of a group of alternatives (see `Prop::group`).
+const fn alt(name: &'static str, want: Want) -> Prop {
+    Prop { name, want, required: false, repeats: false, group: 1 }
 }
 
 const TOP: &[Prop] = &[opt("background", Want::ColorOrString)];
@@ -90,13 +97,14 @@ const RENDER: &[Prop] = &[
 ];
 
 const LIGHTS: &[(&str, &[Prop])] = &[
-    ("point", &[req("at", Want::Point), req("power", Want::Color)]),
+    ("point", &[req("at", Want::Point), alt("intensity", Want::Color), alt("power", Want::Color)]),
     (
         "spot",
         &[
             req("at", Want::Point),
             req("to", Want::Point),
-            req("power", Want::Color),
+            alt("intensity", Want::Color),
+            alt("power", Want::Color),
             opt("cone", Want::Positive),
             opt("falloff", Want::Float),
         ],
@@ -108,10 +116,19 @@ const LIGHTS: &[(&str, &[Prop])] = &[
             req("corner", Want::Point),
             req("edge1", Want::Vector),
             req("edge2", Want::Vector),
-            req("power", Want::Color),
+            alt("radiance", Want::Color),
+            alt("power", Want::Color),
         ],
     ),
-    ("sphere", &[req("center", Want::Point), req("radius", Want::Positive), req("power", Want::Color)]),
+    (
+        "sphere",
+        &[
+            req("center", Want::Point),
+            req("radius", Want::Positive),
+            alt("radiance", Want::Color),
+            alt("power", Want::Color),
+        ],
+    ),
 ];
 
 /// Properties every object takes besides its shape's own.
@@ -126,6 +143,7 @@ const OBJECT_COMMON: &[Prop] = &[
 const SHAPES: &[(&str, &[Prop])] = &[
     ("sphere", &[req("center", Want::Point), req("radius", Want::Positive)]),
     ("plane", &[req("point", Want::Point), req("normal", Want::Vector), opt("tile", Want::Positive)]),
+    ("quad", &[req("corner", Want::Point), req("edge1", Want::Vector), req("edge2", Want::Vector)]),
     ("disk", &[req("center", Want::Point), req("normal", Want::Vector), req("radius", Want::Positive)]),
     ("box", &[req("min", Want::Point), req("max", Want::Point)]),
     (
@@ -243,6 +261,23 @@ fn check_props(
     b: &SceneBlock,
 ) {
     let given = check_prop_list(cx, &props, own, common);
+    let alternatives: Vec<&str> = own.iter().filter(|p| p.group != 0).map(|p| p.name).collect();
+    if !alternatives.is_empty() {
+        let named: Vec<&str> = alternatives.iter().copied().filter(|n| given.contains_key(n)).collect();
+        let list = alternatives.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(" or ");
+        if named.is_empty() {
+            cx.error(
+                Diagnostic::error(b.span, format!("{what} needs {list}"))
+                    .with_help(format!("add `{} ...;` inside the block", alternatives[0])),
+            );
+        } else if named.len() > 1 {
+            let first = given[named[0]];
+            cx.error(
+                Diagnostic::error(given[named[1]].name.span, format!("give {list}, not both"))
+                    .with_label(first.name.span, "already given here"),
+            );
+        }
+    }
     for p in own.iter().chain(common) {
         if p.required && !given.contains_key(p.name) {
             cx.error(

@@ -80,6 +80,61 @@ pub fn lower_entries(
     (module, entries, lw.diags)
 }
 
+/// Lowers one expression of the root program that reads no shading global
+/// (a scene property's value) to a function without parameters whose
+/// results are the value's words, converted to `to`.
+pub fn lower_value(
+    program: &Program,
+    model: ColorModel,
+    name: &str,
+    expr: &Expr,
+    to: &Ty,
+) -> (Function, Vec<Diagnostic>) {
+    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut b = Builder::new(name);
+    let ctx = lw.root_ctx();
+    let mut fr = lw.new_frame(false, HashSet::new());
+    let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
+    let lanes = lw.lanes(&mut b, v, to);
+    lw.write_results(&mut b, to, &lanes);
+    (b.finish(), lw.diags)
+}
+
+/// Lowers material expressions of the root program (a scene object's
+/// `material` value) to entry points `NAME.method`, one per interface
+/// method, as [`lower_entries`] does for named materials.
+pub fn lower_material_exprs(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    for (name, expr) in materials {
+        for im in INTERFACE {
+            let fname = format!("{name}.{}", im.name);
+            let mut b = Builder::new(&fname);
+            let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
+            let args: Vec<Vec<Value>> = lw
+                .params_from_args(&mut b, &params)
+                .into_iter()
+                .map(|v| match v {
+                    Val::Lanes(l) => l,
+                    _ => Vec::new(),
+                })
+                .collect();
+            let ctx = lw.root_ctx();
+            let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+            let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
+            lw.write_results(&mut b, &im.ret, &result);
+            module.functions.push(b.finish());
+            entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
+        }
+    }
+    (module, entries, lw.diags)
+}
+
 struct Lowerer<'p> {
     program: &'p Program,
     model: ColorModel,

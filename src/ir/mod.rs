@@ -288,3 +288,29 @@ fn print_op(op: &Op) -> String {
         }
     }
 }
+
+impl Function {
+    /// The result words when the function computes constants only (its
+    /// body is constant definitions and outputs), as f32 bits: how a
+    /// renderer tells that a material's `emission` is the default black.
+    pub fn constant_results(&self) -> Option<Vec<u32>> {
+        let mut consts = std::collections::HashMap::new();
+        let mut out = vec![None; self.results.len()];
+        for inst in &self.body {
+            match inst {
+                Inst::Def(v, Op::F32(x)) => {
+                    consts.insert(*v, x.to_bits());
+                }
+                Inst::Def(v, Op::I32(x)) => {
+                    consts.insert(*v, *x as u32);
+                }
+                Inst::Def(v, Op::Bool(x)) => {
+                    consts.insert(*v, u32::from(*x));
+                }
+                Inst::Output(k, v) => *out.get_mut(*k as usize)? = Some(*consts.get(v)?),
+                _ => return None,
+            }
+        }
+        out.into_iter().collect()
+    }
+}

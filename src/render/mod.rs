@@ -2,8 +2,43 @@
 //! the BVH, lights, the Whitted and path-tracing integrators, and image
 //! output. It talks to materials only through the generic material
 //! interface ([`crate::Material`]).
+//!
+//! ```no_run
+//! use tsl::render::{self, Overrides, RenderOptions, Scene};
+//! let program = tsl::Compiler::new().file("examples/cornell.tsl").compile()?;
+//! let scene = Scene::build(&program, &Overrides { spp: Some(4), ..Default::default() })?;
+//! let (image, stats) = render::render(&scene, &RenderOptions::default())?;
+//! render::image_io::write_image("cornell.exr".as_ref(), &image)?;
+//! println!("{} samples in {:.2} s", stats.samples, stats.seconds);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Invariant: every random number is a pure function of (seed, pixel,
+//! sample index, dimension), so an image does not depend on the number of
+//! threads, the tiling, or the window rendered.
+
+pub mod accel;
+pub mod camera;
+pub mod geometry;
+pub mod heightfield;
+pub mod image_io;
+pub mod integrator;
+pub mod light;
+pub mod mesh;
+pub mod sampling;
+pub mod scene;
+pub mod shape;
+pub mod spectrum;
 
 pub use glam::{Mat4, Vec3};
+pub use image_io::RenderedImage;
+pub use integrator::Counters;
+pub use scene::{IntegratorKind, Overrides, Scene, Settings};
+
+use integrator::{Aov, Tracer};
+use rayon::prelude::*;
+use sampling::Sampler;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A ray `origin + t * dir`. `dir` need not be unit length; every `t` is in
 /// units of `dir`.
@@ -21,4 +56,191 @@ impl Ray {
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + t * self.dir
     }
+}
+
+/// How one render runs (what is not part of the scene).
+#[derive(Default)]
+pub struct RenderOptions<'a> {
+    /// Worker threads; 0 means one per core.
+    pub threads: usize,
+    /// The pixels to render, `(x0, y0, width, height)`; `None` for all.
+    pub window: Option<(u32, u32, u32, u32)>,
+    /// Also produce albedo, normal and depth layers.
+    pub aov: bool,
+    /// Called from worker threads as pixels finish: (pixels done, total).
+    pub progress: Option<&'a (dyn Fn(u64, u64) + Sync)>,
+}
+
+/// What a render did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RenderStats {
+    pub seconds: f64,
+    /// Camera samples taken.
+    pub samples: u64,
+    pub rays: Counters,
+    /// Samples whose radiance was NaN or infinite, dropped (counted as black).
+    pub dropped_samples: u64,
+    pub threads: usize,
+}
+
+impl RenderStats {
+    pub fn total_rays(&self) -> u64 {
+        self.rays.camera_rays + self.rays.secondary_rays + self.rays.shadow_rays
+    }
+}
+
+/// Tiles are this many pixels square.
+const TILE: u32 = 16;
+
+/// Renders `scene` (or a window of it) into linear RGB.
+pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(RenderedImage, RenderStats), String> {
+    // Radiance lanes rounded up to a capacity the integrators are built for.
+    match scene.model.lanes() {
+        0..=3 => render_lanes::<3>(scene, options),
+        4..=8 => render_lanes::<8>(scene, options),
+        9..=16 => render_lanes::<16>(scene, options),
+        17..=32 => render_lanes::<32>(scene, options),
+        _ => render_lanes::<{ crate::color::MAX_SAMPLES }>(scene, options),
+    }
+}
+
+/// One finished tile.
+struct TileOut {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    color: Vec<[f32; 3]>,
+    aov: Vec<Aov>,
+    counters: Counters,
+    dropped: u64,
+}
+
+fn render_lanes<const N: usize>(
+    scene: &Scene,
+    options: &RenderOptions,
+) -> Result<(RenderedImage, RenderStats), String> {
+    let s = &scene.settings;
+    let (x0, y0, width, height) = options.window.unwrap_or((0, 0, s.width, s.height));
+    if width == 0 || height == 0 || x0 + width > s.width || y0 + height > s.height {
+        return Err(format!(
+            "the window {width}x{height} at ({x0}, {y0}) is not inside the {}x{} image",
+            s.width, s.height
+        ));
+    }
+    let mut tiles = Vec::new();
+    for ty in (y0..y0 + height).step_by(TILE as usize) {
+        for tx in (x0..x0 + width).step_by(TILE as usize) {
+            tiles.push((tx, ty, TILE.min(x0 + width - tx), TILE.min(y0 + height - ty)));
+        }
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads)
+        .build()
+        .map_err(|e| format!("cannot start render threads: {e}"))?;
+    let threads = pool.current_num_threads();
+    let total = u64::from(width) * u64::from(height);
+    let done = AtomicU64::new(0);
+    let start = std::time::Instant::now();
+    let outs: Vec<TileOut> = pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&(tx, ty, w, h)| {
+                let out = render_tile::<N>(scene, tx, ty, w, h, options.aov);
+                let now = done.fetch_add(u64::from(w * h), Ordering::Relaxed) + u64::from(w * h);
+                if let Some(progress) = options.progress {
+                    progress(now, total);
+                }
+                out
+            })
+            .collect()
+    });
+    let mut image = RenderedImage {
+        full_width: s.width,
+        full_height: s.height,
+        x0,
+        y0,
+        width,
+        height,
+        color: vec![[0.0; 3]; (width * height) as usize],
+        albedo: options.aov.then(|| vec![[0.0; 3]; (width * height) as usize]),
+        normal: options.aov.then(|| vec![[0.0; 3]; (width * height) as usize]),
+        depth: options.aov.then(|| vec![0.0; (width * height) as usize]),
+    };
+    let mut stats = RenderStats { threads, ..RenderStats::default() };
+    for t in outs {
+        for j in 0..t.h {
+            for i in 0..t.w {
+                let src = (j * t.w + i) as usize;
+                let dst = ((t.y0 - y0 + j) * width + (t.x0 - x0 + i)) as usize;
+                image.color[dst] = t.color[src];
+                if let (Some(a), Some(n), Some(d)) = (&mut image.albedo, &mut image.normal, &mut image.depth) {
+                    a[dst] = t.aov[src].albedo;
+                    n[dst] = t.aov[src].normal;
+                    d[dst] = t.aov[src].depth;
+                }
+            }
+        }
+        stats.rays.camera_rays += t.counters.camera_rays;
+        stats.rays.secondary_rays += t.counters.secondary_rays;
+        stats.rays.shadow_rays += t.counters.shadow_rays;
+        stats.dropped_samples += t.dropped;
+    }
+    stats.samples = total * u64::from(s.spp);
+    stats.seconds = start.elapsed().as_secs_f64();
+    Ok((image, stats))
+}
+
+fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, want_aov: bool) -> TileOut {
+    let s = &scene.settings;
+    let mut tracer = Tracer::<N>::new(scene);
+    let lanes = scene.model.lanes();
+    let mut color = Vec::with_capacity((w * h) as usize);
+    let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
+    let mut dropped = 0;
+    for py in y0..y0 + h {
+        for px in x0..x0 + w {
+            let mut sum = spectrum::Spectrum::<N>::ZERO;
+            let mut aov_sum = Aov::default();
+            let mut hits = 0u32;
+            for k in 0..s.spp {
+                let mut sampler = Sampler::new(s.seed, px, py, k);
+                // One sample per pixel looks through the pixel centre, as
+                // the benchmark scenes and POV-Ray's -A expect.
+                let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };
+                let lens = sampler.next_2d();
+                let ray = scene.camera.ray(px as f32 + jx, py as f32 + jy, lens);
+                let (l, aov) = match s.integrator {
+                    IntegratorKind::Whitted => tracer.whitted(&ray, &mut sampler),
+                    IntegratorKind::Path => tracer.path(&ray, &mut sampler),
+                };
+                if l.is_finite() {
+                    sum += l;
+                } else {
+                    dropped += 1;
+                }
+                if want_aov {
+                    for c in 0..3 {
+                        aov_sum.albedo[c] += aov.albedo[c];
+                        aov_sum.normal[c] += aov.normal[c];
+                    }
+                    if aov.depth.is_finite() {
+                        aov_sum.depth += aov.depth;
+                        hits += 1;
+                    }
+                }
+            }
+            let mean = sum * (1.0 / s.spp as f32);
+            color.push(crate::color::lanes_to_rgb(scene.model, &mean.0[..lanes]));
+            if want_aov {
+                let n = s.spp as f32;
+                aovs.push(Aov {
+                    albedo: aov_sum.albedo.map(|x| x / n),
+                    normal: aov_sum.normal.map(|x| x / n),
+                    depth: if hits > 0 { aov_sum.depth / hits as f32 } else { f32::INFINITY },
+                });
+            }
+        }
+    }
+    TileOut { x0, y0, w, h, color, aov: aovs, counters: tracer.counters, dropped }
 }

@@ -4,6 +4,9 @@
 //! terminal) or as JSON lines for editors and CI. Diagnostics go to stderr;
 //! requested data (JSON messages) to stdout.
 //! Exit codes: 0 clean, 1 errors (or warnings under `-W error`), 2 usage.
+//! `render`, `merge` and `make-mesh` live in `render.rs`.
+
+mod render;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::io::{IsTerminal, Read, Write};
@@ -26,6 +29,12 @@ enum Command {
     /// Print a compilation stage of a file: the checked AST, the IR, or the
     /// Cranelift IR of every compiled function.
     Emit(EmitArgs),
+    /// Render a scene file to an image (.png or .exr).
+    Render(render::RenderArgs),
+    /// Join tiles rendered with `render --tile I/N` into one image.
+    Merge(render::MergeArgs),
+    /// Write a generated mesh that an example scene needs (`heavy`).
+    MakeMesh(render::MakeMeshArgs),
 }
 
 #[derive(clap::Args)]
@@ -105,6 +114,9 @@ fn main() -> ExitCode {
     let worker = std::thread::Builder::new().stack_size(64 << 20).spawn(move || match cli.command {
         Command::Check(args) => check(args),
         Command::Emit(args) => emit(args),
+        Command::Render(args) => render::render(args),
+        Command::Merge(args) => render::merge(args),
+        Command::MakeMesh(args) => render::make_mesh(args),
     });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,

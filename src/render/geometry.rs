@@ -1,0 +1,151 @@
+//! All the scene's surfaces behind one query interface: analytic shapes and
+//! mesh triangles in a BVH, unbounded shapes (infinite planes) tested
+//! beside it. Hits name the object (and triangle) they found; the full
+//! surface record is computed only for the hit that is shaded.
+
+use super::accel::Bvh;
+use super::mesh::Mesh;
+use super::shape::{Shape, SurfaceHit};
+use super::{Ray, Vec3};
+
+/// The geometry of one object.
+pub enum ObjectGeometry {
+    Shape(Shape),
+    Mesh(Mesh),
+}
+
+/// A primitive of the BVH: an analytic shape, or one triangle of a mesh.
+#[derive(Debug, Clone, Copy)]
+struct Prim {
+    object: u32,
+    /// The triangle of a mesh; unused for shapes.
+    tri: u32,
+}
+
+/// The nearest hit of a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    pub object: u32,
+    pub tri: u32,
+    pub t: f32,
+}
+
+pub struct Geometry {
+    pub objects: Vec<ObjectGeometry>,
+    prims: Vec<Prim>,
+    unbounded: Vec<u32>,
+    bvh: Bvh,
+}
+
+impl Geometry {
+    pub fn new(objects: Vec<ObjectGeometry>) -> Geometry {
+        let mut prims = Vec::new();
+        let mut bounds = Vec::new();
+        let mut unbounded = Vec::new();
+        for (k, o) in objects.iter().enumerate() {
+            let object = k as u32;
+            match o {
+                ObjectGeometry::Shape(s) => match s.bounds() {
+                    Some(b) => {
+                        prims.push(Prim { object, tri: 0 });
+                        bounds.push(b);
+                    }
+                    None => unbounded.push(object),
+                },
+                ObjectGeometry::Mesh(m) => {
+                    for tri in 0..m.triangles.len() as u32 {
+                        prims.push(Prim { object, tri });
+                        bounds.push(m.bounds(tri));
+                    }
+                }
+            }
+        }
+        let bvh = Bvh::build(&bounds);
+        Geometry { objects, prims, unbounded, bvh }
+    }
+
+    /// Primitives in the BVH (shapes and triangles).
+    pub fn primitive_count(&self) -> usize {
+        self.prims.len()
+    }
+
+    fn test(&self, prim: Prim, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        match &self.objects[prim.object as usize] {
+            ObjectGeometry::Shape(s) => s.intersect(ray, t_min, t_max),
+            ObjectGeometry::Mesh(m) => m.intersect(prim.tri, ray, t_min, t_max).map(|h| h.0),
+        }
+    }
+
+    /// The nearest hit with `t` in `(t_min, t_max)`.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let mut best = self
+            .bvh
+            .closest(ray, t_min, t_max, |id, ray, t_max| self.test(self.prims[id as usize], ray, t_min, t_max))
+            .map(|(id, t)| {
+                let p = self.prims[id as usize];
+                Hit { object: p.object, tri: p.tri, t }
+            });
+        for &object in &self.unbounded {
+            let t_max = best.map_or(t_max, |h| h.t);
+            if let Some(t) = self.test(Prim { object, tri: 0 }, ray, t_min, t_max) {
+                best = Some(Hit { object, tri: 0, t });
+            }
+        }
+        best
+    }
+
+    /// True when something with `t` in `(t_min, t_max)` blocks the ray.
+    /// `blocks` decides for each surface found (cutouts let rays through);
+    /// it is called for surfaces in no particular order.
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, mut blocks: impl FnMut(Hit) -> bool) -> bool {
+        let mut check = |prim: Prim, t_max: f32| match self.test(prim, ray, t_min, t_max) {
+            Some(t) => blocks(Hit { object: prim.object, tri: prim.tri, t }),
+            None => false,
+        };
+        if self.unbounded.iter().any(|&object| check(Prim { object, tri: 0 }, t_max)) {
+            return true;
+        }
+        self.bvh.any(ray, t_min, t_max, |id, _, t_max| check(self.prims[id as usize], t_max))
+    }
+
+    /// The surface record of a hit found by [`Geometry::intersect`].
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceHit {
+        match &self.objects[hit.object as usize] {
+            ObjectGeometry::Shape(s) => s.surface(ray, hit.t),
+            ObjectGeometry::Mesh(m) => {
+                // Recompute the barycentrics of the one triangle shaded.
+                let (t, b1, b2) =
+                    m.intersect(hit.tri, ray, 0.0, f32::INFINITY).unwrap_or((hit.t, 1.0 / 3.0, 1.0 / 3.0));
+                m.surface(hit.tri, ray, t, b1, b2)
+            }
+        }
+    }
+
+    /// The scene's bounding sphere (centre, radius) over bounded
+    /// primitives, for directional and environment lights.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for (k, o) in self.objects.iter().enumerate() {
+            let _ = k;
+            match o {
+                ObjectGeometry::Shape(s) => {
+                    if let Some((a, b)) = s.bounds() {
+                        lo = lo.min(a);
+                        hi = hi.max(b);
+                    }
+                }
+                ObjectGeometry::Mesh(m) => {
+                    for p in &m.positions {
+                        lo = lo.min(*p);
+                        hi = hi.max(*p);
+                    }
+                }
+            }
+        }
+        if lo.x > hi.x {
+            return (Vec3::ZERO, 1.0);
+        }
+        ((lo + hi) * 0.5, ((hi - lo) * 0.5).length().max(1e-3))
+    }
+}

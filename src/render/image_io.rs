@@ -1,0 +1,523 @@
+//! Reading and writing pictures: rendered images out (PNG, 8-bit sRGB; or
+//! OpenEXR, linear float with optional AOV layers), tiles back in and
+//! merged, environment images in, and the windows of crops and farm tiles.
+//!
+//! Invariants: a write is atomic (a temporary file in the target's
+//! directory, synced, then renamed over the target), so a crash or Ctrl-C
+//! never leaves a truncated or clobbered image; an EXR keeps its window's
+//! place in the full frame (display window = the full image, data window =
+//! the pixels rendered), so `merge` can put tiles back together.
+//!
+//! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
+//! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`
+//! (world space) and `Z` (distance from the camera; infinite where a ray
+//! left the scene), the names OpenImageDenoise front ends and Blender read.
+
+use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A rendered image, or a window of one: pixels `[x0, x0 + width) x
+/// [y0, y0 + height)` of a `full_width x full_height` frame, row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedImage {
+    pub full_width: u32,
+    pub full_height: u32,
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB.
+    pub color: Vec<[f32; 3]>,
+    pub albedo: Option<Vec<[f32; 3]>>,
+    pub normal: Option<Vec<[f32; 3]>>,
+    pub depth: Option<Vec<f32>>,
+}
+
+impl RenderedImage {
+    fn check(&self) -> Result<(), String> {
+        let n = self.width as usize * self.height as usize;
+        if self.width == 0 || self.height == 0 {
+            return Err("the image is empty".into());
+        }
+        if self.x0 + self.width > self.full_width || self.y0 + self.height > self.full_height {
+            return Err("the image window lies outside its frame".into());
+        }
+        let aov_ok = self.albedo.as_ref().is_none_or(|a| a.len() == n)
+            && self.normal.as_ref().is_none_or(|a| a.len() == n)
+            && self.depth.as_ref().is_none_or(|a| a.len() == n);
+        if self.color.len() != n || !aov_ok {
+            return Err(format!("the pixel buffers do not hold {}x{} pixels", self.width, self.height));
+        }
+        Ok(())
+    }
+}
+
+/// The sRGB transfer curve of a linear value, clamped to [0, 1] and
+/// rounded to 8 bits.
+pub fn srgb_encode(linear: f32) -> u8 {
+    let x = if linear.is_nan() { 0.0 } else { linear.clamp(0.0, 1.0) };
+    let v = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (v * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
+}
+
+fn srgb_decode(v: f32) -> f32 {
+    if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+}
+
+enum Format {
+    Png,
+    Exr,
+}
+
+fn format_of(path: &Path) -> Result<Format, String> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("png") => Ok(Format::Png),
+        Some("exr") => Ok(Format::Exr),
+        _ => Err(format!("cannot write {}: the file name must end in .png or .exr", path.display())),
+    }
+}
+
+/// Writes the image, choosing the format by extension (`.png` or `.exr`).
+/// A PNG holds just the window's pixels; an EXR keeps the window's place
+/// in the full frame.
+pub fn write_image(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    let format = format_of(path)?;
+    image.check().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    atomic_write(path, |tmp| match format {
+        Format::Png => write_png(tmp, image),
+        Format::Exr => write_exr(tmp, image),
+    })
+}
+
+/// Runs `write` on a temporary path beside `path`, then renames it over
+/// `path`; on failure the temporary is removed and `path` is untouched.
+fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    // The temporary keeps the extension: the encoders look at it.
+    let tmp = dir.join(format!(".{name}.tmp-{}-{}.{ext}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
+    let result = write(&tmp)
+        .and_then(|()| {
+            std::fs::File::open(&tmp)
+                .and_then(|f| f.sync_all())
+                .map_err(|e| format!("cannot sync {}: {e}", tmp.display()))
+        })
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("cannot write {}: {e}", path.display())));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+fn write_png(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    let mut bytes = Vec::with_capacity(image.color.len() * 3);
+    for p in &image.color {
+        bytes.extend(p.map(srgb_encode));
+    }
+    image::save_buffer_with_format(
+        path,
+        &bytes,
+        image.width,
+        image.height,
+        image::ColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    use exrp::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
+    let plane = |k: usize, v: &[[f32; 3]]| v.iter().map(|p| p[k]).collect::<Vec<f32>>();
+    let mut channels = vec![
+        AnyChannel::new("R", FlatSamples::F32(plane(0, &image.color))),
+        AnyChannel::new("G", FlatSamples::F32(plane(1, &image.color))),
+        AnyChannel::new("B", FlatSamples::F32(plane(2, &image.color))),
+    ];
+    if let Some(a) = &image.albedo {
+        for (k, c) in ["R", "G", "B"].iter().enumerate() {
+            channels.push(AnyChannel::new(format!("albedo.{c}").as_str(), FlatSamples::F32(plane(k, a))));
+        }
+    }
+    if let Some(n) = &image.normal {
+        for (k, c) in ["X", "Y", "Z"].iter().enumerate() {
+            channels.push(AnyChannel::new(format!("normal.{c}").as_str(), FlatSamples::F32(plane(k, n))));
+        }
+    }
+    if let Some(d) = &image.depth {
+        channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
+    }
+    let position = Vec2(image.x0 as i32, image.y0 as i32);
+    let layer = Layer::new(
+        (image.width as usize, image.height as usize),
+        LayerAttributes::default().with_position(position),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    let frame = exrp::IntegerBounds::from_dimensions((image.full_width as usize, image.full_height as usize));
+    let out = Image::new(ImageAttributes::new(frame), layer);
+    out.write().to_file(path).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Reads an EXR written by [`write_image`] (or any EXR with R, G, B).
+pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
+    let fail = |e: String| format!("cannot read {}: {e}", path.display());
+    let image = exrp::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| fail(e.to_string()))?;
+    let layer = &image.layer_data;
+    let frame = image.attributes.display_window;
+    let pos = layer.attributes.layer_position;
+    let (w, h) = (layer.size.0, layer.size.1);
+    let channel = |name: &str| -> Option<Vec<f32>> {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .map(|c| c.sample_data.values_as_f32().collect())
+    };
+    let triple = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
+        let [a, b, c] = names.map(channel);
+        let (a, b, c) = (a?, b?, c?);
+        Some((0..a.len()).map(|k| [a[k], b[k], c[k]]).collect())
+    };
+    let color = triple(["R", "G", "B"]).ok_or_else(|| fail("it has no R, G and B channels".into()))?;
+    let (x0, y0) = (pos.0 - frame.position.0, pos.1 - frame.position.1);
+    if x0 < 0 || y0 < 0 {
+        return Err(fail("its data window starts outside its display window".into()));
+    }
+    let out = RenderedImage {
+        full_width: frame.size.0 as u32,
+        full_height: frame.size.1 as u32,
+        x0: x0 as u32,
+        y0: y0 as u32,
+        width: w as u32,
+        height: h as u32,
+        color,
+        albedo: triple(["albedo.R", "albedo.G", "albedo.B"]),
+        normal: triple(["normal.X", "normal.Y", "normal.Z"]),
+        depth: channel("Z"),
+    };
+    out.check().map_err(fail)?;
+    Ok(out)
+}
+
+/// Joins tiles or crops of one image (EXR files) into the full frame.
+/// They must share the frame size and AOVs, must not overlap, and must
+/// cover every pixel.
+pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
+    let first_path = inputs.first().ok_or("nothing to merge")?;
+    let parts: Vec<RenderedImage> = inputs.iter().map(|p| read_exr(p)).collect::<Result<_, _>>()?;
+    let first = &parts[0];
+    let (fw, fh) = (first.full_width, first.full_height);
+    let n = fw as usize * fh as usize;
+    let aovs = first.albedo.is_some();
+    let mut out = RenderedImage {
+        full_width: fw,
+        full_height: fh,
+        x0: 0,
+        y0: 0,
+        width: fw,
+        height: fh,
+        color: vec![[0.0; 3]; n],
+        albedo: aovs.then(|| vec![[0.0; 3]; n]),
+        normal: aovs.then(|| vec![[0.0; 3]; n]),
+        depth: aovs.then(|| vec![0.0; n]),
+    };
+    let mut owner: Vec<Option<usize>> = vec![None; n];
+    for (k, part) in parts.iter().enumerate() {
+        let path = inputs[k].display();
+        if (part.full_width, part.full_height) != (fw, fh) {
+            return Err(format!(
+                "{path} is a part of a {}x{} image, but {} is of a {fw}x{fh} one",
+                part.full_width,
+                part.full_height,
+                first_path.display()
+            ));
+        }
+        if part.albedo.is_some() != aovs || part.normal.is_some() != aovs || part.depth.is_some() != aovs {
+            return Err(format!("{path} and {} differ in their AOV layers", first_path.display()));
+        }
+        for y in 0..part.height {
+            for x in 0..part.width {
+                let src = (y * part.width + x) as usize;
+                let dst = ((part.y0 + y) * fw + part.x0 + x) as usize;
+                if let Some(other) = owner[dst] {
+                    return Err(format!(
+                        "{path} and {} overlap at pixel ({}, {})",
+                        inputs[other].display(),
+                        part.x0 + x,
+                        part.y0 + y
+                    ));
+                }
+                owner[dst] = Some(k);
+                out.color[dst] = part.color[src];
+                if let (Some(a), Some(pa)) = (&mut out.albedo, &part.albedo) {
+                    a[dst] = pa[src];
+                }
+                if let (Some(a), Some(pa)) = (&mut out.normal, &part.normal) {
+                    a[dst] = pa[src];
+                }
+                if let (Some(a), Some(pa)) = (&mut out.depth, &part.depth) {
+                    a[dst] = pa[src];
+                }
+            }
+        }
+    }
+    if let Some(missing) = owner.iter().position(Option::is_none) {
+        let rows: Vec<u32> = (0..fh).filter(|y| (0..fw).any(|x| owner[(y * fw + x) as usize].is_none())).collect();
+        return Err(format!(
+            "the parts do not cover the {fw}x{fh} image: pixel ({}, {}) is missing, in {} row{} from {} to {}",
+            missing as u32 % fw,
+            missing as u32 / fw,
+            rows.len(),
+            if rows.len() == 1 { "" } else { "s" },
+            rows[0],
+            rows[rows.len() - 1]
+        ));
+    }
+    Ok(out)
+}
+
+/// A lat-long environment image as linear RGB: EXR and Radiance HDR as
+/// stored, PNG and JPEG decoded from sRGB.
+pub fn load_environment(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let fail = |e: String| format!("cannot read the environment image {}: {e}", path.display());
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    if ext == "exr" {
+        let image = read_exr(path)?;
+        return Ok((image.width, image.height, image.color));
+    }
+    let decoded = image::open(path).map_err(|e| fail(e.to_string()))?;
+    let srgb = !matches!(ext.as_str(), "hdr");
+    let rgb = decoded.into_rgb32f();
+    let (w, h) = rgb.dimensions();
+    let texels = rgb.pixels().map(|p| if srgb { p.0.map(srgb_decode) } else { p.0 }).collect();
+    if w == 0 || h == 0 {
+        return Err(fail("it is empty".into()));
+    }
+    Ok((w, h, texels))
+}
+
+/// The window of tile `index` of `count` (0-based): horizontal bands of
+/// whole rows, as even as possible, as `(x0, y0, width, height)`.
+pub fn tile_window(full_width: u32, full_height: u32, index: u32, count: u32) -> Result<(u32, u32, u32, u32), String> {
+    if count == 0 || index >= count {
+        return Err(format!("tile {index}/{count}: the index must be at least 0 and below the count"));
+    }
+    if count > full_height {
+        return Err(format!("cannot cut {full_height} rows into {count} tiles: use at most {full_height}"));
+    }
+    let y0 = (u64::from(full_height) * u64::from(index) / u64::from(count)) as u32;
+    let y1 = (u64::from(full_height) * u64::from(index + 1) / u64::from(count)) as u32;
+    Ok((0, y0, full_width, y1 - y0))
+}
+
+/// A crop window `x0,x1,y0,y1`: fractions of the image in [0, 1] (as
+/// pbrt's `--cropwindow`; pixels from `floor(x0 W)` to `ceil(x1 W)`) when
+/// all four are at most 1, otherwise pixel numbers with `x1`, `y1`
+/// exclusive. Returns `(x0, y0, width, height)`.
+pub fn parse_crop(spec: &str, full_width: u32, full_height: u32) -> Result<(u32, u32, u32, u32), String> {
+    let bad = |why: &str| format!("bad crop window `{spec}`: {why}");
+    let values: Vec<f64> = spec
+        .split(',')
+        .map(|s| s.trim().parse::<f64>().map_err(|_| bad("write four numbers x0,x1,y0,y1")))
+        .collect::<Result<_, _>>()?;
+    let [x0, x1, y0, y1] = values[..] else { return Err(bad("write four numbers x0,x1,y0,y1")) };
+    if values.iter().any(|v| !v.is_finite() || *v < 0.0) {
+        return Err(bad("the numbers must be finite and not negative"));
+    }
+    let (w, h) = (f64::from(full_width), f64::from(full_height));
+    let (px0, px1, py0, py1) = if values.iter().all(|v| *v <= 1.0) {
+        ((x0 * w).floor(), (x1 * w).ceil(), (y0 * h).floor(), (y1 * h).ceil())
+    } else {
+        (x0, x1, y0, y1)
+    };
+    if px1 <= px0 || py1 <= py0 {
+        return Err(bad("the window is empty (x1 must exceed x0 and y1 exceed y0)"));
+    }
+    if px1 > w || py1 > h {
+        return Err(bad(&format!("the window reaches beyond the {full_width}x{full_height} image")));
+    }
+    Ok((px0 as u32, py0 as u32, (px1 - px0) as u32, (py1 - py0) as u32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("tsl-image-io-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn image(full: (u32, u32), window: (u32, u32, u32, u32), aov: bool, seed: f32) -> RenderedImage {
+        let (x0, y0, w, h) = window;
+        let n = (w * h) as usize;
+        let color: Vec<[f32; 3]> = (0..n).map(|k| [k as f32 * 0.25 + seed, -1.5, f32::MAX]).collect();
+        RenderedImage {
+            full_width: full.0,
+            full_height: full.1,
+            x0,
+            y0,
+            width: w,
+            height: h,
+            color,
+            albedo: aov.then(|| vec![[0.5, 0.25, 0.125]; n]),
+            normal: aov.then(|| vec![[0.0, 1.0, -0.0]; n]),
+            depth: aov.then(|| (0..n).map(|k| if k == 0 { f32::INFINITY } else { k as f32 }).collect()),
+        }
+    }
+
+    fn leftovers(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(".tmp-"))
+            .collect()
+    }
+
+    #[test]
+    fn srgb_known_values() {
+        assert_eq!(srgb_encode(0.0), 0);
+        assert_eq!(srgb_encode(1.0), 255);
+        assert_eq!(srgb_encode(7.0), 255);
+        assert_eq!(srgb_encode(-1.0), 0);
+        assert_eq!(srgb_encode(f32::NAN), 0);
+        assert_eq!(srgb_encode(0.5), 188);
+        assert_eq!(srgb_encode(0.003_130_8), 10);
+        assert!((srgb_decode(188.0 / 255.0) - 0.5).abs() < 0.003);
+    }
+
+    #[test]
+    fn exr_round_trips_bit_exactly_with_window_and_aovs() {
+        let dir = temp_dir("roundtrip");
+        for aov in [false, true] {
+            let img = image((7, 5), (2, 1, 4, 3), aov, 0.1);
+            let path = dir.join(format!("a{aov}.exr"));
+            write_image(&path, &img).unwrap();
+            let back = read_exr(&path).unwrap();
+            assert_eq!(
+                back.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>(),
+                img.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+            );
+            assert_eq!(
+                (back.full_width, back.full_height, back.x0, back.y0, back.width, back.height),
+                (7, 5, 2, 1, 4, 3)
+            );
+            assert_eq!(back.albedo, img.albedo);
+            assert_eq!(
+                back.normal.map(|n| n.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()),
+                img.normal.map(|n| n.iter().map(|p| p.map(f32::to_bits)).collect())
+            );
+            assert_eq!(back.depth, img.depth);
+        }
+        assert!(leftovers(&dir).is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn png_is_srgb_of_the_window() {
+        let dir = temp_dir("png");
+        let mut img = image((4, 4), (0, 0, 2, 1), false, 0.0);
+        img.color = vec![[0.5, 0.0, 1.0], [0.0031308, 2.0, -1.0]];
+        let path = dir.join("x.PNG");
+        write_image(&path, &img).unwrap();
+        let back = image::open(&path).unwrap().into_rgb8();
+        assert_eq!(back.dimensions(), (2, 1));
+        assert_eq!(back.get_pixel(0, 0).0, [188, 0, 255]);
+        assert_eq!(back.get_pixel(1, 0).0, [10, 255, 0]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn failed_writes_leave_nothing_and_keep_the_old_file() {
+        let dir = temp_dir("atomic");
+        let missing = dir.join("no/such/dir/out.png");
+        let e = write_image(&missing, &image((2, 2), (0, 0, 2, 2), false, 0.0)).unwrap_err();
+        assert!(e.contains("does not exist") && e.contains("out.png"), "{e}");
+        let path = dir.join("keep.exr");
+        std::fs::write(&path, b"precious").unwrap();
+        let mut bad = image((2, 2), (0, 0, 2, 2), false, 0.0);
+        bad.color.pop();
+        assert!(write_image(&path, &bad).unwrap_err().contains("pixel buffers"));
+        assert_eq!(std::fs::read(&path).unwrap(), b"precious");
+        let e = write_image(&dir.join("x.tiff"), &image((2, 2), (0, 0, 2, 2), false, 0.0)).unwrap_err();
+        assert!(e.contains(".png or .exr"), "{e}");
+        assert!(leftovers(&dir).is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn merge_joins_tiles_and_reports_gaps_and_overlaps() {
+        let dir = temp_dir("merge");
+        let mut paths = Vec::new();
+        for i in 0..3 {
+            let (x0, y0, w, h) = tile_window(7, 5, i, 3).unwrap();
+            let path = dir.join(format!("t{i}.exr"));
+            write_image(&path, &image((7, 5), (x0, y0, w, h), true, i as f32)).unwrap();
+            paths.push(path);
+        }
+        let full = merge(&paths).unwrap();
+        assert_eq!((full.width, full.height, full.color.len()), (7, 5, 35));
+        // Row 0 comes from tile 0 (seed 0), the last row from tile 2.
+        assert_eq!(full.color[0][0], 0.0);
+        let (_, y2, _, _) = tile_window(7, 5, 2, 3).unwrap();
+        assert_eq!(full.color[(y2 * 7) as usize][0], 2.0);
+        let gap = merge(&paths[..2]).unwrap_err();
+        assert!(gap.contains("missing"), "{gap}");
+        let overlap = merge(&[paths[0].clone(), paths[0].clone(), paths[1].clone(), paths[2].clone()]).unwrap_err();
+        assert!(overlap.contains("overlap"), "{overlap}");
+        let other = dir.join("other.exr");
+        write_image(&other, &image((8, 5), (0, 0, 8, 5), true, 0.0)).unwrap();
+        assert!(merge(&[paths[0].clone(), other]).unwrap_err().contains("8x5"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn tiles_and_crops() {
+        let bands: Vec<_> = (0..4).map(|i| tile_window(10, 10, i, 4).unwrap()).collect();
+        assert_eq!(bands, [(0, 0, 10, 2), (0, 2, 10, 3), (0, 5, 10, 2), (0, 7, 10, 3)]);
+        assert!(tile_window(10, 10, 4, 4).is_err());
+        assert!(tile_window(10, 3, 0, 4).is_err());
+        assert_eq!(parse_crop("0.25,0.75,0,0.5", 100, 50).unwrap(), (25, 0, 50, 25));
+        assert_eq!(parse_crop("10,20,5,9", 100, 50).unwrap(), (10, 5, 10, 4));
+        assert!(parse_crop("0.5,0.5,0,1", 100, 50).unwrap_err().contains("empty"));
+        assert!(parse_crop("0,200,0,10", 100, 50).unwrap_err().contains("beyond"));
+        assert!(parse_crop("1,2,3", 100, 50).is_err());
+        assert!(parse_crop("a,b,c,d", 100, 50).is_err());
+    }
+
+    #[test]
+    fn environment_images_load_linear() {
+        let dir = temp_dir("env");
+        let png = dir.join("sky.png");
+        image::save_buffer(&png, &[188, 0, 255, 255, 255, 255], 2, 1, image::ColorType::Rgb8).unwrap();
+        let (w, h, t) = load_environment(&png).unwrap();
+        assert_eq!((w, h), (2, 1));
+        assert!((t[0][0] - 0.5).abs() < 0.003 && t[0][1] == 0.0 && t[1][2] == 1.0);
+        let exr = dir.join("sky.exr");
+        write_image(&exr, &image((3, 2), (0, 0, 3, 2), false, 0.0)).unwrap();
+        assert_eq!(load_environment(&exr).unwrap().2[1][0], 0.25);
+        std::fs::write(dir.join("bad.png"), b"not a png").unwrap();
+        assert!(load_environment(&dir.join("bad.png")).unwrap_err().contains("bad.png"));
+        assert!(load_environment(&dir.join("none.hdr")).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

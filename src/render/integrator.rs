@@ -1,0 +1,574 @@
+//! The two integrators, written only against the generic material
+//! interface: [`Tracer::whitted`] (the second paper's renderer: emission,
+//! direct light through `reflection`, perfect reflection and refraction
+//! followed recursively, absorption inside media) and [`Tracer::path`] (a
+//! unidirectional path tracer with next-event estimation, multiple
+//! importance sampling of area lights, and Russian roulette).
+//!
+//! Materials have no sampling method, so the path tracer samples what the
+//! interface exposes: the delta directions `reflection_dir` and
+//! `refraction_dir`, weighted by `reflection`/`refraction` of unit light,
+//! and otherwise cosine-distributed directions around `normal()`, weighted
+//! by `reflection` (which includes the cosine) over the pdf. Lobes are
+//! chosen in proportion to their weights, with `diffuse()` as the hint for
+//! the non-delta part. Every choice has a non-zero probability where its
+//! lobe can carry light, so the estimate is unbiased.
+//!
+//! Depth follows Mitsuba: a path's depth is its number of segments from
+//! the camera, counting a shadow connection as one. Whitted rays follow
+//! POV-Ray: the camera ray has depth 1 and shadow rays do not count.
+
+use super::geometry::Hit;
+use super::light::{LightKind, LightSample};
+use super::sampling::{self, Sampler};
+use super::scene::{Object, Scene};
+use super::shape::SurfaceHit;
+use super::spectrum::Spectrum;
+use super::{Ray, Vec3};
+use crate::ShadingGlobals;
+
+/// Per-sample auxiliary outputs of the first surface seen (for denoisers).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Aov {
+    /// `diffuse()` of the first surface, in the color model's lanes
+    /// converted to RGB by the caller.
+    pub albedo: [f32; 3],
+    pub normal: [f32; 3],
+    /// Distance from the camera; infinite when the ray leaves the scene.
+    pub depth: f32,
+}
+
+/// Counts kept while tracing.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    pub camera_rays: u64,
+    pub secondary_rays: u64,
+    pub shadow_rays: u64,
+}
+
+/// A surface point being shaded.
+struct Shading<'s> {
+    object: &'s Object,
+    surface: SurfaceHit,
+    g: ShadingGlobals,
+    /// Toward the viewer, unit.
+    wo: Vec3,
+    hit: Hit,
+}
+
+/// A medium the ray is inside: the object entered, and the globals where it
+/// was entered (for its `absorption` and `refraction_index`).
+#[derive(Clone, Copy)]
+struct Medium {
+    object: u32,
+    g: ShadingGlobals,
+}
+
+/// Media are nested at most this deep; deeper entries are ignored.
+const MAX_MEDIA: usize = 8;
+
+/// Traces rays in one scene with `N` radiance lanes. One per thread.
+pub struct Tracer<'s, const N: usize> {
+    scene: &'s Scene,
+    lanes: usize,
+    ones: Spectrum<N>,
+    /// The camera's per-pixel angular spread, for texture footprints.
+    spread: f32,
+    pub counters: Counters,
+}
+
+fn v3(v: Vec3) -> [f32; 3] {
+    v.to_array()
+}
+
+/// The ray leaving `p` along `dir`, moved off the surface (geometric
+/// normal `ng`) to the side `dir` goes, so it does not hit its own origin.
+fn spawn(p: Vec3, ng: Vec3, dir: Vec3) -> Ray {
+    let eps = 1e-4 * (1.0 + p.abs().max_element());
+    let side = if dir.dot(ng) >= 0.0 { ng } else { -ng };
+    Ray::new(p + side * eps, dir)
+}
+
+/// Whether a vector is the "none" direction of the interface.
+fn is_zero(v: [f32; 3]) -> bool {
+    v == [0.0; 3] || !v.iter().all(|x| x.is_finite())
+}
+
+impl<'s, const N: usize> Tracer<'s, N> {
+    pub fn new(scene: &'s Scene) -> Self {
+        let lanes = scene.model.lanes();
+        Tracer {
+            scene,
+            lanes,
+            ones: Spectrum::splat(1.0, lanes),
+            spread: scene.camera.pixel_spread(),
+            counters: Counters::default(),
+        }
+    }
+
+    fn nearest(&self, ray: &Ray) -> Option<Hit> {
+        self.scene.geometry.intersect(ray, 0.0, f32::INFINITY)
+    }
+
+    /// The shading record of a hit; `distance` is the path length before
+    /// this ray (for the texture footprint).
+    fn shade(&self, ray: &Ray, hit: Hit, distance: f32) -> Shading<'s> {
+        let s = self.scene.geometry.surface(ray, &hit);
+        let len = ray.dir.length();
+        let wo = -ray.dir / len;
+        let mut g = globals_of(&s, hit.t * len);
+        footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
+        Shading { object: &self.scene.objects[hit.object as usize], surface: s, g, wo, hit }
+    }
+
+    // ------------------------------------------------------------ material calls
+
+    fn reflection(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
+        let mut out = Spectrum::ZERO;
+        sh.object.material.reflection_into(&sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
+        out
+    }
+
+    fn refraction(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>, eta: &Spectrum<N>) -> Spectrum<N> {
+        let mut out = Spectrum::ZERO;
+        sh.object.material.refraction_into(&sh.g, v3(wi), &light.0, &eta.0, v3(sh.wo), &mut out.0);
+        out
+    }
+
+    fn emission(&self, object: &Object, g: &ShadingGlobals, wo: Vec3) -> Spectrum<N> {
+        if !object.emissive {
+            return Spectrum::ZERO;
+        }
+        let mut out = Spectrum::ZERO;
+        object.material.emission_into(g, v3(wo), &mut out.0);
+        if let Some(scale) = &object.emission_scale {
+            out *= Spectrum::from_lanes(scale.lanes());
+        }
+        out
+    }
+
+    fn refraction_index(&self, object: &Object, g: &ShadingGlobals) -> Spectrum<N> {
+        if !object.material.may_refract() {
+            return self.ones;
+        }
+        let mut out = Spectrum::ZERO;
+        object.material.refraction_index_into(g, &mut out.0);
+        out
+    }
+
+    /// Light left after `distance` inside `medium`.
+    fn absorb(&self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
+        let Some(m) = medium else { return light };
+        let object = &self.scene.objects[m.object as usize];
+        let mut out = Spectrum::ZERO;
+        object.material.absorption_into(&m.g, &light.0, distance, &mut out.0);
+        out
+    }
+
+    /// The relative index `n_entered / n_left` for light crossing the
+    /// surface from the `wo` side, and whether crossing enters the object.
+    fn eta(&self, sh: &Shading, media: &[Medium]) -> (Spectrum<N>, bool) {
+        let entering = sh.surface.ng.dot(sh.wo) > 0.0;
+        let inside = |m: &&Medium| m.object != sh.hit.object;
+        let other = match media.iter().rev().find(inside) {
+            Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], &m.g),
+            None => self.ones,
+        };
+        let own = self.refraction_index(sh.object, &sh.g);
+        if entering { (own.safe_div(&other), true) } else { (other.safe_div(&own), false) }
+    }
+
+    /// The media after crossing the surface of `sh` (entering pushes it,
+    /// leaving removes it). Straight-through crossings (eta 1, the ray not
+    /// bent: cutouts, thin sheets) are not media.
+    fn crossed(&self, sh: &Shading, media: &[Medium], entering: bool, straight: bool) -> Vec<Medium> {
+        let mut out = media.to_vec();
+        if straight {
+            return out;
+        }
+        if entering {
+            if out.len() < MAX_MEDIA {
+                out.push(Medium { object: sh.hit.object, g: sh.g });
+            }
+        } else if let Some(k) = out.iter().rposition(|m| m.object == sh.hit.object) {
+            out.remove(k);
+        }
+        out
+    }
+
+    // ------------------------------------------------------------ visibility
+
+    /// The fraction of light that passes from `p` (on a surface with normal
+    /// `ng`) along `wi` for `distance`: zero when something opaque is in
+    /// the way; surfaces that let light through unbent (holes of cutouts)
+    /// attenuate it by their `refraction`.
+    fn transmittance(&mut self, p: Vec3, ng: Vec3, wi: Vec3, distance: f32) -> Spectrum<N> {
+        self.counters.shadow_rays += 1;
+        let ray = spawn(p, ng, wi);
+        let t_max =
+            if distance.is_finite() { (distance - (ray.origin - p).length()) * (1.0 - 1e-4) } else { f32::INFINITY };
+        let mut through = self.ones;
+        let scene = self.scene;
+        let blocked = scene.geometry.occluded(&ray, 0.0, t_max, |hit| {
+            let object = &scene.objects[hit.object as usize];
+            if object.always_opaque {
+                return true;
+            }
+            let sh = self.shade(&ray, hit, 0.0);
+            if object.material.opaque(&sh.g) {
+                return true;
+            }
+            let (eta, _) = self.eta(&sh, &[]);
+            let dt = object.material.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
+            if Vec3::from(dt).dot(-sh.wo) < 0.9999 {
+                return true;
+            }
+            through *= self.refraction(&sh, Vec3::from(dt), &self.ones, &eta);
+            through.is_black()
+        });
+        if blocked { Spectrum::ZERO } else { through }
+    }
+
+    /// Light from a delta light sample, as `intensity * scale`.
+    fn delta_light(&self, kind: &LightKind, scale: f32) -> Spectrum<N> {
+        match kind {
+            LightKind::Point { intensity, .. } | LightKind::Spot { intensity, .. } => {
+                Spectrum::from_lanes(intensity.lanes()) * scale
+            }
+            LightKind::Directional { irradiance, .. } => Spectrum::from_lanes(irradiance.lanes()) * scale,
+            LightKind::Area { .. } => Spectrum::ZERO,
+        }
+    }
+
+    /// Emission of a sampled light point toward `-wi`.
+    fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
+        let object = &self.scene.objects[light_object as usize];
+        let mut g = globals_of(surface, distance);
+        footprint(&mut g, surface, wi, distance, self.spread);
+        self.emission(object, &g, -wi)
+    }
+
+    /// Direct light at `sh` from every light (one sample each), weighted
+    /// against material sampling when `mis` is given (the probability of
+    /// choosing the non-delta lobe).
+    fn direct(&mut self, sh: &Shading, sampler: &mut Sampler, mis: Option<f32>) -> Spectrum<N> {
+        let mut sum = Spectrum::ZERO;
+        let scene = self.scene;
+        for light in &scene.lights {
+            let u = sampler.next_2d();
+            let u3 = sampler.next_1d();
+            let Some(sample) = light.sample(&scene.geometry, sh.surface.p, u, u3) else { continue };
+            match sample {
+                LightSample::Delta { wi, distance, scale } => {
+                    let li = self.delta_light(&light.kind, scale);
+                    if li.is_black() {
+                        continue;
+                    }
+                    let f = self.reflection(sh, wi, &li);
+                    if f.is_black() {
+                        continue;
+                    }
+                    sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
+                }
+                LightSample::Surface { wi, distance, pdf, surface, .. } => {
+                    if pdf <= 0.0 || !pdf.is_finite() {
+                        continue;
+                    }
+                    let Some(object) = light.object() else { continue };
+                    let le = self.surface_emission(object, &surface, wi, distance);
+                    if le.is_black() {
+                        continue;
+                    }
+                    let f = self.reflection(sh, wi, &le);
+                    if f.is_black() {
+                        continue;
+                    }
+                    let weight = match mis {
+                        Some(p_lobe) => {
+                            let bsdf_pdf = p_lobe * self.cosine_pdf(sh, wi);
+                            sampling::power_heuristic(1.0, pdf, 1.0, bsdf_pdf)
+                        }
+                        None => 1.0,
+                    };
+                    sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance) * (weight / pdf);
+                }
+            }
+        }
+        sum
+    }
+
+    /// The shading normal from the material, turned toward the viewer.
+    fn sampling_normal(&self, sh: &Shading) -> Vec3 {
+        let n = Vec3::from(sh.object.material.normal(&sh.g)).normalize_or_zero();
+        let n = if n == Vec3::ZERO { sh.surface.n } else { n };
+        if n.dot(sh.wo) < 0.0 { -n } else { n }
+    }
+
+    fn cosine_pdf(&self, sh: &Shading, wi: Vec3) -> f32 {
+        let n = self.sampling_normal(sh);
+        sampling::cosine_hemisphere_pdf(n.dot(wi).max(0.0))
+    }
+
+    fn background(&self, dir: Vec3) -> Spectrum<N> {
+        let mut out = Spectrum::ZERO;
+        self.scene.background.radiance(dir.normalize(), &mut out.0);
+        out
+    }
+
+    fn aov(&self, sh: &Shading) -> Aov {
+        let mut albedo = Spectrum::<N>::ZERO;
+        sh.object.material.diffuse_into(&sh.g, &mut albedo.0);
+        let albedo = crate::color::lanes_to_rgb(self.scene.model, &albedo.0[..self.lanes]);
+        Aov { albedo, normal: v3(self.sampling_normal(sh)), depth: sh.g.t }
+    }
+
+    // ------------------------------------------------------------ Whitted
+
+    /// Radiance along a camera ray by Whitted's recursion.
+    pub fn whitted(&mut self, ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
+        self.counters.camera_rays += 1;
+        let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
+        let l = self.whitted_ray(ray, 1, 0.0, &[], sampler, Some(&mut aov));
+        (l, aov)
+    }
+
+    fn whitted_ray(
+        &mut self,
+        ray: &Ray,
+        depth: u32,
+        distance: f32,
+        media: &[Medium],
+        sampler: &mut Sampler,
+        aov: Option<&mut Aov>,
+    ) -> Spectrum<N> {
+        let Some(hit) = self.nearest(ray) else {
+            return self.background(ray.dir);
+        };
+        let sh = self.shade(ray, hit, distance);
+        if let Some(aov) = aov {
+            *aov = self.aov(&sh);
+        }
+        let here = distance + sh.g.t;
+        let mut l = self.emission(sh.object, &sh.g, sh.wo);
+        l += self.direct(&sh, sampler, None);
+        if depth < self.scene.settings.max_depth {
+            let m = &sh.object.material;
+            if m.may_reflect_dir() {
+                let dr = m.reflection_dir(&sh.g, v3(sh.wo));
+                if !is_zero(dr) {
+                    let dr = Vec3::from(dr);
+                    self.counters.secondary_rays += 1;
+                    let r = spawn(sh.surface.p, sh.surface.ng, dr);
+                    let lr = self.whitted_ray(&r, depth + 1, here, media, sampler, None);
+                    if !lr.is_black() {
+                        l += self.reflection(&sh, dr, &lr);
+                    }
+                }
+            }
+            if m.may_refract() {
+                let (eta, entering) = self.eta(&sh, media);
+                let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
+                if !is_zero(dt) {
+                    let dt = Vec3::from(dt);
+                    let straight = dt.dot(-sh.wo) >= 0.9999;
+                    let inner = self.crossed(&sh, media, entering, straight);
+                    self.counters.secondary_rays += 1;
+                    let r = spawn(sh.surface.p, sh.surface.ng, dt);
+                    let lt = self.whitted_ray(&r, depth + 1, here, &inner, sampler, None);
+                    if !lt.is_black() {
+                        l += self.refraction(&sh, dt, &lt, &eta);
+                    }
+                }
+            }
+        }
+        // The light came to this point through the medium the ray is in.
+        self.absorb(media.last(), l, sh.g.t)
+    }
+
+    // ------------------------------------------------------------ path tracing
+
+    /// Radiance along a camera ray by path tracing.
+    pub fn path(&mut self, camera_ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
+        self.counters.camera_rays += 1;
+        let max_depth = self.scene.settings.max_depth;
+        let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
+        let mut l = Spectrum::<N>::ZERO;
+        let mut beta = self.ones;
+        let mut ray = *camera_ray;
+        let mut media: Vec<Medium> = Vec::new();
+        let mut distance = 0.0;
+        // The previous vertex and the solid-angle pdf of the direction taken
+        // from it (None after a delta lobe or at the camera: no MIS).
+        let mut prev: Option<(Vec3, f32)> = None;
+        let mut depth = 1u32;
+        loop {
+            let Some(hit) = self.nearest(&ray) else {
+                l += beta * self.background(ray.dir);
+                break;
+            };
+            let sh = self.shade(&ray, hit, distance);
+            if depth == 1 {
+                aov = self.aov(&sh);
+            }
+            beta = self.absorb(media.last(), beta, sh.g.t);
+            distance += sh.g.t;
+            // Emission found by following the path, weighed against having
+            // sampled the same point as a light.
+            let le = self.emission(sh.object, &sh.g, sh.wo);
+            if !le.is_black() {
+                let weight = match (prev, self.scene.light_of_object[hit.object as usize]) {
+                    (Some((x, bsdf_pdf)), Some(k)) => {
+                        let light_pdf = self.scene.lights[k].pdf(x, &sh.surface);
+                        sampling::power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                    }
+                    _ => 1.0,
+                };
+                l += beta * le * weight;
+            }
+            if depth >= max_depth {
+                break;
+            }
+            // Choose how the path goes on: a delta direction, or a
+            // cosine-distributed one (the non-delta part).
+            let m = &sh.object.material;
+            let mut lobes: [(Vec3, Spectrum<N>, f32); 2] = [(Vec3::ZERO, Spectrum::ZERO, 0.0); 2];
+            let mut refracted = None;
+            if m.may_reflect_dir() {
+                let dr = m.reflection_dir(&sh.g, v3(sh.wo));
+                if !is_zero(dr) {
+                    let w = self.reflection(&sh, Vec3::from(dr), &self.ones);
+                    lobes[0] = (Vec3::from(dr), w, w.mean(self.lanes).max(0.0));
+                }
+            }
+            if m.may_refract() {
+                let (eta, entering) = self.eta(&sh, &media);
+                let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
+                if !is_zero(dt) {
+                    let w = self.refraction(&sh, Vec3::from(dt), &self.ones, &eta);
+                    lobes[1] = (Vec3::from(dt), w, w.mean(self.lanes).max(0.0));
+                    refracted = Some(entering);
+                }
+            }
+            let delta_weight = lobes[0].2 + lobes[1].2;
+            let p_smooth = if delta_weight > 0.0 {
+                let mut hint = Spectrum::<N>::ZERO;
+                m.diffuse_into(&sh.g, &mut hint.0);
+                let h = hint.mean(self.lanes).clamp(0.05, 1.0);
+                h / (h + delta_weight)
+            } else {
+                1.0
+            };
+            // Next-event estimation: one more segment, to a light.
+            l += beta * self.direct(&sh, sampler, Some(p_smooth));
+            let u_lobe = sampler.next_1d();
+            let u_dir = sampler.next_2d();
+            let (wi, weight, next_media, pdf) = if u_lobe < p_smooth {
+                let n = self.sampling_normal(&sh);
+                let local = sampling::square_to_cosine_hemisphere(u_dir);
+                let frame = sampling::Frame::new(n);
+                let wi = frame.to_world(local);
+                let pdf = sampling::cosine_hemisphere_pdf(local.z) * p_smooth;
+                if pdf <= 0.0 {
+                    break;
+                }
+                let f = self.reflection(&sh, wi, &self.ones);
+                (wi, f / pdf, None, Some(pdf))
+            } else {
+                let u = (u_lobe - p_smooth) / (1.0 - p_smooth) * delta_weight;
+                let k = if u < lobes[0].2 { 0 } else { 1 };
+                let (wi, w, p) = lobes[k];
+                let p = p / delta_weight * (1.0 - p_smooth);
+                let next = match (k, refracted) {
+                    (1, Some(entering)) => {
+                        let straight = wi.dot(-sh.wo) >= 0.9999;
+                        Some(self.crossed(&sh, &media, entering, straight))
+                    }
+                    _ => None,
+                };
+                (wi, w / p, next, None)
+            };
+            if weight.is_black() || !weight.is_finite() {
+                break;
+            }
+            beta *= weight;
+            if let Some(next) = next_media {
+                media = next;
+            }
+            prev = pdf.map(|p| (sh.surface.p, p));
+            // Russian roulette, as Mitsuba: from the fifth vertex on.
+            if depth >= 5 {
+                let q = beta.max_lane().min(0.95);
+                if sampler.next_1d() >= q {
+                    break;
+                }
+                beta = beta / q;
+            }
+            self.counters.secondary_rays += 1;
+            ray = spawn(sh.surface.p, sh.surface.ng, wi);
+            depth += 1;
+        }
+        (l, aov)
+    }
+}
+
+/// The shading globals of a surface record (the footprint is filled by
+/// [`footprint`]).
+fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
+    ShadingGlobals {
+        p: v3(s.p),
+        pl: v3(s.pl),
+        n: v3(s.n),
+        ng: v3(s.ng),
+        u: s.u,
+        v: s.v,
+        dpdu: v3(s.dpdu),
+        dpdv: v3(s.dpdv),
+        face: s.face,
+        t,
+        ..ShadingGlobals::default()
+    }
+}
+
+/// The pixel footprint at a hit: how P, u and v change from one pixel to
+/// the next. A ray that has travelled `distance` in all is treated as if
+/// seen straight from the camera at that distance (pbrt-v4's approximation
+/// for rays without differentials): two rays diverging by the camera's
+/// per-pixel angle are intersected with the tangent plane.
+fn footprint(g: &mut ShadingGlobals, s: &SurfaceHit, dir: Vec3, distance: f32, spread: f32) {
+    let d = dir.normalize_or_zero();
+    let n = s.ng;
+    if d == Vec3::ZERO || !distance.is_finite() {
+        return;
+    }
+    let origin = s.p - d * distance;
+    let frame = sampling::Frame::new(d);
+    let offset = |axis: Vec3| {
+        let dd = d + axis * spread;
+        let denom = n.dot(dd);
+        if denom.abs() < 1e-6 {
+            return axis * spread * distance;
+        }
+        let t = n.dot(s.p - origin) / denom;
+        origin + dd * t - s.p
+    };
+    let dpdx = offset(frame.to_world(Vec3::X));
+    let dpdy = offset(frame.to_world(Vec3::Y));
+    // Least squares for (du, dv) with dpdu du + dpdv dv = dp.
+    let (a00, a01, a11) = (s.dpdu.dot(s.dpdu), s.dpdu.dot(s.dpdv), s.dpdv.dot(s.dpdv));
+    let det = a00 * a11 - a01 * a01;
+    let solve = |dp: Vec3| {
+        if det.abs() < 1e-20 {
+            return (0.0, 0.0);
+        }
+        let (b0, b1) = (s.dpdu.dot(dp), s.dpdv.dot(dp));
+        let du = (a11 * b0 - a01 * b1) / det;
+        let dv = (a00 * b1 - a01 * b0) / det;
+        let clamp = |x: f32| if x.is_finite() { x.clamp(-1e8, 1e8) } else { 0.0 };
+        (clamp(du), clamp(dv))
+    };
+    let (dudx, dvdx) = solve(dpdx);
+    let (dudy, dvdy) = solve(dpdy);
+    g.dpdx = v3(dpdx);
+    g.dpdy = v3(dpdy);
+    (g.dudx, g.dvdx, g.dudy, g.dvdy) = (dudx, dvdx, dudy, dvdy);
+}

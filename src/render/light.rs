@@ -1,0 +1,199 @@
+//! Light sources: point, spot and directional lights (delta lights, given
+//! by intensity or irradiance), and area lights: emissive objects whose
+//! shape can be sampled (quads, disks, spheres, triangle meshes). Emissive
+//! objects of other shapes still glow; rays find them by chance only.
+//!
+//! Invariant: a [`LightSample`]'s `pdf` and [`Light::pdf`] are densities per
+//! unit solid angle at the shaded point, so the path tracer can weigh
+//! light and material sampling against each other.
+
+use super::geometry::{Geometry, ObjectGeometry};
+use super::sampling::{self, Distribution1D};
+use super::shape::{ShapeKind, SurfaceHit};
+use super::{Ray, Vec3};
+use crate::Color;
+
+pub struct Light {
+    pub kind: LightKind,
+}
+
+pub enum LightKind {
+    /// Radiant intensity in W/sr, exact inverse-square falloff.
+    Point { at: Vec3, intensity: Color },
+    /// A point light limited to a cone around `axis`, fading smoothly from
+    /// `cos_inner` to `cos_outer`.
+    Spot { at: Vec3, axis: Vec3, intensity: Color, cos_outer: f32, cos_inner: f32 },
+    /// Parallel light travelling along `dir` with this irradiance.
+    Directional { dir: Vec3, irradiance: Color },
+    /// An emissive object; meshes pick triangles by area.
+    Area { object: u32, sampler: AreaSampler },
+}
+
+pub enum AreaSampler {
+    /// Quads and disks: uniform over the area (an affine map keeps a
+    /// planar shape's uniform density uniform).
+    Planar { area: f32 },
+    /// A sphere under a similarity transform: by the solid angle it
+    /// subtends (uniform area from inside it).
+    Sphere { center: Vec3, radius: f32 },
+    /// Triangles chosen in proportion to their area.
+    Mesh { triangles: Distribution1D, area: f32 },
+}
+
+/// Light arriving at a point from a sampled light.
+pub enum LightSample {
+    /// From a delta light: `wi` toward it (unit), the distance to it
+    /// (infinite for directional lights), and the factor that turns the
+    /// light's intensity into radiance-times-solid-angle at the point
+    /// (`1/d^2` times the spot's falloff).
+    Delta { wi: Vec3, distance: f32, scale: f32 },
+    /// A point on an emitting surface: its surface record (the caller asks
+    /// the material for the emission toward `-wi`), the direction and
+    /// distance to it, and the pdf per unit solid angle.
+    Surface { wi: Vec3, distance: f32, pdf: f32, surface: SurfaceHit, tri: u32 },
+}
+
+impl Light {
+    /// An area light for emissive object `object`, when its shape can be
+    /// sampled.
+    pub fn area(geometry: &Geometry, object: u32) -> Option<Light> {
+        let sampler = match &geometry.objects[object as usize] {
+            ObjectGeometry::Shape(s) => match s.kind() {
+                ShapeKind::Quad { .. } | ShapeKind::Disk { .. } => AreaSampler::Planar { area: s.area() },
+                ShapeKind::Sphere { center, radius } => {
+                    let m = s.to_world();
+                    let sx = m.transform_vector3(Vec3::X).length();
+                    let sy = m.transform_vector3(Vec3::Y).length();
+                    let sz = m.transform_vector3(Vec3::Z).length();
+                    let similar = (sx - sy).abs() <= 1e-4 * sx && (sx - sz).abs() <= 1e-4 * sx;
+                    if !similar {
+                        return None;
+                    }
+                    AreaSampler::Sphere { center: m.transform_point3(*center), radius: radius * sx }
+                }
+                _ => return None,
+            },
+            ObjectGeometry::Mesh(m) => {
+                let areas: Vec<f32> = (0..m.triangles.len() as u32).map(|t| m.triangle_area(t)).collect();
+                let area = areas.iter().sum();
+                AreaSampler::Mesh { triangles: Distribution1D::new(&areas)?, area }
+            }
+        };
+        Some(Light { kind: LightKind::Area { object, sampler } })
+    }
+
+    /// Samples light arriving at `x`; `u` is a 2D random number, `u3` a
+    /// third for meshes. `None` when the sample carries no light.
+    pub fn sample(&self, geometry: &Geometry, x: Vec3, u: [f32; 2], u3: f32) -> Option<LightSample> {
+        match &self.kind {
+            LightKind::Point { at, .. } => {
+                let d = *at - x;
+                let d2 = d.length_squared();
+                (d2 > 0.0).then(|| LightSample::Delta { wi: d / d2.sqrt(), distance: d2.sqrt(), scale: 1.0 / d2 })
+            }
+            LightKind::Spot { at, axis, cos_outer, cos_inner, .. } => {
+                let d = *at - x;
+                let d2 = d.length_squared();
+                if d2 <= 0.0 {
+                    return None;
+                }
+                let wi = d / d2.sqrt();
+                let cos = (-wi).dot(*axis);
+                let falloff = smoothstep(*cos_outer, *cos_inner, cos);
+                (falloff > 0.0).then(|| LightSample::Delta { wi, distance: d2.sqrt(), scale: falloff / d2 })
+            }
+            LightKind::Directional { dir, .. } => {
+                Some(LightSample::Delta { wi: -*dir, distance: f32::INFINITY, scale: 1.0 })
+            }
+            LightKind::Area { object, sampler } => {
+                let ObjectGeometry::Shape(shape) = &geometry.objects[*object as usize] else {
+                    let ObjectGeometry::Mesh(mesh) = &geometry.objects[*object as usize] else { unreachable!() };
+                    let AreaSampler::Mesh { triangles, area } = sampler else { return None };
+                    let (tri, _) = triangles.sample(u3);
+                    let tri = tri as u32;
+                    let (b1, b2) = sampling::square_to_uniform_triangle(u);
+                    let [v0, v1, v2] = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
+                    let y = v0 * (1.0 - b1 - b2) + v1 * b1 + v2 * b2;
+                    let ray = Ray::new(x, y - x);
+                    let surface = mesh.surface(tri, &ray, 1.0, b1, b2);
+                    return surface_sample(x, surface, 1.0 / area, tri);
+                };
+                match sampler {
+                    AreaSampler::Planar { area } => {
+                        let y = shape.sample_area(u);
+                        let surface = shape.surface(&Ray::new(x, y - x), 1.0);
+                        surface_sample(x, surface, 1.0 / area, 0)
+                    }
+                    AreaSampler::Sphere { center, radius } => {
+                        if (x - *center).length_squared() <= radius * radius {
+                            let y = shape.sample_area(u);
+                            let surface = shape.surface(&Ray::new(x, y - x), 1.0);
+                            return surface_sample(x, surface, 1.0 / shape.area(), 0);
+                        }
+                        let (wi, pdf) = sampling::sample_sphere_solid_angle(*center, *radius, x, u)?;
+                        let ray = Ray::new(x, wi);
+                        let t = shape.intersect(&ray, 0.0, f32::INFINITY)?;
+                        let surface = shape.surface(&ray, t);
+                        Some(LightSample::Surface { wi, distance: t, pdf, surface, tri: 0 })
+                    }
+                    AreaSampler::Mesh { .. } => None,
+                }
+            }
+        }
+    }
+
+    /// The solid-angle pdf with which [`Light::sample`] picks the point
+    /// `surface` (on this light) seen from `x`; 0 for delta lights.
+    pub fn pdf(&self, x: Vec3, surface: &SurfaceHit) -> f32 {
+        let LightKind::Area { sampler, .. } = &self.kind else { return 0.0 };
+        let area_pdf = |pdf_area: f32| {
+            let d = surface.p - x;
+            let d2 = d.length_squared();
+            let cos = surface.ng.dot(d / d2.sqrt()).abs();
+            if cos <= 0.0 { 0.0 } else { pdf_area * d2 / cos }
+        };
+        match sampler {
+            AreaSampler::Planar { area } => area_pdf(1.0 / area),
+            AreaSampler::Mesh { area, .. } => area_pdf(1.0 / area),
+            AreaSampler::Sphere { center, radius } => {
+                if (x - *center).length_squared() <= radius * radius {
+                    area_pdf(1.0 / (4.0 * std::f32::consts::PI * radius * radius))
+                } else {
+                    sampling::sphere_solid_angle_pdf(*center, *radius, x)
+                }
+            }
+        }
+    }
+
+    /// The emitting object of an area light.
+    pub fn object(&self) -> Option<u32> {
+        match self.kind {
+            LightKind::Area { object, .. } => Some(object),
+            _ => None,
+        }
+    }
+}
+
+/// Converts an area-density sample at `surface` to solid angle at `x`.
+fn surface_sample(x: Vec3, surface: SurfaceHit, pdf_area: f32, tri: u32) -> Option<LightSample> {
+    let d = surface.p - x;
+    let d2 = d.length_squared();
+    if d2 <= 0.0 || !d2.is_finite() {
+        return None;
+    }
+    let distance = d2.sqrt();
+    let wi = d / distance;
+    let cos = surface.ng.dot(wi).abs();
+    if cos <= 1e-7 {
+        return None;
+    }
+    Some(LightSample::Surface { wi, distance, pdf: pdf_area * d2 / cos, surface, tri })
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    if e1 <= e0 {
+        return if x >= e0 { 1.0 } else { 0.0 };
+    }
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}

@@ -1,0 +1,575 @@
+//! Building a renderable [`Scene`] from a compiled program's `scene { ... }`
+//! block: property values are evaluated (they are constants: the checker
+//! keeps shading globals out of them), shapes and meshes are made, every
+//! object's material is compiled, lights are gathered and the BVH is built.
+//!
+//! Every failure here (a missing mesh, a degenerate camera, a zero-size
+//! image) is an [`Error`] pointing at the property that caused it.
+
+use super::camera::Camera;
+use super::geometry::{Geometry, ObjectGeometry};
+use super::image_io;
+use super::light::{Light, LightKind};
+use super::mesh::Mesh;
+use super::shape::{Shape, ShapeKind};
+use super::{Mat4, Vec3};
+use crate::check::{SymbolKind, Ty};
+use crate::diag::{Diagnostic, Span};
+use crate::syntax::ast::{Expr, ExprKind, Item, SceneBlock, SceneEntry, SceneProp};
+use crate::{Color, ColorModel, Error, Material, Program};
+use std::path::{Path, PathBuf};
+
+/// Which light-transport algorithm renders the image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// The second paper's renderer: direct light, perfect reflection and
+    /// refraction, recursively.
+    Whitted,
+    /// Unidirectional Monte Carlo path tracing with next-event estimation
+    /// and multiple importance sampling.
+    Path,
+}
+
+impl IntegratorKind {
+    pub fn parse(name: &str) -> Option<IntegratorKind> {
+        match name {
+            "whitted" => Some(IntegratorKind::Whitted),
+            "path" => Some(IntegratorKind::Path),
+            _ => None,
+        }
+    }
+}
+
+/// Render settings: the scene's `render { }` block, then overrides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Settings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Path segments from the camera (Mitsuba's `max_depth`; for Whitted,
+    /// POV-Ray's `max_trace_level`: the camera ray has depth 1).
+    pub max_depth: u32,
+    pub seed: u64,
+    pub integrator: IntegratorKind,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings { width: 640, height: 480, spp: 16, max_depth: 8, seed: 0, integrator: IntegratorKind::Path }
+    }
+}
+
+/// Settings given outside the scene file (the command line), which win.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    pub resolution: Option<(u32, u32)>,
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u64>,
+    pub integrator: Option<IntegratorKind>,
+}
+
+/// What rays that leave the scene see.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per scene
+pub enum Background {
+    Color(Color),
+    /// A lat-long environment image: `u = 0.5 + atan2(x, -z) / 2 pi` across,
+    /// `v = acos(y) / pi` down (+y at the top row). Texels hold the color
+    /// model's lanes.
+    Environment(Box<EnvironmentMap>),
+}
+
+/// A lat-long image (see [`Background::Environment`]).
+#[derive(Debug, Clone)]
+pub struct EnvironmentMap {
+    pub width: u32,
+    pub height: u32,
+    pub lanes: usize,
+    pub texels: Vec<f32>,
+}
+
+impl Background {
+    /// The radiance seen along unit direction `d`, into `out`.
+    pub fn radiance(&self, d: Vec3, out: &mut [f32]) {
+        match self {
+            Background::Color(c) => out[..c.lanes().len()].copy_from_slice(c.lanes()),
+            Background::Environment(env) => {
+                let EnvironmentMap { width, height, lanes, texels } = &**env;
+                let u = 0.5 + d.x.atan2(-d.z) / std::f32::consts::TAU;
+                let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+                let x = ((u * *width as f32) as u32).min(width - 1);
+                let y = ((v * *height as f32) as u32).min(height - 1);
+                let at = (y * width + x) as usize * lanes;
+                out[..*lanes].copy_from_slice(&texels[at..at + lanes]);
+            }
+        }
+    }
+}
+
+/// One object: its geometry and material.
+pub struct Object {
+    pub material: Material,
+    /// Multiplies the material's emission (area lights given as `light rect`
+    /// or `light sphere` use the stdlib `emitter` scaled to their radiance,
+    /// as pbrt's area lights take a `scale`).
+    pub emission_scale: Option<Color>,
+    /// The material may emit: its `emission` is not the default black.
+    pub emissive: bool,
+    /// `opaque()` is the constant `true`: shadow rays need not ask.
+    pub always_opaque: bool,
+    /// Where the object is defined, for messages.
+    pub span: Span,
+}
+
+/// A scene ready to render.
+pub struct Scene {
+    pub camera: Camera,
+    pub settings: Settings,
+    pub background: Background,
+    pub objects: Vec<Object>,
+    pub geometry: Geometry,
+    pub lights: Vec<Light>,
+    /// The area light of each object, if it is one.
+    pub light_of_object: Vec<Option<usize>>,
+    pub model: ColorModel,
+    /// Seconds spent loading meshes and building the BVH.
+    pub build_seconds: f64,
+}
+
+impl Scene {
+    /// Builds the scene of a compiled program. Relative file names (meshes,
+    /// environment images) are resolved against the directory of the file
+    /// that holds the scene.
+    pub fn build(program: &Program, overrides: &Overrides) -> Result<Scene, Error> {
+        let start = std::time::Instant::now();
+        let scene = Builder::new(program)?.build(overrides)?;
+        Ok(Scene { build_seconds: start.elapsed().as_secs_f64(), ..scene })
+    }
+}
+
+struct Builder<'a> {
+    program: &'a Program,
+    scene: &'a crate::syntax::ast::Scene,
+    /// The directory relative file names are resolved against.
+    dir: PathBuf,
+    model: ColorModel,
+}
+
+fn find<'b>(props: &'b [SceneProp], name: &str) -> Option<&'b SceneProp> {
+    props.iter().find(|p| p.name.name == name)
+}
+
+fn f32s(words: &[u32]) -> Vec<f32> {
+    words.iter().map(|w| f32::from_bits(*w)).collect()
+}
+
+impl<'a> Builder<'a> {
+    fn new(program: &'a Program) -> Result<Builder<'a>, Error> {
+        let checked = program.checked();
+        for module in checked.loaded.modules.iter().filter(|m| !m.is_prelude) {
+            for item in &module.ast.items {
+                if let Item::Scene(scene) = item {
+                    let name = checked.loaded.sources.name(module.file);
+                    let dir = Path::new(name).parent().map(Path::to_path_buf).unwrap_or_default();
+                    return Ok(Builder { program, scene, dir, model: program.color_model() });
+                }
+            }
+        }
+        Err(Error::plain("the program has no `scene { ... }` block to render".into()))
+    }
+
+    fn error(&self, span: Span, message: impl Into<String>) -> Error {
+        self.program.error(Diagnostic::error(span, message))
+    }
+
+    fn expr(&self, p: &'a SceneProp) -> Result<&'a Expr, Error> {
+        p.value.as_ref().ok_or_else(|| self.error(p.span, format!("`{}` needs a value", p.name.name)))
+    }
+
+    fn words(&self, p: &'a SceneProp, ty: &Ty) -> Result<Vec<u32>, Error> {
+        self.program.eval_value(self.expr(p)?, ty)
+    }
+
+    fn float(&self, p: &'a SceneProp) -> Result<f32, Error> {
+        let x = f32::from_bits(self.words(p, &Ty::Float)?[0]);
+        if !x.is_finite() {
+            return Err(self.error(self.expr(p)?.span, format!("`{}` is not a finite number: {x}", p.name.name)));
+        }
+        Ok(x)
+    }
+
+    fn positive(&self, p: &'a SceneProp) -> Result<f32, Error> {
+        let x = self.float(p)?;
+        if x <= 0.0 {
+            return Err(self.error(self.expr(p)?.span, format!("`{}` must be positive, found {x}", p.name.name)));
+        }
+        Ok(x)
+    }
+
+    fn count(&self, p: &'a SceneProp) -> Result<u32, Error> {
+        let x = self.words(p, &Ty::Int)?[0] as i32;
+        if x <= 0 {
+            return Err(self.error(self.expr(p)?.span, format!("`{}` must be positive, found {x}", p.name.name)));
+        }
+        Ok(x as u32)
+    }
+
+    fn vec3(&self, p: &'a SceneProp) -> Result<Vec3, Error> {
+        let v = f32s(&self.words(p, &Ty::Vector)?);
+        let v = Vec3::new(v[0], v[1], v[2]);
+        if !v.is_finite() {
+            return Err(self.error(self.expr(p)?.span, format!("`{}` is not finite: {v}", p.name.name)));
+        }
+        Ok(v)
+    }
+
+    fn color(&self, p: &'a SceneProp) -> Result<Color, Error> {
+        let c = Color::from_lanes(self.model, &f32s(&self.words(p, &Ty::Color)?));
+        if c.lanes().iter().any(|x| !x.is_finite() || *x < 0.0) {
+            return Err(self.error(
+                self.expr(p)?.span,
+                format!("`{}` must be finite and not negative, found {:?}", p.name.name, c.lanes()),
+            ));
+        }
+        Ok(c)
+    }
+
+    fn string(&self, p: &'a SceneProp) -> Result<&'a str, Error> {
+        let e = self.expr(p)?;
+        match &e.kind {
+            ExprKind::Str(s) => Ok(s),
+            _ => Err(self.error(e.span, format!("`{}` takes a string literal here", p.name.name))),
+        }
+    }
+
+    fn path(&self, p: &'a SceneProp) -> Result<PathBuf, Error> {
+        let name = self.string(p)?;
+        let path = Path::new(name);
+        Ok(if path.is_absolute() { path.to_path_buf() } else { self.dir.join(path) })
+    }
+
+    /// An object's transforms, composed in the order written.
+    fn transform(&self, props: &'a [SceneProp]) -> Result<Mat4, Error> {
+        let mut m = Mat4::IDENTITY;
+        for p in props {
+            let step = match p.name.name.as_str() {
+                "translate" => Mat4::from_translation(self.vec3(p)?),
+                "rotate" => {
+                    let r = self.vec3(p)?;
+                    Mat4::from_rotation_z(r.z.to_radians())
+                        * Mat4::from_rotation_y(r.y.to_radians())
+                        * Mat4::from_rotation_x(r.x.to_radians())
+                }
+                "scale" => {
+                    let e = self.expr(p)?;
+                    let ty = self.program.checked().expr_types.get(&e.span).cloned().unwrap_or(Ty::Float);
+                    let s = if ty.is_triple() { self.vec3(p)? } else { Vec3::splat(self.float(p)?) };
+                    Mat4::from_scale(s)
+                }
+                "transform" => {
+                    let w = f32s(&self.words(p, &Ty::Matrix)?);
+                    // Three rows of an affine map, row-major.
+                    let col = |c: usize| glam::Vec4::new(w[c], w[4 + c], w[8 + c], if c == 3 { 1.0 } else { 0.0 });
+                    Mat4::from_cols(col(0), col(1), col(2), col(3))
+                }
+                _ => continue,
+            };
+            m = step * m;
+        }
+        Ok(m)
+    }
+
+    fn settings(&self, overrides: &Overrides) -> Result<Settings, Error> {
+        let mut s = Settings::default();
+        for entry in &self.scene.entries {
+            let SceneEntry::Block(b) = entry else { continue };
+            if b.keyword.name != "render" {
+                continue;
+            }
+            for p in &b.props {
+                match p.name.name.as_str() {
+                    "width" => s.width = self.count(p)?,
+                    "height" => s.height = self.count(p)?,
+                    "spp" => s.spp = self.count(p)?,
+                    "max_depth" => s.max_depth = self.count(p)?,
+                    "seed" => s.seed = u64::from(self.words(p, &Ty::Int)?[0]),
+                    "integrator" => {
+                        let name = self.string(p)?;
+                        s.integrator = IntegratorKind::parse(name).ok_or_else(|| {
+                            self.error(p.span, format!("unknown integrator \"{name}\": use \"whitted\" or \"path\""))
+                        })?;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        if let Some((w, h)) = overrides.resolution {
+            (s.width, s.height) = (w, h);
+        }
+        s.spp = overrides.spp.unwrap_or(s.spp);
+        s.max_depth = overrides.max_depth.unwrap_or(s.max_depth);
+        s.seed = overrides.seed.unwrap_or(s.seed);
+        s.integrator = overrides.integrator.unwrap_or(s.integrator);
+        if s.width == 0 || s.height == 0 {
+            return Err(Error::plain(format!("the image size must be positive, found {}x{}", s.width, s.height)));
+        }
+        if s.spp == 0 {
+            return Err(Error::plain("samples per pixel must be at least 1".into()));
+        }
+        Ok(s)
+    }
+
+    fn camera(&self, settings: &Settings) -> Result<Camera, Error> {
+        let block = self
+            .scene
+            .entries
+            .iter()
+            .find_map(|e| match e {
+                SceneEntry::Block(b) if b.keyword.name == "camera" => Some(b),
+                _ => None,
+            })
+            .ok_or_else(|| self.error(self.scene.span, "the scene has no camera"))?;
+        let get = |name: &str| find(&block.props, name);
+        let need =
+            |name: &str| get(name).ok_or_else(|| self.error(block.span, format!("the camera is missing `{name}`")));
+        let from = self.vec3(need("from")?)?;
+        let to = self.vec3(need("to")?)?;
+        let up = get("up").map(|p| self.vec3(p)).transpose()?.unwrap_or(Vec3::Y);
+        let fov = get("fov").map(|p| self.positive(p)).transpose()?.unwrap_or(45.0);
+        let aperture = get("aperture").map(|p| self.float(p)).transpose()?.unwrap_or(0.0);
+        let focus = get("focus").map(|p| self.positive(p)).transpose()?;
+        Camera::new(from, to, up, fov, (settings.width, settings.height), aperture, focus)
+            .map_err(|m| self.error(block.span, m))
+    }
+
+    fn background(&self) -> Result<Background, Error> {
+        let Some(p) = self.scene.entries.iter().find_map(|e| match e {
+            SceneEntry::Prop(p) if p.name.name == "background" => Some(p),
+            _ => None,
+        }) else {
+            return Ok(Background::Color(Color::black(self.model)));
+        };
+        let e = self.expr(p)?;
+        if matches!(e.kind, ExprKind::Str(_)) {
+            let path = self.path(p)?;
+            let (width, height, rgb) = image_io::load_environment(&path).map_err(|m| self.error(e.span, m))?;
+            let lanes = self.model.lanes();
+            let mut texels = Vec::with_capacity(rgb.len() * lanes);
+            for t in rgb {
+                texels.extend(crate::color::rgb_to_lanes(self.model, t));
+            }
+            return Ok(Background::Environment(Box::new(EnvironmentMap { width, height, lanes, texels })));
+        }
+        Ok(Background::Color(self.color(p)?))
+    }
+
+    /// The shape of an `object KIND { }` or area `light KIND { }` block.
+    fn shape(&self, b: &'a SceneBlock, kind: &str, to_world: Mat4) -> Result<Option<ShapeKind>, Error> {
+        let need = |name: &str| {
+            find(&b.props, name).ok_or_else(|| self.error(b.span, format!("this block is missing `{name}`")))
+        };
+        let get = |name: &str| find(&b.props, name);
+        let _ = to_world;
+        Ok(Some(match kind {
+            "sphere" => {
+                ShapeKind::Sphere { center: self.vec3(need("center")?)?, radius: self.positive(need("radius")?)? }
+            }
+            "plane" => ShapeKind::Plane {
+                point: self.vec3(need("point")?)?,
+                normal: self.vec3(need("normal")?)?,
+                tile: get("tile").map(|p| self.positive(p)).transpose()?.unwrap_or(1.0),
+            },
+            "quad" | "rect" => ShapeKind::Quad {
+                corner: self.vec3(need("corner")?)?,
+                edge1: self.vec3(need("edge1")?)?,
+                edge2: self.vec3(need("edge2")?)?,
+            },
+            "disk" => ShapeKind::Disk {
+                center: self.vec3(need("center")?)?,
+                normal: self.vec3(need("normal")?)?,
+                radius: self.positive(need("radius")?)?,
+            },
+            "box" => ShapeKind::Box { min: self.vec3(need("min")?)?, max: self.vec3(need("max")?)? },
+            "cylinder" => ShapeKind::Cylinder {
+                base: self.vec3(need("base")?)?,
+                axis: get("axis").map(|p| self.vec3(p)).transpose()?.unwrap_or(Vec3::Y),
+                radius: self.positive(need("radius")?)?,
+                height: self.positive(need("height")?)?,
+            },
+            _ => return Ok(None),
+        }))
+    }
+
+    fn build(&self, overrides: &Overrides) -> Result<Scene, Error> {
+        let settings = self.settings(overrides)?;
+        let camera = self.camera(&settings)?;
+        let background = self.background()?;
+        let mut geometry = Vec::new();
+        let mut objects = Vec::new();
+        let mut lights = Vec::new();
+        // Object materials that are not a plain name compile together.
+        let mut pending: Vec<(usize, String, &'a Expr)> = Vec::new();
+        for entry in &self.scene.entries {
+            let SceneEntry::Block(b) = entry else { continue };
+            let kind = b.kind.as_ref().map(|k| k.name.as_str()).unwrap_or("");
+            match b.keyword.name.as_str() {
+                "object" => {
+                    let to_world = self.transform(&b.props)?;
+                    let shape = if kind == "mesh" {
+                        let p =
+                            find(&b.props, "file").ok_or_else(|| self.error(b.span, "this mesh is missing `file`"))?;
+                        let path = self.path(p)?;
+                        let mesh = Mesh::load_obj(&path, to_world)
+                            .map_err(|m| self.error(self.expr(p).map(|e| e.span).unwrap_or(p.span), m))?;
+                        ObjectGeometry::Mesh(mesh)
+                    } else {
+                        let Some(k) = self.shape(b, kind, to_world)? else { continue };
+                        ObjectGeometry::Shape(Shape::new(k, to_world).map_err(|m| self.error(b.span, m))?)
+                    };
+                    let mp = find(&b.props, "material")
+                        .ok_or_else(|| self.error(b.span, "this object is missing `material`"))?;
+                    let expr = self.expr(mp)?;
+                    let material = match self.named_material(expr) {
+                        Some(m) => Some(m?),
+                        None => {
+                            pending.push((objects.len(), format!("@object{}", objects.len()), expr));
+                            None
+                        }
+                    };
+                    geometry.push(shape);
+                    objects.push((material, None, b.span));
+                }
+                "light" => match kind {
+                    "point" | "spot" => {
+                        let at = self.vec3(find(&b.props, "at").ok_or_else(|| self.error(b.span, "missing `at`"))?)?;
+                        let (intensity, from_power) = self.intensity(b)?;
+                        let light = if kind == "point" {
+                            let intensity = scale_color(
+                                &intensity,
+                                if from_power { 1.0 / (4.0 * std::f32::consts::PI) } else { 1.0 },
+                            );
+                            LightKind::Point { at, intensity }
+                        } else {
+                            let to =
+                                self.vec3(find(&b.props, "to").ok_or_else(|| self.error(b.span, "missing `to`"))?)?;
+                            let axis = (to - at).normalize_or_zero();
+                            if axis == Vec3::ZERO {
+                                return Err(self.error(
+                                    b.span,
+                                    "a spot light must point somewhere: `at` and `to` are the same point",
+                                ));
+                            }
+                            let cone = find(&b.props, "cone").map(|p| self.positive(p)).transpose()?.unwrap_or(30.0);
+                            let falloff = find(&b.props, "falloff").map(|p| self.float(p)).transpose()?.unwrap_or(5.0);
+                            if cone >= 180.0 || falloff < 0.0 || falloff > cone {
+                                return Err(self.error(b.span, format!("a spot light needs 0 < cone < 180 and 0 <= falloff <= cone, found cone {cone}, falloff {falloff}")));
+                            }
+                            let cos_outer = cone.to_radians().cos();
+                            let cos_inner = (cone - falloff).to_radians().cos();
+                            // pbrt-v4's spot power: the cone's solid angle, the
+                            // smooth edge counted as half.
+                            let solid = std::f32::consts::TAU * (1.0 - 0.5 * (cos_inner + cos_outer));
+                            let intensity = scale_color(&intensity, if from_power { 1.0 / solid } else { 1.0 });
+                            LightKind::Spot { at, axis, intensity, cos_outer, cos_inner }
+                        };
+                        lights.push(Light { kind: light });
+                    }
+                    "directional" => {
+                        let d = self.vec3(
+                            find(&b.props, "direction").ok_or_else(|| self.error(b.span, "missing `direction`"))?,
+                        )?;
+                        let dir = d.normalize_or_zero();
+                        if dir == Vec3::ZERO {
+                            return Err(self.error(b.span, "a directional light needs a non-zero `direction`"));
+                        }
+                        let irradiance = self.color(
+                            find(&b.props, "irradiance").ok_or_else(|| self.error(b.span, "missing `irradiance`"))?,
+                        )?;
+                        lights.push(Light { kind: LightKind::Directional { dir, irradiance } });
+                    }
+                    "rect" | "sphere" => {
+                        let to_world = Mat4::IDENTITY;
+                        let Some(k) = self.shape(b, kind, to_world)? else { continue };
+                        let shape = Shape::new(k, to_world).map_err(|m| self.error(b.span, m))?;
+                        let area = shape.area();
+                        let radiance = match (find(&b.props, "radiance"), find(&b.props, "power")) {
+                            (Some(p), _) => self.color(p)?,
+                            (None, Some(p)) => scale_color(&self.color(p)?, 1.0 / (std::f32::consts::PI * area)),
+                            (None, None) => return Err(self.error(b.span, "an area light needs `radiance` or `power`")),
+                        };
+                        let emitter = self.program.material("emitter")?;
+                        geometry.push(ObjectGeometry::Shape(shape));
+                        objects.push((Some(emitter), Some(radiance), b.span));
+                    }
+                    _ => {}
+                },
+                _ => {}
+            }
+        }
+        if !pending.is_empty() {
+            let names: Vec<(String, &Expr)> = pending.iter().map(|(_, n, e)| (n.clone(), *e)).collect();
+            let compiled = self.program.compile_material_exprs(&names)?;
+            for ((index, _, _), m) in pending.iter().zip(compiled) {
+                objects[*index].0 = Some(m);
+            }
+        }
+        let objects: Vec<Object> = objects
+            .into_iter()
+            .filter_map(|(m, scale, span)| {
+                let material = m?;
+                let emissive =
+                    material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
+                let always_opaque = material.always_opaque();
+                Some(Object { material, emission_scale: scale, emissive, always_opaque, span })
+            })
+            .collect();
+        let geometry = Geometry::new(geometry);
+        for (k, o) in objects.iter().enumerate() {
+            if o.emissive
+                && let Some(light) = Light::area(&geometry, k as u32)
+            {
+                lights.push(light);
+            }
+        }
+        let mut light_of_object = vec![None; objects.len()];
+        for (k, light) in lights.iter().enumerate() {
+            if let Some(o) = light.object() {
+                light_of_object[o as usize] = Some(k);
+            }
+        }
+        Ok(Scene {
+            camera,
+            settings,
+            background,
+            objects,
+            geometry,
+            lights,
+            light_of_object,
+            model: self.model,
+            build_seconds: 0.0,
+        })
+    }
+
+    /// `intensity` (W/sr), or `power` (W) to be divided by the solid angle;
+    /// the flag says which was given.
+    fn intensity(&self, b: &'a SceneBlock) -> Result<(Color, bool), Error> {
+        match (find(&b.props, "intensity"), find(&b.props, "power")) {
+            (Some(p), _) => Ok((self.color(p)?, false)),
+            (None, Some(p)) => Ok((self.color(p)?, true)),
+            (None, None) => Err(self.error(b.span, "this light needs `intensity` or `power`")),
+        }
+    }
+
+    /// A material written as a bare name of a material without required
+    /// parameters: its entries are compiled once however many objects use it.
+    fn named_material(&self, e: &Expr) -> Option<Result<Material, Error>> {
+        let ExprKind::Name(n) = &e.kind else { return None };
+        let sym = self.program.checked().symbols.get(n)?;
+        matches!(sym.kind, SymbolKind::Material | SymbolKind::MaterialTree).then(|| self.program.material(n))
+    }
+}
+
+fn scale_color(c: &Color, s: f32) -> Color {
+    c.scaled(s)
+}

@@ -1,0 +1,733 @@
+//! Analytic shapes: sphere, infinite plane, quad, disk, box and cylinder.
+//! Each is kept in its own frame (as written in the scene, before the
+//! object's transforms); rays are moved into that frame to be intersected
+//! (their direction is not renormalised, so `t` is shared with the world
+//! ray) and the surface record is moved back.
+//!
+//! Conventions (world y up). `dPdu x dPdv` points along the outward
+//! geometric normal for every shape; `Pl` is the hit point in the shape's
+//! frame minus its anchor (sphere and disk centre, plane point, quad
+//! corner, cylinder base; the box's own coordinates).
+//! - sphere: `u = phi / 2 pi`, phi measured about +y from +x toward -z;
+//!   `v = 0` at the bottom pole (-y), 1 at the top.
+//! - plane: tangents `s, t` with `s x t = n`; for `n = +y`, `s = +x` and
+//!   `t = -z`; `u, v` are distances along them divided by `tile` (not
+//!   wrapped).
+//! - quad: `(u, v)` are the parallelogram's own coordinates in [0, 1].
+//! - disk: `u = phi / 2 pi` in the plane's `(s, t)`, `v = 1 - r / radius`.
+//! - box: faces 0..5 are -x, +x, -y, +y, -z, +z; `(u, v)` run across each
+//!   face in [0, 1], upright and unmirrored seen from outside.
+//! - cylinder: `u = phi / 2 pi` about the axis, `v` the height fraction on
+//!   the side (face 0); caps are faces 1 (bottom) and 2 (top), polar.
+
+use super::sampling::{self, Frame};
+use super::{Mat4, Ray, Vec3};
+use glam::Mat3;
+use std::f32::consts::{PI, TAU};
+
+/// A ray hit before shading, in world space unless noted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceHit {
+    pub t: f32,
+    pub p: Vec3,
+    /// Object space: see the module documentation.
+    pub pl: Vec3,
+    /// Unit geometric normal on the shape's outward side (not turned
+    /// toward the ray).
+    pub ng: Vec3,
+    /// Unit shading normal (the same as `ng` for analytic shapes).
+    pub n: Vec3,
+    pub u: f32,
+    pub v: f32,
+    pub dpdu: Vec3,
+    pub dpdv: Vec3,
+    pub face: i32,
+}
+
+/// A shape as written in the scene, in its own frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShapeKind {
+    Sphere { center: Vec3, radius: f32 },
+    Plane { point: Vec3, normal: Vec3, tile: f32 },
+    Quad { corner: Vec3, edge1: Vec3, edge2: Vec3 },
+    Disk { center: Vec3, normal: Vec3, radius: f32 },
+    Box { min: Vec3, max: Vec3 },
+    Cylinder { base: Vec3, axis: Vec3, radius: f32, height: f32 },
+}
+
+/// A shape placed in the world.
+#[derive(Debug, Clone)]
+pub struct Shape {
+    kind: ShapeKind,
+    to_world: Mat4,
+    to_object: Mat4,
+    /// Transforms normals: the inverse transpose of the linear part.
+    normal_matrix: Mat3,
+    /// For planes and disks: the tangent frame of the normal; for
+    /// cylinders: the frame of the axis. Unit normals and axes.
+    frame: Frame,
+    identity: bool,
+}
+
+/// Tangents `s, t` of a unit normal with `s x t = n`: `s` is +x made
+/// perpendicular to `n` (or +z when `n` is near the x axis).
+fn plane_frame(n: Vec3) -> Frame {
+    let helper = if n.x.abs() > 0.9 { Vec3::Z } else { Vec3::X };
+    let s = (helper - helper.dot(n) * n).normalize();
+    Frame { s, t: n.cross(s), n }
+}
+
+impl Shape {
+    /// Checks the shape's numbers and places it with `to_world` (an affine
+    /// map).
+    pub fn new(kind: ShapeKind, to_world: Mat4) -> Result<Shape, String> {
+        if !to_world.is_finite() {
+            return Err("the object's transform is not finite".into());
+        }
+        let det = to_world.determinant();
+        if det.abs() < 1e-12 || !det.is_finite() {
+            return Err("the object's transform is singular (a scale of 0?)".into());
+        }
+        let finite = |v: Vec3, what: &str| {
+            if v.is_finite() { Ok(()) } else { Err(format!("the {what} is not finite: {v}")) }
+        };
+        let positive = |x: f32, what: &str| {
+            if x > 0.0 && x.is_finite() { Ok(()) } else { Err(format!("the {what} must be positive, found {x}")) }
+        };
+        let unit = |v: Vec3, what: &str| {
+            finite(v, what)?;
+            let u = v.normalize_or_zero();
+            if u == Vec3::ZERO { Err(format!("the {what} must not be the zero vector")) } else { Ok(u) }
+        };
+        let (kind, frame) = match kind {
+            ShapeKind::Sphere { center, radius } => {
+                finite(center, "centre")?;
+                positive(radius, "radius")?;
+                (kind, Frame::new(Vec3::Y))
+            }
+            ShapeKind::Plane { point, normal, tile } => {
+                finite(point, "point")?;
+                positive(tile, "tile size")?;
+                let n = unit(normal, "normal")?;
+                (ShapeKind::Plane { point, normal: n, tile }, plane_frame(n))
+            }
+            ShapeKind::Quad { corner, edge1, edge2 } => {
+                finite(corner, "corner")?;
+                finite(edge1, "edge1")?;
+                finite(edge2, "edge2")?;
+                let n = edge1.cross(edge2);
+                if n.length() <= 1e-12 * edge1.length().max(1.0) * edge2.length().max(1.0) {
+                    return Err("a quad's edges must not be zero or parallel".into());
+                }
+                (kind, plane_frame(n.normalize()))
+            }
+            ShapeKind::Disk { center, normal, radius } => {
+                finite(center, "centre")?;
+                positive(radius, "radius")?;
+                let n = unit(normal, "normal")?;
+                (ShapeKind::Disk { center, normal: n, radius }, plane_frame(n))
+            }
+            ShapeKind::Box { min, max } => {
+                finite(min, "minimum")?;
+                finite(max, "maximum")?;
+                if min.cmpgt(max).any() {
+                    return Err(format!("a box's `min` {min} must not exceed its `max` {max} on any axis"));
+                }
+                if (max - min).min_element() <= 0.0 {
+                    return Err(format!("a box must have volume: `min` {min} and `max` {max} share a coordinate"));
+                }
+                (kind, Frame::new(Vec3::Y))
+            }
+            ShapeKind::Cylinder { base, axis, radius, height } => {
+                finite(base, "base")?;
+                positive(radius, "radius")?;
+                positive(height, "height")?;
+                let a = unit(axis, "axis")?;
+                (ShapeKind::Cylinder { base, axis: a, radius, height }, plane_frame(a))
+            }
+        };
+        let to_object = to_world.inverse();
+        let linear = Mat3::from_mat4(to_world);
+        Ok(Shape {
+            kind,
+            to_world,
+            to_object,
+            normal_matrix: linear.inverse().transpose(),
+            frame,
+            identity: to_world == Mat4::IDENTITY,
+        })
+    }
+
+    pub fn kind(&self) -> &ShapeKind {
+        &self.kind
+    }
+
+    pub fn to_world(&self) -> Mat4 {
+        self.to_world
+    }
+
+    fn local_ray(&self, ray: &Ray) -> Ray {
+        if self.identity {
+            return *ray;
+        }
+        Ray::new(self.to_object.transform_point3(ray.origin), self.to_object.transform_vector3(ray.dir))
+    }
+
+    /// The world bounding box; `None` for the infinite plane.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let (lo, hi) = match self.kind {
+            ShapeKind::Sphere { center, radius } => (center - Vec3::splat(radius), center + Vec3::splat(radius)),
+            ShapeKind::Plane { .. } => return None,
+            ShapeKind::Quad { corner, edge1, edge2 } => {
+                let pts = [corner, corner + edge1, corner + edge2, corner + edge1 + edge2];
+                (pts.iter().fold(pts[0], |a, b| a.min(*b)), pts.iter().fold(pts[0], |a, b| a.max(*b)))
+            }
+            ShapeKind::Disk { center, normal, radius } => {
+                let e = radius * (Vec3::ONE - normal * normal).max(Vec3::ZERO).powf(0.5);
+                (center - e, center + e)
+            }
+            ShapeKind::Box { min, max } => (min, max),
+            ShapeKind::Cylinder { base, axis, radius, height } => {
+                let e = radius * (Vec3::ONE - axis * axis).max(Vec3::ZERO).powf(0.5);
+                let top = base + axis * height;
+                (base.min(top) - e, base.max(top) + e)
+            }
+        };
+        // A little slack so rays grazing a flat shape are not culled.
+        let pad = 1e-5 * (1.0 + lo.abs().max(hi.abs()).max_element());
+        let (lo, hi) = (lo - Vec3::splat(pad), hi + Vec3::splat(pad));
+        let mut wlo = Vec3::splat(f32::INFINITY);
+        let mut whi = Vec3::splat(f32::NEG_INFINITY);
+        for k in 0..8 {
+            let c = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = self.to_world.transform_point3(c);
+            wlo = wlo.min(w);
+            whi = whi.max(w);
+        }
+        Some((wlo, whi))
+    }
+
+    /// The nearest `t` in `(t_min, t_max)` where the ray meets the shape.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        let r = self.local_ray(ray);
+        let ok = |t: f32| t > t_min && t < t_max;
+        match self.kind {
+            ShapeKind::Sphere { center, radius } => {
+                let (t0, t1) = sphere_roots(&r, center, radius)?;
+                if ok(t0) {
+                    Some(t0)
+                } else if ok(t1) {
+                    Some(t1)
+                } else {
+                    None
+                }
+            }
+            ShapeKind::Plane { point, normal, .. } => plane_t(&r, point, normal).filter(|t| ok(*t)),
+            ShapeKind::Quad { corner, edge1, edge2 } => {
+                let n = edge1.cross(edge2);
+                let t = plane_t(&r, corner, n).filter(|t| ok(*t))?;
+                let (s, q) = quad_coords(r.at(t) - corner, edge1, edge2, n);
+                ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&q)).then_some(t)
+            }
+            ShapeKind::Disk { center, normal, radius } => {
+                let t = plane_t(&r, center, normal).filter(|t| ok(*t))?;
+                ((r.at(t) - center).length_squared() <= radius * radius).then_some(t)
+            }
+            ShapeKind::Box { min, max } => {
+                let (t0, t1) = slabs(&r, min, max)?;
+                if ok(t0) {
+                    Some(t0)
+                } else if ok(t1) {
+                    Some(t1)
+                } else {
+                    None
+                }
+            }
+            ShapeKind::Cylinder { base, radius, height, .. } => self
+                .cylinder_hits(&r, base, radius, height)
+                .into_iter()
+                .flatten()
+                .filter(|(t, _)| ok(*t))
+                .map(|(t, _)| t)
+                .reduce(f32::min),
+        }
+    }
+
+    /// The candidate hits of a cylinder: side (both roots) and caps, with
+    /// their face numbers.
+    fn cylinder_hits(&self, r: &Ray, base: Vec3, radius: f32, height: f32) -> [Option<(f32, i32)>; 4] {
+        let o = self.frame.to_local(r.origin - base);
+        let d = self.frame.to_local(r.dir);
+        let mut out = [None; 4];
+        // Side: x^2 + y^2 = r^2 with 0 <= z <= h.
+        let a = d.x * d.x + d.y * d.y;
+        if a > 0.0 {
+            let b = o.x * d.x + o.y * d.y;
+            let c = o.x * o.x + o.y * o.y - radius * radius;
+            // The stable form: the discriminant from the closest approach.
+            let fx = o.x - b / a * d.x;
+            let fy = o.y - b / a * d.y;
+            let disc = radius * radius - (fx * fx + fy * fy);
+            if disc >= 0.0 {
+                let q = -b - (a * disc).sqrt().copysign(b);
+                for (k, t) in [c / q, q / a].into_iter().enumerate() {
+                    let z = o.z + t * d.z;
+                    if t.is_finite() && (0.0..=height).contains(&z) {
+                        out[k] = Some((t, 0));
+                    }
+                }
+            }
+        }
+        if d.z != 0.0 {
+            for (k, (z, face)) in [(0.0, 1), (height, 2)].into_iter().enumerate() {
+                let t = (z - o.z) / d.z;
+                let (x, y) = (o.x + t * d.x, o.y + t * d.y);
+                if x * x + y * y <= radius * radius {
+                    out[2 + k] = Some((t, face));
+                }
+            }
+        }
+        out
+    }
+
+    /// The surface record at a `t` returned by [`Shape::intersect`].
+    pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        let r = self.local_ray(ray);
+        let p = r.at(t);
+        let (pl, n, u, v, dpdu, dpdv, face) = match self.kind {
+            ShapeKind::Sphere { center, radius } => {
+                let q = p - center;
+                let n = q / radius;
+                let cos_theta = n.y.clamp(-1.0, 1.0);
+                let theta = cos_theta.acos();
+                let sin_theta = theta.sin();
+                let phi = (-q.z).atan2(q.x).rem_euclid(TAU);
+                let (sp, cp) = phi.sin_cos();
+                let dpdu = TAU * radius * Vec3::new(-sin_theta * sp, 0.0, -sin_theta * cp);
+                let dpdv = -PI * radius * Vec3::new(cos_theta * cp, -sin_theta, -cos_theta * sp);
+                (q, n, phi / TAU, 1.0 - theta / PI, dpdu, dpdv, 0)
+            }
+            ShapeKind::Plane { point, normal, tile } => {
+                let q = p - point;
+                let f = self.frame;
+                (q, normal, q.dot(f.s) / tile, q.dot(f.t) / tile, f.s * tile, f.t * tile, 0)
+            }
+            ShapeKind::Quad { corner, edge1, edge2 } => {
+                let q = p - corner;
+                let n = edge1.cross(edge2);
+                let (s, tt) = quad_coords(q, edge1, edge2, n);
+                (q, n.normalize(), s, tt, edge1, edge2, 0)
+            }
+            ShapeKind::Disk { center, normal, radius } => {
+                let q = p - center;
+                let (u, v, dpdu, dpdv) = polar(q, self.frame, radius);
+                (q, normal, u, v, dpdu, dpdv, 0)
+            }
+            ShapeKind::Box { min, max } => box_surface(p, min, max),
+            ShapeKind::Cylinder { base, axis, radius, height } => {
+                let f = self.frame;
+                let q = p - base;
+                let local = f.to_local(q);
+                let face = self
+                    .cylinder_hits(&r, base, radius, height)
+                    .into_iter()
+                    .flatten()
+                    .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
+                    .map_or(0, |h| h.1);
+                match face {
+                    0 => {
+                        let phi = local.y.atan2(local.x).rem_euclid(TAU);
+                        let (sp, cp) = phi.sin_cos();
+                        let n = (cp * f.s + sp * f.t).normalize();
+                        let dpdu = TAU * radius * (-sp * f.s + cp * f.t);
+                        (q, n, phi / TAU, (local.z / height).clamp(0.0, 1.0), dpdu, axis * height, 0)
+                    }
+                    1 => {
+                        // The bottom cap faces -axis: flip the disk's v so
+                        // dPdu x dPdv still points outward.
+                        let (u, v, dpdu, dpdv) = polar(q, f, radius);
+                        (q, -axis, u, 1.0 - v, dpdu, -dpdv, 1)
+                    }
+                    _ => {
+                        let (u, v, dpdu, dpdv) = polar(q - axis * height, f, radius);
+                        (q, axis, u, v, dpdu, dpdv, 2)
+                    }
+                }
+            }
+        };
+        let ng = (self.normal_matrix * n).normalize_or(Vec3::Y);
+        let (mut dpdu, mut dpdv) = (self.to_world.transform_vector3(dpdu), self.to_world.transform_vector3(dpdv));
+        // Degenerate parametrisations (sphere poles, disk centres): any
+        // tangent frame of the normal, so shaders never see a zero vector.
+        if dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0 {
+            let f = Frame::new(ng);
+            dpdu = f.s;
+            dpdv = f.t;
+        }
+        SurfaceHit { t, p: ray.at(t), pl, ng, n: ng, u, v, dpdu, dpdv, face }
+    }
+
+    /// World-space area (exact for planar shapes under any affine map,
+    /// and for the rest under a similarity transform).
+    pub fn area(&self) -> f32 {
+        let m = |v: Vec3| self.to_world.transform_vector3(v);
+        // The scale factor of a similarity transform.
+        let similarity = m(Vec3::X).length();
+        match self.kind {
+            ShapeKind::Sphere { radius, .. } => 4.0 * PI * (radius * similarity) * (radius * similarity),
+            ShapeKind::Plane { .. } => f32::INFINITY,
+            ShapeKind::Quad { edge1, edge2, .. } => m(edge1).cross(m(edge2)).length(),
+            ShapeKind::Disk { radius, .. } => PI * radius * radius * m(self.frame.s).cross(m(self.frame.t)).length(),
+            ShapeKind::Box { min, max } => {
+                let e = max - min;
+                let (x, y, z) = (m(Vec3::X * e.x), m(Vec3::Y * e.y), m(Vec3::Z * e.z));
+                2.0 * (x.cross(y).length() + y.cross(z).length() + z.cross(x).length())
+            }
+            ShapeKind::Cylinder { radius, height, .. } => {
+                let s2 = similarity * similarity;
+                (TAU * radius * height + 2.0 * PI * radius * radius) * s2
+            }
+        }
+    }
+
+    /// A point uniformly distributed over the area of a quad, disk or
+    /// sphere (world space); other shapes give their centre.
+    pub fn sample_area(&self, u: [f32; 2]) -> Vec3 {
+        let local = match self.kind {
+            ShapeKind::Quad { corner, edge1, edge2 } => corner + u[0] * edge1 + u[1] * edge2,
+            ShapeKind::Disk { center, radius, .. } => {
+                let [x, y] = sampling::square_to_uniform_disk_concentric(u);
+                center + radius * (x * self.frame.s + y * self.frame.t)
+            }
+            ShapeKind::Sphere { center, radius } => center + radius * sampling::square_to_uniform_sphere(u),
+            ShapeKind::Box { min, max } => (min + max) * 0.5,
+            ShapeKind::Cylinder { base, axis, height, .. } => base + axis * (height * 0.5),
+            ShapeKind::Plane { point, .. } => point,
+        };
+        self.to_world.transform_point3(local)
+    }
+}
+
+/// Both roots of a ray and a sphere, nearest first (Ray Tracing Gems,
+/// chapter 7: the discriminant from the point of closest approach keeps
+/// precision for far and small spheres).
+fn sphere_roots(r: &Ray, center: Vec3, radius: f32) -> Option<(f32, f32)> {
+    let f = r.origin - center;
+    let a = r.dir.length_squared();
+    if a == 0.0 {
+        return None;
+    }
+    let b = -f.dot(r.dir);
+    let l = f + (b / a) * r.dir;
+    let disc = radius * radius - l.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let c = f.length_squared() - radius * radius;
+    let q = b + (a * disc).sqrt().copysign(b);
+    if q == 0.0 {
+        // The origin is on the sphere and the ray is tangent to it.
+        return Some((0.0, 0.0));
+    }
+    let (t0, t1) = (c / q, q / a);
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+fn plane_t(r: &Ray, point: Vec3, normal: Vec3) -> Option<f32> {
+    let denom = normal.dot(r.dir);
+    if denom == 0.0 {
+        return None;
+    }
+    let t = normal.dot(point - r.origin) / denom;
+    t.is_finite().then_some(t)
+}
+
+/// Coordinates of `w` (in the plane) along a parallelogram's edges.
+fn quad_coords(w: Vec3, e1: Vec3, e2: Vec3, n: Vec3) -> (f32, f32) {
+    let inv = 1.0 / n.length_squared();
+    (w.cross(e2).dot(n) * inv, e1.cross(w).dot(n) * inv)
+}
+
+/// Entry and exit `t` of a ray through an axis-aligned box.
+fn slabs(r: &Ray, min: Vec3, max: Vec3) -> Option<(f32, f32)> {
+    let inv = r.dir.recip();
+    let a = (min - r.origin) * inv;
+    let b = (max - r.origin) * inv;
+    // min/max ignore the NaN of 0 * inf (origin on a slab, ray parallel).
+    let near = a.min(b);
+    let far = a.max(b);
+    let t0 = near.x.max(near.y).max(near.z);
+    let t1 = far.x.min(far.y).min(far.z);
+    // A NaN (zero direction) compares false: no hit.
+    (t0 <= t1).then_some((t0, t1))
+}
+
+/// Polar coordinates of `q` in the plane of `f` (for disks and caps):
+/// `u = phi / 2 pi`, `v = 1 - r / radius`, with their tangents.
+fn polar(q: Vec3, f: Frame, radius: f32) -> (f32, f32, Vec3, Vec3) {
+    let (x, y) = (q.dot(f.s), q.dot(f.t));
+    let r = (x * x + y * y).sqrt();
+    let phi = y.atan2(x).rem_euclid(TAU);
+    let (sp, cp) = phi.sin_cos();
+    let dpdu = TAU * r * (-sp * f.s + cp * f.t);
+    let dpdv = -radius * (cp * f.s + sp * f.t);
+    (phi / TAU, 1.0 - r / radius, dpdu, dpdv)
+}
+
+#[allow(clippy::type_complexity)]
+fn box_surface(p: Vec3, min: Vec3, max: Vec3) -> (Vec3, Vec3, f32, f32, Vec3, Vec3, i32) {
+    let size = max - min;
+    let q = (p - min) / size;
+    // The face whose plane the point is nearest, relative to the box size.
+    let distances = [q.x, 1.0 - q.x, q.y, 1.0 - q.y, q.z, 1.0 - q.z];
+    let mut face = 0;
+    for k in 1..6 {
+        if distances[k] * size[k / 2] < distances[face] * size[face / 2] {
+            face = k;
+        }
+    }
+    let (sx, sy, sz) = (size.x, size.y, size.z);
+    let (n, u, v, dpdu, dpdv) = match face {
+        0 => (Vec3::NEG_X, q.z, q.y, Vec3::new(0.0, 0.0, sz), Vec3::new(0.0, sy, 0.0)),
+        1 => (Vec3::X, 1.0 - q.z, q.y, Vec3::new(0.0, 0.0, -sz), Vec3::new(0.0, sy, 0.0)),
+        2 => (Vec3::NEG_Y, q.x, q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, sz)),
+        3 => (Vec3::Y, q.x, 1.0 - q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, -sz)),
+        4 => (Vec3::NEG_Z, 1.0 - q.x, q.y, Vec3::new(-sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
+        _ => (Vec3::Z, q.x, q.y, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
+    };
+    (p, n, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0), dpdu, dpdv, face as i32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shape(kind: ShapeKind) -> Shape {
+        Shape::new(kind, Mat4::IDENTITY).unwrap()
+    }
+
+    fn hit(s: &Shape, o: Vec3, d: Vec3) -> Option<SurfaceHit> {
+        let r = Ray::new(o, d);
+        s.intersect(&r, 1e-4, f32::INFINITY).map(|t| s.surface(&r, t))
+    }
+
+    fn close(a: Vec3, b: Vec3) -> bool {
+        (a - b).length() < 1e-4 * (1.0 + b.length())
+    }
+
+    /// dPdu x dPdv along the outward normal, and the normal unit length.
+    fn consistent(h: &SurfaceHit) {
+        assert!((h.ng.length() - 1.0).abs() < 1e-4, "{h:?}");
+        assert!(h.dpdu.cross(h.dpdv).dot(h.ng) > 0.0, "{h:?}");
+        assert!((0.0..=1.0).contains(&h.u) || h.face >= 0, "{h:?}");
+    }
+
+    #[test]
+    fn sphere_from_outside_inside_tangent_and_missing() {
+        let s = shape(ShapeKind::Sphere { center: Vec3::new(0.0, 1.0, 0.0), radius: 1.0 });
+        let h = hit(&s, Vec3::new(0.0, 1.0, 5.0), Vec3::NEG_Z).unwrap();
+        assert!((h.t - 4.0).abs() < 1e-5 && close(h.ng, Vec3::Z) && close(h.pl, Vec3::Z));
+        consistent(&h);
+        // From the centre outward: the far side, normal still outward.
+        let h = hit(&s, Vec3::new(0.0, 1.0, 0.0), Vec3::X).unwrap();
+        assert!((h.t - 1.0).abs() < 1e-5 && close(h.ng, Vec3::X));
+        assert_eq!(h.u, 0.0);
+        assert!((h.v - 0.5).abs() < 1e-5);
+        assert!(hit(&s, Vec3::new(0.0, 3.0, 5.0), Vec3::NEG_Z).is_none(), "passes above");
+        let grazing = hit(&s, Vec3::new(1.0, 1.0, 5.0), Vec3::NEG_Z);
+        assert!(grazing.is_none_or(|h| (h.p.x - 1.0).abs() < 1e-3));
+        // Poles: v = 0 at the bottom, 1 at the top, tangents still valid.
+        let top = hit(&s, Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y).unwrap();
+        assert!((top.v - 1.0).abs() < 1e-5);
+        consistent(&top);
+        let bottom = hit(&s, Vec3::new(0.0, -5.0, 0.0), Vec3::Y).unwrap();
+        assert!(bottom.v.abs() < 1e-5);
+        // u grows from +x toward -z.
+        let a = hit(&s, Vec3::new(5.0, 1.0, -0.1), Vec3::NEG_X).unwrap();
+        assert!(a.u > 0.0 && a.u < 0.05, "{}", a.u);
+    }
+
+    #[test]
+    fn random_rays_hit_the_surface_they_report() {
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let m = Mat4::from_translation(Vec3::new(0.5, -0.2, 0.3))
+            * Mat4::from_rotation_y(0.7)
+            * Mat4::from_rotation_x(-0.4)
+            * Mat4::from_scale(Vec3::new(1.5, 0.7, 1.2));
+        let kinds = [
+            ShapeKind::Sphere { center: Vec3::new(0.1, 0.2, -0.3), radius: 0.8 },
+            ShapeKind::Quad {
+                corner: Vec3::new(-1.0, 0.0, -1.0),
+                edge1: Vec3::new(2.0, 0.2, 0.0),
+                edge2: Vec3::new(0.0, 0.3, 2.0),
+            },
+            ShapeKind::Disk { center: Vec3::ZERO, normal: Vec3::new(0.3, 1.0, 0.2), radius: 1.0 },
+            ShapeKind::Box { min: Vec3::new(-1.0, -0.5, -0.7), max: Vec3::new(0.8, 0.5, 0.9) },
+            ShapeKind::Cylinder {
+                base: Vec3::new(0.0, -0.5, 0.0),
+                axis: Vec3::new(0.2, 1.0, 0.1),
+                radius: 0.6,
+                height: 1.2,
+            },
+            ShapeKind::Plane { point: Vec3::ZERO, normal: Vec3::new(0.1, 1.0, -0.2), tile: 0.5 },
+        ];
+        for kind in kinds {
+            for transform in [Mat4::IDENTITY, m] {
+                let s = Shape::new(kind, transform).unwrap();
+                let bounds = s.bounds();
+                let mut hits = 0;
+                for _ in 0..2000 {
+                    let o = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 8.0;
+                    let target = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0;
+                    let r = Ray::new(o, target - o);
+                    let Some(t) = s.intersect(&r, 1e-4, f32::INFINITY) else { continue };
+                    hits += 1;
+                    let h = s.surface(&r, t);
+                    assert!(h.p.is_finite() && h.ng.is_finite() && h.dpdu.is_finite() && h.u.is_finite());
+                    consistent(&h);
+                    // The point is on the shape: a ray from just off the
+                    // surface along the normal, backward, hits it again.
+                    let back = Ray::new(h.p + h.ng * 1e-2, -h.ng);
+                    let tb = s.intersect(&back, 0.0, 1.0).expect("the reported point is on the surface");
+                    assert!((tb - 1e-2).abs() < 2e-3, "{kind:?}: {tb}");
+                    if let Some((lo, hi)) = bounds {
+                        assert!(h.p.cmpge(lo - 1e-3).all() && h.p.cmple(hi + 1e-3).all(), "{kind:?} outside bounds");
+                    }
+                    // Pl maps back to P.
+                    let anchor = match kind {
+                        ShapeKind::Sphere { center, .. } | ShapeKind::Disk { center, .. } => center,
+                        ShapeKind::Quad { corner, .. } => corner,
+                        ShapeKind::Plane { point, .. } => point,
+                        ShapeKind::Cylinder { base, .. } => base,
+                        ShapeKind::Box { .. } => Vec3::ZERO,
+                    };
+                    assert!(close(transform.transform_point3(h.pl + anchor), h.p), "{kind:?}");
+                }
+                assert!(hits > 50, "{kind:?}: only {hits} hits");
+            }
+        }
+    }
+
+    #[test]
+    fn box_faces_are_numbered_and_facing_out() {
+        let s = shape(ShapeKind::Box { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) });
+        let cases = [
+            (Vec3::new(-5.0, 0.1, 0.2), Vec3::X, 0, Vec3::NEG_X),
+            (Vec3::new(5.0, 0.1, 0.2), Vec3::NEG_X, 1, Vec3::X),
+            (Vec3::new(0.1, -5.0, 0.2), Vec3::Y, 2, Vec3::NEG_Y),
+            (Vec3::new(0.1, 5.0, 0.2), Vec3::NEG_Y, 3, Vec3::Y),
+            (Vec3::new(0.1, 0.2, -5.0), Vec3::Z, 4, Vec3::NEG_Z),
+            (Vec3::new(0.1, 0.2, 5.0), Vec3::NEG_Z, 5, Vec3::Z),
+        ];
+        for (o, d, face, n) in cases {
+            let h = hit(&s, o, d).unwrap();
+            assert_eq!(h.face, face);
+            assert!(close(h.ng, n));
+            assert!((h.t - 4.0).abs() < 1e-5);
+            consistent(&h);
+        }
+        // From inside: the exit face.
+        let h = hit(&s, Vec3::ZERO, Vec3::Y).unwrap();
+        assert_eq!(h.face, 3);
+        // Seen from +z, u grows to the right (+x) and v upward (+y).
+        let a = hit(&s, Vec3::new(-0.5, -0.5, 5.0), Vec3::NEG_Z).unwrap();
+        let b = hit(&s, Vec3::new(0.5, 0.5, 5.0), Vec3::NEG_Z).unwrap();
+        assert!(b.u > a.u && b.v > a.v);
+        // Scaled and rotated.
+        let m = Mat4::from_rotation_y(0.5) * Mat4::from_scale(Vec3::splat(2.0));
+        let t = Shape::new(ShapeKind::Box { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) }, m).unwrap();
+        let h = hit(&t, Vec3::new(0.0, 10.0, 0.0), Vec3::NEG_Y).unwrap();
+        assert!((h.t - 8.0).abs() < 1e-4 && close(h.ng, Vec3::Y) && close(h.pl, Vec3::new(0.0, 1.0, 0.0)));
+    }
+
+    #[test]
+    fn planes_quads_and_disks() {
+        let p = shape(ShapeKind::Plane { point: Vec3::ZERO, normal: Vec3::Y, tile: 2.0 });
+        assert!(hit(&p, Vec3::new(0.0, 1.0, 0.0), Vec3::X).is_none(), "parallel");
+        let h = hit(&p, Vec3::new(3.0, 1.0, -4.0), Vec3::NEG_Y).unwrap();
+        assert!((h.u - 1.5).abs() < 1e-5 && (h.v - 2.0).abs() < 1e-5, "u along +x, v along -z, per tile");
+        assert!(p.bounds().is_none());
+        let q = shape(ShapeKind::Quad {
+            corner: Vec3::new(-1.0, 0.0, 1.0),
+            edge1: Vec3::new(2.0, 0.0, 0.0),
+            edge2: Vec3::new(0.0, 0.0, -2.0),
+        });
+        let h = hit(&q, Vec3::new(0.5, 1.0, 0.0), Vec3::NEG_Y).unwrap();
+        assert!(close(h.ng, Vec3::Y) && (h.u - 0.75).abs() < 1e-5 && (h.v - 0.5).abs() < 1e-5);
+        assert!(hit(&q, Vec3::new(1.5, 1.0, 0.0), Vec3::NEG_Y).is_none(), "outside");
+        assert!((q.area() - 4.0).abs() < 1e-5);
+        let d = shape(ShapeKind::Disk { center: Vec3::ZERO, normal: Vec3::Z, radius: 1.0 });
+        assert!(hit(&d, Vec3::new(0.9, 0.0, 1.0), Vec3::NEG_Z).is_some());
+        assert!(hit(&d, Vec3::new(0.8, 0.8, 1.0), Vec3::NEG_Z).is_none());
+        assert!(hit(&d, Vec3::new(0.0, 0.0, 1.0), Vec3::X).is_none(), "parallel");
+        let centre = hit(&d, Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z).unwrap();
+        assert!((centre.v - 1.0).abs() < 1e-5);
+        consistent(&centre);
+        assert!((d.area() - PI).abs() < 1e-5);
+    }
+
+    #[test]
+    fn cylinder_side_and_caps() {
+        let c = shape(ShapeKind::Cylinder { base: Vec3::ZERO, axis: Vec3::Y, radius: 1.0, height: 2.0 });
+        let side = hit(&c, Vec3::new(5.0, 1.0, 0.0), Vec3::NEG_X).unwrap();
+        assert!(
+            (side.t - 4.0).abs() < 1e-5 && side.face == 0 && close(side.ng, Vec3::X) && (side.v - 0.5).abs() < 1e-5
+        );
+        let top = hit(&c, Vec3::new(0.3, 5.0, 0.2), Vec3::NEG_Y).unwrap();
+        assert!(top.face == 2 && close(top.ng, Vec3::Y) && (top.t - 3.0).abs() < 1e-5);
+        let bottom = hit(&c, Vec3::new(0.3, -5.0, 0.2), Vec3::Y).unwrap();
+        assert!(bottom.face == 1 && close(bottom.ng, Vec3::NEG_Y));
+        for h in [side, top, bottom] {
+            consistent(&h);
+        }
+        assert!(hit(&c, Vec3::new(5.0, 2.5, 0.0), Vec3::NEG_X).is_none(), "above the top");
+        let inside = hit(&c, Vec3::new(0.0, 1.0, 0.0), Vec3::Z).unwrap();
+        assert!((inside.t - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn degenerate_shapes_are_errors() {
+        let e = |k: ShapeKind| Shape::new(k, Mat4::IDENTITY).unwrap_err();
+        assert!(e(ShapeKind::Sphere { center: Vec3::ZERO, radius: 0.0 }).contains("positive"));
+        assert!(e(ShapeKind::Sphere { center: Vec3::new(f32::NAN, 0.0, 0.0), radius: 1.0 }).contains("finite"));
+        assert!(e(ShapeKind::Plane { point: Vec3::ZERO, normal: Vec3::ZERO, tile: 1.0 }).contains("zero"));
+        assert!(e(ShapeKind::Quad { corner: Vec3::ZERO, edge1: Vec3::X, edge2: Vec3::X * 2.0 }).contains("parallel"));
+        assert!(e(ShapeKind::Box { min: Vec3::ONE, max: Vec3::ZERO }).contains("exceed"));
+        assert!(
+            e(ShapeKind::Cylinder { base: Vec3::ZERO, axis: Vec3::Y, radius: 1.0, height: -1.0 }).contains("positive")
+        );
+        let singular = Shape::new(
+            ShapeKind::Sphere { center: Vec3::ZERO, radius: 1.0 },
+            Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+        );
+        assert!(singular.unwrap_err().contains("singular"));
+    }
+
+    #[test]
+    fn area_sampling_lands_on_the_shape() {
+        let m = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0))
+            * Mat4::from_rotation_z(0.3)
+            * Mat4::from_scale(Vec3::splat(2.0));
+        let sphere = Shape::new(ShapeKind::Sphere { center: Vec3::ZERO, radius: 0.5 }, m).unwrap();
+        assert!((sphere.area() - 4.0 * PI).abs() < 1e-4);
+        let quad = Shape::new(ShapeKind::Quad { corner: Vec3::ZERO, edge1: Vec3::X, edge2: Vec3::Y }, m).unwrap();
+        assert!((quad.area() - 4.0).abs() < 1e-4);
+        for k in 0..100 {
+            let u = [(k % 10) as f32 / 10.0 + 0.05, (k / 10) as f32 / 10.0 + 0.05];
+            let p = sphere.sample_area(u);
+            assert!(((p - Vec3::new(1.0, 2.0, 3.0)).length() - 1.0).abs() < 1e-4);
+            let q = m.inverse().transform_point3(quad.sample_area(u));
+            assert!(q.z.abs() < 1e-5 && (0.0..=1.0).contains(&q.x) && (0.0..=1.0).contains(&q.y));
+        }
+    }
+}

@@ -1,0 +1,288 @@
+//! The renderer against analytic answers: furnace tests, inverse-square
+//! point lights, the depth convention, energy conservation and reciprocity
+//! of the stdlib materials, determinism across thread counts, and clear
+//! errors for bad scenes.
+
+use tsl::render::{self, IntegratorKind, Overrides, RenderOptions, RenderedImage, Scene};
+use tsl::{ColorModel, Compiler, ShadingGlobals};
+
+fn scene_of(src: &str, model: ColorModel, overrides: &Overrides) -> Scene {
+    let program =
+        Compiler::new().color_model(model).source("test.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
+    Scene::build(&program, overrides).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn render_src(src: &str, model: ColorModel, overrides: &Overrides) -> RenderedImage {
+    let scene = scene_of(src, model, overrides);
+    render::render(&scene, &RenderOptions::default()).unwrap().0
+}
+
+fn mean(image: &RenderedImage) -> [f64; 3] {
+    let mut sum = [0.0f64; 3];
+    for p in &image.color {
+        for c in 0..3 {
+            sum[c] += f64::from(p[c]);
+        }
+    }
+    sum.map(|s| s / image.color.len() as f64)
+}
+
+/// A camera inside a closed sphere whose inner surface emits `le` and
+/// reflects diffusely with albedo `a`: every point sees
+/// `le (1 - a^depth) / (1 - a)` with path depth `depth`.
+fn furnace(depth: u32, model: ColorModel) -> f64 {
+    let src = r#"
+        scene {
+            camera { from (0, 0, 0); to (0, 0, -1); fov 60; }
+            render { width 8; height 8; spp 64; integrator "path"; }
+            object sphere { center (0, 0, 0); radius 1; material emitter(radiance: gray(0.2), kd: gray(0.8), two_sided: true); }
+        }
+    "#;
+    let image = render_src(src, model, &Overrides { max_depth: Some(depth), ..Default::default() });
+    let m = mean(&image);
+    (m[0] + m[1] + m[2]) / 3.0
+}
+
+#[test]
+fn furnace_inside_an_emitting_sphere_matches_the_geometric_series() {
+    for (depth, model) in [(1, ColorModel::Rgb), (2, ColorModel::Rgb), (3, ColorModel::Rgb), (40, ColorModel::Rgb)] {
+        let expected = 0.2 * (1.0 - 0.8f64.powi(depth as i32)) / 0.2;
+        let got = furnace(depth, model);
+        let tolerance = if depth == 1 { 1e-5 } else { 0.02 * expected };
+        assert!((got - expected).abs() <= tolerance, "depth {depth}: {got} vs {expected}");
+    }
+}
+
+#[test]
+fn furnace_in_spectral_mode_agrees() {
+    let got = furnace(40, ColorModel::Spectral { samples: 16 });
+    let expected = 1.0 - 0.8f64.powi(40);
+    // Gray spectra convert back to gray within the color tests' tolerance.
+    assert!((got - expected).abs() <= 0.03, "{got} vs {expected}");
+}
+
+#[test]
+fn a_white_sphere_in_a_white_environment_disappears() {
+    let src = r#"
+        scene {
+            background gray(1);
+            camera { from (0, 0, 4); to (0, 0, 0); fov 30; }
+            render { width 8; height 8; spp 32; max_depth 16; integrator "path"; }
+            object sphere { center (0, 0, 0); radius 1; material lambert(kd: gray(1)); }
+        }
+    "#;
+    let image = render_src(src, ColorModel::Rgb, &Overrides::default());
+    for p in &image.color {
+        for c in p {
+            // One bounce off a convex object, then the background: exactly 1
+            // in expectation, and each sample weight is 1 too.
+            assert!((c - 1.0).abs() < 1e-3, "{p:?}");
+        }
+    }
+}
+
+#[test]
+fn a_point_light_falls_off_with_the_inverse_square() {
+    // Looking straight down at a Lambertian floor under a point light:
+    // L = albedo / pi * I / h^2 at the centre pixel.
+    for integrator in [IntegratorKind::Whitted, IntegratorKind::Path] {
+        let src = r#"
+            scene {
+                camera { from (0, 1, 0); to (0, 0, 0); up (0, 0, -1); fov 1; }
+                render { width 1; height 1; spp 1; max_depth 2; }
+                light point { at (0, 2, 0); intensity gray(8); }
+                object quad { corner (-5, 0, 5); edge1 (10, 0, 0); edge2 (0, 0, -10); material lambert(kd: gray(0.5)); }
+            }
+        "#;
+        let image = render_src(src, ColorModel::Rgb, &Overrides { integrator: Some(integrator), ..Default::default() });
+        let expected = 0.5 / std::f32::consts::PI * 8.0 / 4.0;
+        let got = image.color[0][1];
+        assert!((got - expected).abs() < 1e-4 * expected, "{integrator:?}: {got} vs {expected}");
+    }
+}
+
+#[test]
+fn shadows_are_cast_and_the_light_power_is_split_over_the_sphere() {
+    // `power` of a point light is spread over 4 pi sr; a blocker casts a
+    // shadow.
+    let src = |blocker: &str| {
+        format!(
+            r#"
+            scene {{
+                camera {{ from (0, 1, 0); to (0, 0, 0); up (0, 0, -1); fov 1; }}
+                render {{ width 1; height 1; spp 1; integrator "whitted"; }}
+                light point {{ at (0, 2, 0); power gray(100); }}
+                object quad {{ corner (-5, 0, 5); edge1 (10, 0, 0); edge2 (0, 0, -10); material lambert(kd: gray(1)); }}
+                {blocker}
+            }}"#
+        )
+    };
+    let lit = render_src(&src(""), ColorModel::Rgb, &Overrides::default()).color[0][0];
+    let expected = 1.0 / std::f32::consts::PI * (100.0 / (4.0 * std::f32::consts::PI)) / 4.0;
+    assert!((lit - expected).abs() < 1e-4 * expected, "{lit} vs {expected}");
+    let blocker = "object sphere { center (0.0, 1.5, 0.0); radius 0.1; material lambert; }";
+    let shadowed = render_src(&src(blocker), ColorModel::Rgb, &Overrides::default()).color[0][0];
+    assert_eq!(shadowed, 0.0);
+}
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    let src = std::fs::read_to_string("examples/cornell.tsl").unwrap();
+    let program = Compiler::new().source("examples/cornell.tsl", &src).compile().unwrap();
+    let overrides = Overrides { resolution: Some((24, 24)), spp: Some(4), ..Default::default() };
+    let scene = Scene::build(&program, &overrides).unwrap();
+    let one = render::render(&scene, &RenderOptions { threads: 1, ..Default::default() }).unwrap().0;
+    let two = render::render(&scene, &RenderOptions { threads: 2, ..Default::default() }).unwrap().0;
+    assert!(one.color.iter().zip(&two.color).all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)));
+    // A window renders the same pixels as the whole image.
+    let window = render::render(&scene, &RenderOptions { window: Some((5, 7, 9, 4)), ..Default::default() }).unwrap().0;
+    for y in 0..4 {
+        for x in 0..9 {
+            assert_eq!(window.color[y * 9 + x], one.color[(7 + y) * 24 + 5 + x]);
+        }
+    }
+}
+
+fn build_error(src: &str) -> String {
+    let program = Compiler::new().source("bad.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
+    match Scene::build(&program, &Overrides::default()) {
+        Ok(_) => panic!("the scene built"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_scenes_are_located_errors() {
+    let missing = build_error(
+        r#"scene { camera { from (0, 0, 5); to (0, 0, 0); } object mesh { file "no/such/mesh.obj"; material lambert; } }"#,
+    );
+    assert!(missing.contains("bad.tsl:1:") && missing.contains("mesh.obj"), "{missing}");
+    let camera = build_error(r#"scene { camera { from (1, 2, 3); to (1, 2, 3); } }"#);
+    assert!(camera.contains("bad.tsl:1:") && camera.contains("differ"), "{camera}");
+    let radius = build_error(
+        r#"const float R = -1; scene { camera { from (0, 0, 5); to (0, 0, 0); } object sphere { center (0, 0, 0); radius R; material lambert; } }"#,
+    );
+    assert!(radius.contains("bad.tsl:1:") && radius.contains("positive"), "{radius}");
+
+    let dir = std::env::temp_dir().join(format!("tsl-render-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("nan.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let nan = build_error(&format!(
+        r#"scene {{ camera {{ from (0, 0, 5); to (0, 0, 0); }} object mesh {{ file "{}"; material lambert; }} }}"#,
+        obj.display()
+    ));
+    assert!(nan.contains("bad.tsl:1:") && nan.to_lowercase().contains("nan"), "{nan}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn zero_resolution_is_an_error() {
+    let program =
+        Compiler::new().source("z.tsl", "scene { camera { from (0, 0, 5); to (0, 0, 0); } }").compile().unwrap();
+    let e = Scene::build(&program, &Overrides { resolution: Some((0, 4)), ..Default::default() }).err().unwrap();
+    assert!(e.to_string().contains("size"), "{e}");
+}
+
+// ---------------------------------------------------------------- materials
+
+/// Random unit vectors in the upper hemisphere (z up), from a fixed seed.
+fn hemisphere_points(n: usize) -> Vec<[f32; 3]> {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let z = next();
+            let phi = std::f32::consts::TAU * next();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            [r * phi.cos(), r * phi.sin(), z]
+        })
+        .collect()
+}
+
+const GLOSSY: &[&str] = &[
+    "lambert",
+    "phong",
+    "phong(kd: gray(0), ks: gray(1), ns: 5)",
+    "blinn_phong",
+    "blinn_phong(kd: gray(0), ks: gray(1), ns: 10)",
+    "cook_torrance",
+    "cook_torrance(kd: gray(0), roughness: 0.5)",
+    "ward",
+    "ward(kd: gray(0), ks: gray(1), alpha_x: 0.3, alpha_y: 0.3)",
+];
+
+fn material(expr: &str) -> tsl::Material {
+    let program = Compiler::new().source("m.tsl", &format!("material m = {expr};")).compile().unwrap();
+    program.material("m").unwrap()
+}
+
+#[test]
+fn stdlib_materials_conserve_energy() {
+    // Directional albedo: the integral of reflection(wi, 1, wo) over the
+    // hemisphere (uniform sampling, pdf 1 / 2 pi) is at most 1.
+    let g = ShadingGlobals {
+        n: [0.0, 0.0, 1.0],
+        ng: [0.0, 0.0, 1.0],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        ..Default::default()
+    };
+    let wis = hemisphere_points(20_000);
+    for expr in GLOSSY {
+        let m = material(expr);
+        for wo in hemisphere_points(6) {
+            let mut sum = 0.0f64;
+            let mut out = [0.0f32; 3];
+            for wi in &wis {
+                m.reflection_into(&g, *wi, &[1.0; 3], wo, &mut out);
+                sum += f64::from(out.iter().copied().fold(0.0, f32::max));
+            }
+            let albedo = sum * std::f64::consts::TAU / wis.len() as f64;
+            assert!(albedo <= 1.02, "{expr}: albedo {albedo} for wo {wo:?}");
+        }
+    }
+    // Delta materials: the weights of their perfect directions.
+    for expr in ["mirror", "glass", "glass(ior: gray(1.9))"] {
+        let program = Compiler::new().source("m.tsl", &format!("material m = {expr};")).compile().unwrap();
+        let m = program.material("m").unwrap();
+        // Entering from vacuum: the relative index is the material's own.
+        let eta = m.refraction_index(&g);
+        let one = program.rgb(1.0, 1.0, 1.0);
+        for wo in hemisphere_points(20) {
+            let r = m.reflection(&g, m.reflection_dir(&g, wo), &one, wo).to_rgb()[1];
+            let dt = m.refraction_dir(&g, wo, &eta);
+            let t = if dt == [0.0; 3] { 0.0 } else { m.refraction(&g, dt, &one, &eta, wo).to_rgb()[1] };
+            assert!(r + t <= 1.0 + 1e-4, "{expr}: {r} + {t} for wo {wo:?}");
+        }
+    }
+}
+
+#[test]
+fn stdlib_brdfs_are_reciprocal() {
+    // reflection includes cos(theta_i): f(wi, wo) = reflection(wi, wo) / cos_i.
+    let g = ShadingGlobals {
+        n: [0.0, 0.0, 1.0],
+        ng: [0.0, 0.0, 1.0],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        ..Default::default()
+    };
+    let dirs = hemisphere_points(200);
+    for expr in GLOSSY {
+        let m = material(expr);
+        let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
+        for pair in dirs.chunks(2) {
+            let (wi, wo) = (pair[0], pair[1]);
+            m.reflection_into(&g, wi, &[1.0; 3], wo, &mut a);
+            m.reflection_into(&g, wo, &[1.0; 3], wi, &mut b);
+            let (fa, fb) = (a[0] / wi[2], b[0] / wo[2]);
+            assert!((fa - fb).abs() <= 1e-3 * fa.abs().max(fb.abs()).max(1e-3), "{expr}: {fa} vs {fb}");
+        }
+    }
+}
