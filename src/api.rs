@@ -280,7 +280,7 @@ impl Program {
                 };
                 methods.push(Function { part: part.clone(), index, native });
             }
-            out.push(Material { program: self.clone(), methods });
+            out.push(Material::new(self.clone(), methods));
         }
         if let Ok(mut parts) = self.inner.parts.write() {
             parts.push(part);
@@ -312,7 +312,7 @@ impl Program {
                 }
             }
         }
-        Ok(Material { program: self.clone(), methods })
+        Ok(Material::new(self.clone(), methods))
     }
 
     /// A compiled function by its entry name (`rings` or `wood.reflection`).
@@ -465,6 +465,40 @@ pub struct Material {
     program: Program,
     /// In the order of `check::INTERFACE`.
     methods: Vec<Function>,
+    facts: Facts,
+}
+
+/// What a material's compiled code shows about it, found once.
+#[derive(Debug, Clone, Copy)]
+struct Facts {
+    may_emit: bool,
+    always_opaque: bool,
+    may_reflect_dir: bool,
+    may_refract: bool,
+    /// Bit `k` is set when some method reads word `k` of the globals.
+    globals_read: u32,
+}
+
+impl Facts {
+    fn of(methods: &[Function]) -> Facts {
+        let constant = |k: usize| methods[k].ir().constant_results();
+        let zero = |k: usize| constant(k).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
+        let mut globals_read = 0u32;
+        for m in methods {
+            crate::ir::for_each_op(&m.ir().body, &mut |op| {
+                if let crate::ir::Op::Global(w) = op {
+                    globals_read |= 1u32.checked_shl(*w).unwrap_or(0);
+                }
+            });
+        }
+        Facts {
+            may_emit: !zero(5),
+            always_opaque: constant(10).is_some_and(|w| w.first() == Some(&1)),
+            may_reflect_dir: !zero(3),
+            may_refract: !zero(4),
+            globals_read,
+        }
+    }
 }
 
 impl fmt::Debug for Material {
@@ -506,6 +540,18 @@ impl Args {
 }
 
 impl Material {
+    fn new(program: Program, methods: Vec<Function>) -> Material {
+        let facts = Facts::of(&methods);
+        Material { program, methods, facts }
+    }
+
+    /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]
+    /// (see `globals::word_of`): a renderer can skip computing what no
+    /// method reads, such as the pixel footprint.
+    pub fn globals_read(&self) -> u32 {
+        self.facts.globals_read
+    }
+
     /// Calls method `k`, writing its result words into `out`.
     fn call_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: *mut u32) {
         let f = &self.methods[k];
@@ -628,25 +674,22 @@ impl Material {
     /// known from the compiled code: renderers skip such materials when
     /// they look for light sources.
     pub fn may_emit(&self) -> bool {
-        match self.methods[5].ir().constant_results() {
-            Some(words) => words.iter().any(|w| f32::from_bits(*w) != 0.0),
-            None => true,
-        }
+        self.facts.may_emit
     }
 
     /// False when `reflection_dir` is the default (no mirror direction).
     pub fn may_reflect_dir(&self) -> bool {
-        !self.methods[3].ir().constant_results().is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0))
+        self.facts.may_reflect_dir
     }
 
     /// False when `refraction_dir` is the default (nothing passes through).
     pub fn may_refract(&self) -> bool {
-        !self.methods[4].ir().constant_results().is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0))
+        self.facts.may_refract
     }
 
     /// True when `opaque` is the constant `true`: shadow rays need not ask.
     pub fn always_opaque(&self) -> bool {
-        self.methods[10].ir().constant_results().is_some_and(|w| w.first() == Some(&1))
+        self.facts.always_opaque
     }
 
     /// The color model the material was compiled for.

@@ -314,3 +314,18 @@ impl Function {
         out.into_iter().collect()
     }
 }
+
+/// Calls `f` on every operation of `body`, nested bodies included.
+pub fn for_each_op(body: &[Inst], f: &mut impl FnMut(&Op)) {
+    for inst in body {
+        match inst {
+            Inst::Def(_, op) => f(op),
+            Inst::If { then_body, else_body, .. } => {
+                for_each_op(then_body, f);
+                for_each_op(else_body, f);
+            }
+            Inst::Block { body, .. } | Inst::Loop { body, .. } => for_each_op(body, f),
+            _ => {}
+        }
+    }
+}

@@ -65,7 +65,55 @@ struct Medium {
 }
 
 /// Media are nested at most this deep; deeper entries are ignored.
-const MAX_MEDIA: usize = 8;
+const MAX_MEDIA: usize = 4;
+
+/// The media a ray is inside, innermost last; a copyable fixed stack so
+/// that refraction does not allocate.
+#[derive(Clone, Copy)]
+struct Media {
+    items: [Medium; MAX_MEDIA],
+    len: usize,
+}
+
+impl Media {
+    const NONE: Media = Media { items: [Medium { object: u32::MAX, g: ZERO_GLOBALS }; MAX_MEDIA], len: 0 };
+
+    fn as_slice(&self) -> &[Medium] {
+        &self.items[..self.len]
+    }
+
+    fn innermost(&self) -> Option<&Medium> {
+        self.as_slice().last()
+    }
+}
+
+const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
+    p: [0.0; 3],
+    pl: [0.0; 3],
+    n: [0.0; 3],
+    ng: [0.0; 3],
+    u: 0.0,
+    v: 0.0,
+    dpdu: [0.0; 3],
+    dpdv: [0.0; 3],
+    face: 0,
+    t: 0.0,
+    dpdx: [0.0; 3],
+    dpdy: [0.0; 3],
+    dudx: 0.0,
+    dudy: 0.0,
+    dvdx: 0.0,
+    dvdy: 0.0,
+};
+
+/// A light sample closer than this (cosine) to a delta direction of the
+/// material is skipped: a point light is never seen in a perfect mirror
+/// (the stdlib's delta lobes accept directions within 0.9999).
+const DELTA_CONE: f32 = 0.9999;
+
+fn in_delta_cone(wi: Vec3, deltas: &[Option<Vec3>; 2]) -> bool {
+    deltas.iter().flatten().any(|d| wi.dot(*d) >= DELTA_CONE)
+}
 
 /// Traces rays in one scene with `N` radiance lanes. One per thread.
 pub struct Tracer<'s, const N: usize> {
@@ -74,8 +122,15 @@ pub struct Tracer<'s, const N: usize> {
     ones: Spectrum<N>,
     /// The camera's per-pixel angular spread, for texture footprints.
     spread: f32,
+    /// Whether camera samples compute AOVs (they cost material calls).
+    want_aov: bool,
     pub counters: Counters,
 }
+
+/// Whitted rays whose weight in the pixel falls below this are not traced
+/// (adaptive tree-depth control, as POV-Ray's `adc_bailout`): the image
+/// changes by less than this fraction of the light.
+pub const BAILOUT: f32 = 1e-6;
 
 fn v3(v: Vec3) -> [f32; 3] {
     v.to_array()
@@ -95,13 +150,14 @@ fn is_zero(v: [f32; 3]) -> bool {
 }
 
 impl<'s, const N: usize> Tracer<'s, N> {
-    pub fn new(scene: &'s Scene) -> Self {
+    pub fn new(scene: &'s Scene, want_aov: bool) -> Self {
         let lanes = scene.model.lanes();
         Tracer {
             scene,
             lanes,
             ones: Spectrum::splat(1.0, lanes),
             spread: scene.camera.pixel_spread(),
+            want_aov,
             counters: Counters::default(),
         }
     }
@@ -116,9 +172,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let s = self.scene.geometry.surface(ray, &hit);
         let len = ray.dir.length();
         let wo = -ray.dir / len;
+        let object = &self.scene.objects[hit.object as usize];
         let mut g = globals_of(&s, hit.t * len);
-        footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
-        Shading { object: &self.scene.objects[hit.object as usize], surface: s, g, wo, hit }
+        if object.reads_footprint {
+            footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
+        }
+        Shading { object, surface: s, g, wo, hit }
     }
 
     // ------------------------------------------------------------ material calls
@@ -148,7 +207,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     }
 
     fn refraction_index(&self, object: &Object, g: &ShadingGlobals) -> Spectrum<N> {
-        if !object.material.may_refract() {
+        if !object.refracts {
             return self.ones;
         }
         let mut out = Spectrum::ZERO;
@@ -167,10 +226,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     /// The relative index `n_entered / n_left` for light crossing the
     /// surface from the `wo` side, and whether crossing enters the object.
-    fn eta(&self, sh: &Shading, media: &[Medium]) -> (Spectrum<N>, bool) {
+    fn eta(&self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
         let entering = sh.surface.ng.dot(sh.wo) > 0.0;
         let inside = |m: &&Medium| m.object != sh.hit.object;
-        let other = match media.iter().rev().find(inside) {
+        let other = match media.as_slice().iter().rev().find(inside) {
             Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], &m.g),
             None => self.ones,
         };
@@ -181,17 +240,19 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// The media after crossing the surface of `sh` (entering pushes it,
     /// leaving removes it). Straight-through crossings (eta 1, the ray not
     /// bent: cutouts, thin sheets) are not media.
-    fn crossed(&self, sh: &Shading, media: &[Medium], entering: bool, straight: bool) -> Vec<Medium> {
-        let mut out = media.to_vec();
+    fn crossed(&self, sh: &Shading, media: &Media, entering: bool, straight: bool) -> Media {
+        let mut out = *media;
         if straight {
             return out;
         }
         if entering {
-            if out.len() < MAX_MEDIA {
-                out.push(Medium { object: sh.hit.object, g: sh.g });
+            if out.len < MAX_MEDIA {
+                out.items[out.len] = Medium { object: sh.hit.object, g: sh.g };
+                out.len += 1;
             }
-        } else if let Some(k) = out.iter().rposition(|m| m.object == sh.hit.object) {
-            out.remove(k);
+        } else if let Some(k) = out.as_slice().iter().rposition(|m| m.object == sh.hit.object) {
+            out.items.copy_within(k + 1..out.len, k);
+            out.len -= 1;
         }
         out
     }
@@ -218,9 +279,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if object.material.opaque(&sh.g) {
                 return true;
             }
-            let (eta, _) = self.eta(&sh, &[]);
+            let (eta, _) = self.eta(&sh, &Media::NONE);
             let dt = object.material.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
-            if Vec3::from(dt).dot(-sh.wo) < 0.9999 {
+            if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE {
                 return true;
             }
             through *= self.refraction(&sh, Vec3::from(dt), &self.ones, &eta);
@@ -251,7 +312,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// Direct light at `sh` from every light (one sample each), weighted
     /// against material sampling when `mis` is given (the probability of
     /// choosing the non-delta lobe).
-    fn direct(&mut self, sh: &Shading, sampler: &mut Sampler, mis: Option<f32>) -> Spectrum<N> {
+    fn direct(
+        &mut self,
+        sh: &Shading,
+        sampler: &mut Sampler,
+        mis: Option<f32>,
+        deltas: &[Option<Vec3>; 2],
+    ) -> Spectrum<N> {
         let mut sum = Spectrum::ZERO;
         let scene = self.scene;
         for light in &scene.lights {
@@ -261,7 +328,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             match sample {
                 LightSample::Delta { wi, distance, scale } => {
                     let li = self.delta_light(&light.kind, scale);
-                    if li.is_black() {
+                    if li.is_black() || in_delta_cone(wi, deltas) {
                         continue;
                     }
                     let f = self.reflection(sh, wi, &li);
@@ -271,7 +338,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                     sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
                 }
                 LightSample::Surface { wi, distance, pdf, surface, .. } => {
-                    if pdf <= 0.0 || !pdf.is_finite() {
+                    if pdf <= 0.0 || !pdf.is_finite() || in_delta_cone(wi, deltas) {
                         continue;
                     }
                     let Some(object) = light.object() else { continue };
@@ -328,7 +395,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     pub fn whitted(&mut self, ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
         self.counters.camera_rays += 1;
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
-        let l = self.whitted_ray(ray, 1, 0.0, &[], sampler, Some(&mut aov));
+        let l = self.whitted_ray(ray, 1, 1.0, 0.0, &Media::NONE, sampler, self.want_aov.then_some(&mut aov));
         (l, aov)
     }
 
@@ -336,8 +403,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
         &mut self,
         ray: &Ray,
         depth: u32,
+        weight: f32,
         distance: f32,
-        media: &[Medium],
+        media: &Media,
         sampler: &mut Sampler,
         aov: Option<&mut Aov>,
     ) -> Spectrum<N> {
@@ -349,40 +417,47 @@ impl<'s, const N: usize> Tracer<'s, N> {
             *aov = self.aov(&sh);
         }
         let here = distance + sh.g.t;
+        let m = &sh.object.material;
+        // The perfect directions, if the material has them here.
+        let dr =
+            if sh.object.reflects { Some(m.reflection_dir(&sh.g, v3(sh.wo))).filter(|d| !is_zero(*d)) } else { None };
+        let refracted = if sh.object.refracts {
+            let (eta, entering) = self.eta(&sh, media);
+            let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
+            (!is_zero(dt)).then_some((Vec3::from(dt), eta, entering))
+        } else {
+            None
+        };
+        let deltas = [dr.map(Vec3::from), refracted.as_ref().map(|r| r.0)];
         let mut l = self.emission(sh.object, &sh.g, sh.wo);
-        l += self.direct(&sh, sampler, None);
+        l += self.direct(&sh, sampler, None, &deltas);
         if depth < self.scene.settings.max_depth {
-            let m = &sh.object.material;
-            if m.may_reflect_dir() {
-                let dr = m.reflection_dir(&sh.g, v3(sh.wo));
-                if !is_zero(dr) {
-                    let dr = Vec3::from(dr);
+            // Materials are linear in the light they are given, so the
+            // weight of a perfect direction is its response to unit light.
+            if let Some(dr) = dr {
+                let dr = Vec3::from(dr);
+                let w = self.reflection(&sh, dr, &self.ones);
+                if weight * w.max_lane() >= BAILOUT {
                     self.counters.secondary_rays += 1;
                     let r = spawn(sh.surface.p, sh.surface.ng, dr);
-                    let lr = self.whitted_ray(&r, depth + 1, here, media, sampler, None);
-                    if !lr.is_black() {
-                        l += self.reflection(&sh, dr, &lr);
-                    }
+                    let lr = self.whitted_ray(&r, depth + 1, weight * w.max_lane(), here, media, sampler, None);
+                    l += w * lr;
                 }
             }
-            if m.may_refract() {
-                let (eta, entering) = self.eta(&sh, media);
-                let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
-                if !is_zero(dt) {
-                    let dt = Vec3::from(dt);
-                    let straight = dt.dot(-sh.wo) >= 0.9999;
+            if let Some((dt, eta, entering)) = refracted {
+                let w = self.refraction(&sh, dt, &self.ones, &eta);
+                if weight * w.max_lane() >= BAILOUT {
+                    let straight = dt.dot(-sh.wo) >= DELTA_CONE;
                     let inner = self.crossed(&sh, media, entering, straight);
                     self.counters.secondary_rays += 1;
                     let r = spawn(sh.surface.p, sh.surface.ng, dt);
-                    let lt = self.whitted_ray(&r, depth + 1, here, &inner, sampler, None);
-                    if !lt.is_black() {
-                        l += self.refraction(&sh, dt, &lt, &eta);
-                    }
+                    let lt = self.whitted_ray(&r, depth + 1, weight * w.max_lane(), here, &inner, sampler, None);
+                    l += w * lt;
                 }
             }
         }
         // The light came to this point through the medium the ray is in.
-        self.absorb(media.last(), l, sh.g.t)
+        self.absorb(media.innermost(), l, sh.g.t)
     }
 
     // ------------------------------------------------------------ path tracing
@@ -395,7 +470,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut l = Spectrum::<N>::ZERO;
         let mut beta = self.ones;
         let mut ray = *camera_ray;
-        let mut media: Vec<Medium> = Vec::new();
+        let mut media = Media::NONE;
         let mut distance = 0.0;
         // The previous vertex and the solid-angle pdf of the direction taken
         // from it (None after a delta lobe or at the camera: no MIS).
@@ -407,10 +482,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 break;
             };
             let sh = self.shade(&ray, hit, distance);
-            if depth == 1 {
+            if depth == 1 && self.want_aov {
                 aov = self.aov(&sh);
             }
-            beta = self.absorb(media.last(), beta, sh.g.t);
+            beta = self.absorb(media.innermost(), beta, sh.g.t);
             distance += sh.g.t;
             // Emission found by following the path, weighed against having
             // sampled the same point as a light.
@@ -433,14 +508,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let m = &sh.object.material;
             let mut lobes: [(Vec3, Spectrum<N>, f32); 2] = [(Vec3::ZERO, Spectrum::ZERO, 0.0); 2];
             let mut refracted = None;
-            if m.may_reflect_dir() {
+            if sh.object.reflects {
                 let dr = m.reflection_dir(&sh.g, v3(sh.wo));
                 if !is_zero(dr) {
                     let w = self.reflection(&sh, Vec3::from(dr), &self.ones);
                     lobes[0] = (Vec3::from(dr), w, w.mean(self.lanes).max(0.0));
                 }
             }
-            if m.may_refract() {
+            if sh.object.refracts {
                 let (eta, entering) = self.eta(&sh, &media);
                 let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
                 if !is_zero(dt) {
@@ -459,7 +534,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 1.0
             };
             // Next-event estimation: one more segment, to a light.
-            l += beta * self.direct(&sh, sampler, Some(p_smooth));
+            let deltas = [(lobes[0].2 > 0.0).then_some(lobes[0].0), (lobes[1].2 > 0.0).then_some(lobes[1].0)];
+            l += beta * self.direct(&sh, sampler, Some(p_smooth), &deltas);
             let u_lobe = sampler.next_1d();
             let u_dir = sampler.next_2d();
             let (wi, weight, next_media, pdf) = if u_lobe < p_smooth {
@@ -468,7 +544,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 let frame = sampling::Frame::new(n);
                 let wi = frame.to_world(local);
                 let pdf = sampling::cosine_hemisphere_pdf(local.z) * p_smooth;
-                if pdf <= 0.0 {
+                if pdf <= 0.0 || in_delta_cone(wi, &deltas) {
                     break;
                 }
                 let f = self.reflection(&sh, wi, &self.ones);
@@ -480,7 +556,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 let p = p / delta_weight * (1.0 - p_smooth);
                 let next = match (k, refracted) {
                     (1, Some(entering)) => {
-                        let straight = wi.dot(-sh.wo) >= 0.9999;
+                        let straight = wi.dot(-sh.wo) >= DELTA_CONE;
                         Some(self.crossed(&sh, &media, entering, straight))
                     }
                     _ => None,

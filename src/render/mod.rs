@@ -193,7 +193,7 @@ fn render_lanes<const N: usize>(
 
 fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, want_aov: bool) -> TileOut {
     let s = &scene.settings;
-    let mut tracer = Tracer::<N>::new(scene);
+    let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });

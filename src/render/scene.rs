@@ -118,6 +118,11 @@ pub struct Object {
     pub emissive: bool,
     /// `opaque()` is the constant `true`: shadow rays need not ask.
     pub always_opaque: bool,
+    /// `reflection_dir` / `refraction_dir` are not the default zero.
+    pub reflects: bool,
+    pub refracts: bool,
+    /// Some method reads the pixel footprint (dPdx, ..., dvdy).
+    pub reads_footprint: bool,
     /// Where the object is defined, for messages.
     pub span: Span,
 }
@@ -520,8 +525,18 @@ impl<'a> Builder<'a> {
                 let material = m?;
                 let emissive =
                     material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
-                let always_opaque = material.always_opaque();
-                Some(Object { material, emission_scale: scale, emissive, always_opaque, span })
+                // dPdx .. dvdy are the last words of the globals.
+                let footprint_words = !0u32 << crate::globals::word_of("dPdx").map_or(0, |w| w.0);
+                Some(Object {
+                    emission_scale: scale,
+                    emissive,
+                    always_opaque: material.always_opaque(),
+                    reflects: material.may_reflect_dir(),
+                    refracts: material.may_refract(),
+                    reads_footprint: material.globals_read() & footprint_words != 0,
+                    material,
+                    span,
+                })
             })
             .collect();
         let geometry = Geometry::new(geometry);
