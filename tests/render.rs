@@ -286,3 +286,70 @@ fn stdlib_brdfs_are_reciprocal() {
         }
     }
 }
+
+// ---------------------------------------------------------------- image regression
+
+/// Renders an example small and compares it with the reference in
+/// `tests/data/render/` by 8 x 8 block means (noise averages out; a
+/// changed light, material or camera does not). `UPDATE_EXPECT=1` rewrites
+/// the references.
+fn check_against_reference(example: &str, spp: u32) {
+    let path = format!("examples/{example}.tsl");
+    let program = Compiler::new().file(&path).compile().unwrap_or_else(|e| panic!("{e}"));
+    let overrides = Overrides { resolution: Some((40, 40)), spp: Some(spp), ..Default::default() };
+    let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
+    let image = render::render(&scene, &RenderOptions::default()).unwrap().0;
+    let reference = std::path::PathBuf::from(format!("tests/data/render/{example}.exr"));
+    if std::env::var_os("UPDATE_EXPECT").is_some() {
+        std::fs::create_dir_all("tests/data/render").unwrap();
+        render::image_io::write_image(&reference, &image).unwrap();
+        return;
+    }
+    let expected = render::image_io::read_exr(&reference).unwrap_or_else(|e| panic!("{e} (run with UPDATE_EXPECT=1)"));
+    assert_eq!((expected.width, expected.height), (40, 40));
+    let block = |img: &RenderedImage, bx: usize, by: usize| {
+        let mut sum = [0.0f64; 3];
+        for y in by * 8..by * 8 + 8 {
+            for x in bx * 8..bx * 8 + 8 {
+                for c in 0..3 {
+                    sum[c] += f64::from(img.color[y * 40 + x][c]) / 64.0;
+                }
+            }
+        }
+        sum
+    };
+    for by in 0..5 {
+        for bx in 0..5 {
+            let (got, want) = (block(&image, bx, by), block(&expected, bx, by));
+            for c in 0..3 {
+                let tolerance = 0.02 + 0.1 * want[c].abs();
+                assert!(
+                    (got[c] - want[c]).abs() <= tolerance,
+                    "{example}: block ({bx}, {by}) channel {c}: {} vs reference {}",
+                    got[c],
+                    want[c]
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn whitted_matches_its_reference_image() {
+    check_against_reference("whitted", 4);
+}
+
+#[test]
+fn procedural_matches_its_reference_image() {
+    check_against_reference("procedural", 4);
+}
+
+#[test]
+fn cornell_matches_its_reference_image() {
+    check_against_reference("cornell", 32);
+}
+
+#[test]
+fn texture_tree_matches_its_reference_image() {
+    check_against_reference("texture_tree", 2);
+}

@@ -127,6 +127,15 @@ pub struct Tracer<'s, const N: usize> {
     pub counters: Counters,
 }
 
+/// Where a Whitted ray is in its tree: its depth (the camera ray has 1),
+/// its weight in the pixel, and the path length before it.
+#[derive(Clone, Copy)]
+struct Depth {
+    depth: u32,
+    weight: f32,
+    distance: f32,
+}
+
 /// Whitted rays whose weight in the pixel falls below this are not traced
 /// (adaptive tree-depth control, as POV-Ray's `adc_bailout`): the image
 /// changes by less than this fraction of the light.
@@ -395,16 +404,15 @@ impl<'s, const N: usize> Tracer<'s, N> {
     pub fn whitted(&mut self, ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
         self.counters.camera_rays += 1;
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
-        let l = self.whitted_ray(ray, 1, 1.0, 0.0, &Media::NONE, sampler, self.want_aov.then_some(&mut aov));
+        let start = Depth { depth: 1, weight: 1.0, distance: 0.0 };
+        let l = self.whitted_ray(ray, start, &Media::NONE, sampler, self.want_aov.then_some(&mut aov));
         (l, aov)
     }
 
     fn whitted_ray(
         &mut self,
         ray: &Ray,
-        depth: u32,
-        weight: f32,
-        distance: f32,
+        Depth { depth, weight, distance }: Depth,
         media: &Media,
         sampler: &mut Sampler,
         aov: Option<&mut Aov>,
@@ -440,7 +448,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 if weight * w.max_lane() >= BAILOUT {
                     self.counters.secondary_rays += 1;
                     let r = spawn(sh.surface.p, sh.surface.ng, dr);
-                    let lr = self.whitted_ray(&r, depth + 1, weight * w.max_lane(), here, media, sampler, None);
+                    let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                    let lr = self.whitted_ray(&r, next, media, sampler, None);
                     l += w * lr;
                 }
             }
@@ -451,7 +460,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                     let inner = self.crossed(&sh, media, entering, straight);
                     self.counters.secondary_rays += 1;
                     let r = spawn(sh.surface.p, sh.surface.ng, dt);
-                    let lt = self.whitted_ray(&r, depth + 1, weight * w.max_lane(), here, &inner, sampler, None);
+                    let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                    let lt = self.whitted_ray(&r, next, &inner, sampler, None);
                     l += w * lt;
                 }
             }

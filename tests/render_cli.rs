@@ -1,0 +1,121 @@
+//! `tslc render` and `tslc merge` as users and render farms run them:
+//! outputs, tiles joined bit for bit, progress on pipes, clear errors that
+//! leave no file behind.
+
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+
+fn tslc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tslc"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .expect("tslc runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tslc-render-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn s(p: &std::path::Path) -> String {
+    p.display().to_string()
+}
+
+#[test]
+fn renders_a_png_with_progress_and_a_summary_on_a_pipe() {
+    let dir = scratch("png");
+    let out = dir.join("whitted.png");
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--res", "32x24", "--spp", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("progress: 100%"), "{err}");
+    assert!(err.contains("rays/s") && err.contains("peak memory"), "{err}");
+    let img = image::open(&out).unwrap().into_rgb8();
+    assert_eq!(img.dimensions(), (32, 24));
+    // The red and yellow floor is there.
+    assert!(img.pixels().any(|p| p.0[0] > 100 && p.0[2] < 60));
+    let quiet = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--res", "8x8", "--spp", "1", "--quiet"]);
+    assert!(quiet.status.success() && quiet.stderr.is_empty(), "{}", stderr(&quiet));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn tiles_merge_into_the_same_bits_as_one_render() {
+    let dir = scratch("tiles");
+    let common = ["--res", "24x20", "--spp", "3", "--quiet", "--aov"];
+    let full = dir.join("full.exr");
+    let mut args = vec!["render", "examples/cornell.tsl", "-o"];
+    let full_s = s(&full);
+    args.push(&full_s);
+    args.extend(common);
+    assert!(tslc(&args).status.success());
+    let mut tiles = Vec::new();
+    for i in 0..3 {
+        let path = s(&dir.join(format!("tile{i}.exr")));
+        let tile = format!("{i}/3");
+        let mut args = vec!["render", "examples/cornell.tsl", "-o", &path, "--tile", &tile, "--threads", "1"];
+        args.extend(common);
+        let o = tslc(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        tiles.push(path);
+    }
+    let merged = s(&dir.join("merged.exr"));
+    let mut args = vec!["merge", "-o", &merged];
+    args.extend(tiles.iter().map(String::as_str));
+    let o = tslc(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = tsl::render::image_io::read_exr(&full).unwrap();
+    let b = tsl::render::image_io::read_exr(std::path::Path::new(&merged)).unwrap();
+    assert_eq!(
+        a.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>(),
+        b.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+    );
+    assert!(a.albedo.is_some() && a.albedo == b.albedo);
+    // A missing tile is reported.
+    let o = tslc(&["merge", "-o", &merged, &tiles[0], &tiles[2]]);
+    assert!(!o.status.success() && stderr(&o).contains("missing"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_invocations_are_clear_errors_and_write_nothing() {
+    let dir = scratch("bad");
+    let out = dir.join("out.png");
+    let o = tslc(&["render", "no/such/scene.tsl", "-o", &s(&out)]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("scene.tsl"), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--res", "0x5"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--tile", "3/3"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--tile", "0/3", "--res", "8x8"]);
+    assert!(stderr(&o).contains(".exr"), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("x.bmp")), "--res", "8x8", "--quiet"]);
+    assert!(!o.status.success() && stderr(&o).contains(".png or .exr"), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("nodir/x.png")), "--res", "8x8", "--quiet"]);
+    assert!(!o.status.success() && stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0.5,0.5,0,1", "--res", "8x8"]);
+    assert!(!o.status.success() && stderr(&o).contains("empty"), "{}", stderr(&o));
+    // A scene with an error is reported with its location.
+    let bad = dir.join("bad.tsl");
+    std::fs::write(&bad, "scene {\n    camera { from (0, 0, 1); to (0, 0, 1); }\n}\n").unwrap();
+    let o = tslc(&["render", &s(&bad), "-o", &s(&out)]);
+    assert!(!o.status.success() && stderr(&o).contains("bad.tsl:2:"), "{}", stderr(&o));
+    assert!(!out.exists());
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| n.to_string_lossy().contains("tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
