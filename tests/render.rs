@@ -311,8 +311,8 @@ fn check_against_reference(example: &str, spp: u32) {
         let mut sum = [0.0f64; 3];
         for y in by * 8..by * 8 + 8 {
             for x in bx * 8..bx * 8 + 8 {
-                for c in 0..3 {
-                    sum[c] += f64::from(img.color[y * 40 + x][c]) / 64.0;
+                for (s, v) in sum.iter_mut().zip(img.color[y * 40 + x]) {
+                    *s += f64::from(v) / 64.0;
                 }
             }
         }
