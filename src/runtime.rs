@@ -307,8 +307,18 @@ fn period(p: f32) -> i64 {
 #[inline]
 fn axis(x: f32, period: i64) -> Axis {
     let x = f64::from(x);
-    let floor = x.floor();
-    let i0 = (floor as i64).rem_euclid(period);
+    // floor without a libm call (the baseline x86-64 target has no
+    // rounding instruction): truncate, then step down for negative
+    // fractions. Beyond 2^52 every f64 is an integer already.
+    let floor = if x.abs() < 4_503_599_627_370_496.0 {
+        let t = x as i64 as f64;
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x
+    };
+    let cell = floor as i64;
+    // The table's own period needs no division: a mask is rem_euclid.
+    let i0 = if period == TABLE_PERIOD { cell & 255 } else { cell.rem_euclid(period) };
     let i1 = if i0 + 1 == period { 0 } else { i0 + 1 };
     Axis { i0: (i0 & 255) as usize, i1: (i1 & 255) as usize, t: x - floor }
 }

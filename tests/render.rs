@@ -353,3 +353,138 @@ fn cornell_matches_its_reference_image() {
 fn texture_tree_matches_its_reference_image() {
     check_against_reference("texture_tree", 2);
 }
+
+// ---------------------------------------------------------------- lights, cutouts, NaNs
+
+/// The radiance of the centre pixel looking straight down at a white
+/// Lambertian floor lit by `light`.
+fn floor_radiance(light: &str, integrator: &str) -> f32 {
+    let src = format!(
+        r#"
+        scene {{
+            camera {{ from (0, 1, 0); to (0, 0, 0); up (0, 0, -1); fov 1; }}
+            render {{ width 1; height 1; spp 1; integrator "{integrator}"; }}
+            {light}
+            object quad {{ corner (-50, 0, 50); edge1 (100, 0, 0); edge2 (0, 0, -100); material lambert(kd: gray(1)); }}
+        }}"#
+    );
+    render_src(&src, ColorModel::Rgb, &Overrides::default()).color[0][0]
+}
+
+#[test]
+fn spot_and_directional_lights_follow_their_definitions() {
+    let pi = std::f32::consts::PI;
+    // Directional: E = irradiance * cos; L = E / pi.
+    let l = floor_radiance("light directional { direction (0, -1, -1); irradiance gray(2); }", "whitted");
+    assert!((l - 2.0 * std::f32::consts::FRAC_1_SQRT_2 / pi).abs() < 1e-4, "{l}");
+    // A spot pointing at the point: full intensity; pointing 45 degrees
+    // away with a 30 degree cone: nothing.
+    let on = floor_radiance("light spot { at (0, 2, 0); to (0, 0, 0); intensity gray(8); cone 30; }", "whitted");
+    assert!((on - 8.0 / 4.0 / pi).abs() < 1e-4, "{on}");
+    let off = floor_radiance("light spot { at (0, 2, 0); to (2, 0, 0); intensity gray(8); cone 30; }", "path");
+    assert_eq!(off, 0.0);
+    // Inside the falloff band the light is between the two.
+    let edge = floor_radiance(
+        "light spot { at (0, 2, 0); to (0.9, 0, 0); intensity gray(8); cone 26; falloff 6; }",
+        "whitted",
+    );
+    assert!(edge > 0.0 && edge < on, "{edge}");
+}
+
+#[test]
+fn area_lights_by_power_and_by_radiance_agree() {
+    // A 1 x 1 rect light facing down: power P is radiance P / (pi * area).
+    let by_power = floor_radiance(
+        "light rect { corner (-0.5, 3, -0.5); edge1 (1, 0, 0); edge2 (0, 0, 1); power gray(10); }",
+        "path",
+    );
+    let by_radiance = floor_radiance(
+        &format!(
+            "light rect {{ corner (-0.5, 3, -0.5); edge1 (1, 0, 0); edge2 (0, 0, 1); radiance gray({}); }}",
+            10.0 / std::f32::consts::PI
+        ),
+        "path",
+    );
+    assert!(by_power > 0.0 && (by_power - by_radiance).abs() < 1e-4 * by_power, "{by_power} vs {by_radiance}");
+}
+
+#[test]
+fn environment_backgrounds_light_the_scene() {
+    let dir = std::env::temp_dir().join(format!("tsl-env-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sky = dir.join("sky.exr");
+    let image = RenderedImage {
+        full_width: 4,
+        full_height: 2,
+        x0: 0,
+        y0: 0,
+        width: 4,
+        height: 2,
+        color: vec![[0.5; 3]; 8],
+        albedo: None,
+        normal: None,
+        depth: None,
+    };
+    render::image_io::write_image(&sky, &image).unwrap();
+    // A white diffuse floor under a uniform sky of 0.5 reflects 0.5 (one
+    // bounce, the sky fills the upper hemisphere).
+    let src = format!(
+        r#"scene {{
+            background "{}";
+            camera {{ from (0, 1, 0); to (0, 0, 0); up (0, 0, -1); fov 1; }}
+            render {{ width 2; height 2; spp 256; max_depth 2; integrator "path"; }}
+            object quad {{ corner (-50, 0, 50); edge1 (100, 0, 0); edge2 (0, 0, -100); material lambert(kd: gray(1)); }}
+        }}"#,
+        sky.display()
+    );
+    let out = render_src(&src, ColorModel::Rgb, &Overrides::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let m = mean(&out)[0];
+    assert!((m - 0.5).abs() < 0.03, "{m}");
+}
+
+#[test]
+fn cutouts_let_light_and_camera_rays_through_their_holes() {
+    // A sheet with holes (u < 0.5) between a point light and the floor.
+    let src = |x: f32| {
+        format!(
+            r#"
+            material sheet() {{
+                bool opaque() {{ return u >= 0.5; }}
+                vector refraction_dir(vector wo, color eta) {{ return opaque() ? vector(0) : -wo; }}
+                color refraction(vector wi, color light, color eta, vector wo) {{ return light; }}
+                color reflection(vector wi, color light, vector wo) {{
+                    return light * gray(0.5) * max(dot(faceforward(N, -wo), wi), 0) * INV_PI;
+                }}
+            }}
+            scene {{
+                camera {{ from ({x}, 1, 0); to ({x}, 0, 0); up (0, 0, -1); fov 1; }}
+                render {{ width 1; height 1; spp 1; integrator "whitted"; }}
+                light point {{ at ({x}, 4, 0); intensity gray(16); }}
+                object quad {{ corner (-50, 0, 50); edge1 (100, 0, 0); edge2 (0, 0, -100); material lambert(kd: gray(1)); }}
+                object quad {{ corner (-1, 2, -1); edge1 (2, 0, 0); edge2 (0, 0, 2); material sheet; }}
+            }}"#
+        )
+    };
+    // x = -0.5 is under a hole (u = 0.25), x = 0.5 under the sheet (u = 0.75).
+    let hole = render_src(&src(-0.5), ColorModel::Rgb, &Overrides::default()).color[0][0];
+    let solid = render_src(&src(0.5), ColorModel::Rgb, &Overrides::default()).color[0][0];
+    assert!((hole - 1.0 / std::f32::consts::PI).abs() < 1e-4, "lit through the hole: {hole}");
+    assert_eq!(solid, 0.0, "in the sheet's shadow");
+}
+
+#[test]
+fn nan_samples_are_dropped_and_counted() {
+    let src = r#"
+        material broken() { color emission(vector wo) { float zero = 0; return gray(zero / zero); } }
+        scene {
+            camera { from (0, 0, 3); to (0, 0, 0); fov 30; }
+            render { width 4; height 4; spp 2; integrator "path"; }
+            object sphere { center (0, 0, 0); radius 1; material broken; }
+        }
+    "#;
+    let scene = scene_of(src, ColorModel::Rgb, &Overrides::default());
+    let (image, stats) = render::render(&scene, &RenderOptions::default()).unwrap();
+    assert!(stats.dropped_samples > 0);
+    assert!(image.color.iter().all(|p| p.iter().all(|c| c.is_finite())));
+}

@@ -35,7 +35,12 @@ pub struct Geometry {
     prims: Vec<Prim>,
     unbounded: Vec<u32>,
     bvh: Bvh,
+    /// Few primitives: testing them all beats traversing a tree.
+    linear: bool,
 }
+
+/// At most this many primitives are tested one by one, without the BVH.
+const LINEAR_MAX: usize = 8;
 
 impl Geometry {
     pub fn new(objects: Vec<ObjectGeometry>) -> Geometry {
@@ -60,8 +65,9 @@ impl Geometry {
                 }
             }
         }
-        let bvh = Bvh::build(&bounds);
-        Geometry { objects, prims, unbounded, bvh }
+        let linear = prims.len() <= LINEAR_MAX;
+        let bvh = if linear { Bvh::build(&[]) } else { Bvh::build(&bounds) };
+        Geometry { objects, prims, unbounded, bvh, linear }
     }
 
     /// Primitives in the BVH (shapes and triangles).
@@ -78,6 +84,17 @@ impl Geometry {
 
     /// The nearest hit with `t` in `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        if self.linear {
+            let mut best: Option<Hit> = None;
+            let unbounded = self.unbounded.iter().map(|&object| Prim { object, tri: 0 });
+            for prim in self.prims.iter().copied().chain(unbounded) {
+                let t_max = best.map_or(t_max, |h| h.t);
+                if let Some(t) = self.test(prim, ray, t_min, t_max) {
+                    best = Some(Hit { object: prim.object, tri: prim.tri, t });
+                }
+            }
+            return best;
+        }
         let mut best = self
             .bvh
             .closest(ray, t_min, t_max, |id, ray, t_max| self.test(self.prims[id as usize], ray, t_min, t_max))
@@ -105,13 +122,17 @@ impl Geometry {
         if self.unbounded.iter().any(|&object| check(Prim { object, tri: 0 }, t_max)) {
             return true;
         }
+        if self.linear {
+            return self.prims.iter().any(|&prim| check(prim, t_max));
+        }
         self.bvh.any(ray, t_min, t_max, |id, _, t_max| check(self.prims[id as usize], t_max))
     }
 
-    /// The surface record of a hit found by [`Geometry::intersect`].
-    pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceHit {
+    /// The surface record of a hit found by [`Geometry::intersect`]; `uv`
+    /// asks for (u, v) and the tangents (see [`Shape::surface_at`]).
+    pub fn surface(&self, ray: &Ray, hit: &Hit, uv: bool) -> SurfaceHit {
         match &self.objects[hit.object as usize] {
-            ObjectGeometry::Shape(s) => s.surface(ray, hit.t),
+            ObjectGeometry::Shape(s) => s.surface_at(ray, hit.t, uv),
             ObjectGeometry::Mesh(m) => {
                 // Recompute the barycentrics of the one triangle shaded.
                 let (t, b1, b2) =

@@ -75,6 +75,10 @@ struct Media {
     len: usize,
 }
 
+/// No media: rays start in vacuum. A static, so passing it by reference
+/// copies nothing.
+static NO_MEDIA: Media = Media::NONE;
+
 impl Media {
     const NONE: Media = Media { items: [Medium { object: u32::MAX, g: ZERO_GLOBALS }; MAX_MEDIA], len: 0 };
 
@@ -178,10 +182,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// The shading record of a hit; `distance` is the path length before
     /// this ray (for the texture footprint).
     fn shade(&self, ray: &Ray, hit: Hit, distance: f32) -> Shading<'s> {
-        let s = self.scene.geometry.surface(ray, &hit);
+        let object = &self.scene.objects[hit.object as usize];
+        let s = self.scene.geometry.surface(ray, &hit, object.reads_uv);
         let len = ray.dir.length();
         let wo = -ray.dir / len;
-        let object = &self.scene.objects[hit.object as usize];
         let mut g = globals_of(&s, hit.t * len);
         if object.reads_footprint {
             footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
@@ -288,7 +292,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if object.material.opaque(&sh.g) {
                 return true;
             }
-            let (eta, _) = self.eta(&sh, &Media::NONE);
+            let (eta, _) = self.eta(&sh, &NO_MEDIA);
             let dt = object.material.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
             if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE {
                 return true;
@@ -314,7 +318,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
         let object = &self.scene.objects[light_object as usize];
         let mut g = globals_of(surface, distance);
-        footprint(&mut g, surface, wi, distance, self.spread);
+        if object.reads_footprint {
+            footprint(&mut g, surface, wi, distance, self.spread);
+        }
         self.emission(object, &g, -wi)
     }
 
@@ -325,7 +331,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         &mut self,
         sh: &Shading,
         sampler: &mut Sampler,
-        mis: Option<f32>,
+        mis: Option<(f32, Vec3)>,
         deltas: &[Option<Vec3>; 2],
     ) -> Spectrum<N> {
         let mut sum = Spectrum::ZERO;
@@ -360,8 +366,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                         continue;
                     }
                     let weight = match mis {
-                        Some(p_lobe) => {
-                            let bsdf_pdf = p_lobe * self.cosine_pdf(sh, wi);
+                        Some((p_lobe, ns)) => {
+                            let bsdf_pdf = p_lobe * sampling::cosine_hemisphere_pdf(ns.dot(wi));
                             sampling::power_heuristic(1.0, pdf, 1.0, bsdf_pdf)
                         }
                         None => 1.0,
@@ -378,11 +384,6 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let n = Vec3::from(sh.object.material.normal(&sh.g)).normalize_or_zero();
         let n = if n == Vec3::ZERO { sh.surface.n } else { n };
         if n.dot(sh.wo) < 0.0 { -n } else { n }
-    }
-
-    fn cosine_pdf(&self, sh: &Shading, wi: Vec3) -> f32 {
-        let n = self.sampling_normal(sh);
-        sampling::cosine_hemisphere_pdf(n.dot(wi).max(0.0))
     }
 
     fn background(&self, dir: Vec3) -> Spectrum<N> {
@@ -405,7 +406,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         self.counters.camera_rays += 1;
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
         let start = Depth { depth: 1, weight: 1.0, distance: 0.0 };
-        let l = self.whitted_ray(ray, start, &Media::NONE, sampler, self.want_aov.then_some(&mut aov));
+        let l = self.whitted_ray(ray, start, &NO_MEDIA, sampler, self.want_aov.then_some(&mut aov));
         (l, aov)
     }
 
@@ -545,13 +546,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
             };
             // Next-event estimation: one more segment, to a light.
             let deltas = [(lobes[0].2 > 0.0).then_some(lobes[0].0), (lobes[1].2 > 0.0).then_some(lobes[1].0)];
-            l += beta * self.direct(&sh, sampler, Some(p_smooth), &deltas);
+            // The frame material sampling uses; its pdf weighs light samples.
+            let ns = self.sampling_normal(&sh);
+            l += beta * self.direct(&sh, sampler, Some((p_smooth, ns)), &deltas);
             let u_lobe = sampler.next_1d();
             let u_dir = sampler.next_2d();
             let (wi, weight, next_media, pdf) = if u_lobe < p_smooth {
-                let n = self.sampling_normal(&sh);
                 let local = sampling::square_to_cosine_hemisphere(u_dir);
-                let frame = sampling::Frame::new(n);
+                let frame = sampling::Frame::new(ns);
                 let wi = frame.to_world(local);
                 let pdf = sampling::cosine_hemisphere_pdf(local.z) * p_smooth;
                 if pdf <= 0.0 || in_delta_cone(wi, &deltas) {

@@ -123,6 +123,9 @@ pub struct Object {
     pub refracts: bool,
     /// Some method reads the pixel footprint (dPdx, ..., dvdy).
     pub reads_footprint: bool,
+    /// Some method reads u, v, dPdu or dPdv (or the footprint, which
+    /// needs them).
+    pub reads_uv: bool,
     /// Where the object is defined, for messages.
     pub span: Span,
 }
@@ -526,7 +529,10 @@ impl<'a> Builder<'a> {
                 let emissive =
                     material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
                 // dPdx .. dvdy are the last words of the globals.
-                let footprint_words = !0u32 << crate::globals::word_of("dPdx").map_or(0, |w| w.0);
+                let word = |name: &str| crate::globals::word_of(name).map_or(0, |w| w.0);
+                let footprint_words = !0u32 << word("dPdx");
+                // u, v, dPdu, dPdv are consecutive, and the footprint needs them.
+                let uv_words = (!0u32 << word("u")) & !(!0u32 << (word("dPdv") + 3)) | footprint_words;
                 Some(Object {
                     emission_scale: scale,
                     emissive,
@@ -534,6 +540,7 @@ impl<'a> Builder<'a> {
                     reflects: material.may_reflect_dir(),
                     refracts: material.may_refract(),
                     reads_footprint: material.globals_read() & footprint_words != 0,
+                    reads_uv: material.globals_read() & uv_words != 0,
                     material,
                     span,
                 })

@@ -296,17 +296,30 @@ impl Shape {
 
     /// The surface record at a `t` returned by [`Shape::intersect`].
     pub fn surface(&self, ray: &Ray, t: f32) -> SurfaceHit {
+        self.surface_at(ray, t, true)
+    }
+
+    /// [`Shape::surface`]; without `uv`, a sphere's `u`, `v` and tangents
+    /// are left out (zero `u`, `v`, a tangent frame of the normal): they
+    /// cost trigonometry that a material reading none of them need not pay.
+    pub fn surface_at(&self, ray: &Ray, t: f32, uv: bool) -> SurfaceHit {
         let r = self.local_ray(ray);
         let p = r.at(t);
         let (pl, n, u, v, dpdu, dpdv, face) = match self.kind {
+            ShapeKind::Sphere { center, radius } if !uv => {
+                let q = p - center;
+                (q, q / radius, 0.0, 0.0, Vec3::ZERO, Vec3::ZERO, 0)
+            }
             ShapeKind::Sphere { center, radius } => {
                 let q = p - center;
                 let n = q / radius;
                 let cos_theta = n.y.clamp(-1.0, 1.0);
                 let theta = cos_theta.acos();
-                let sin_theta = theta.sin();
+                let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
                 let phi = (-q.z).atan2(q.x).rem_euclid(TAU);
-                let (sp, cp) = phi.sin_cos();
+                // cos and sin of phi straight from the point (no sin_cos).
+                let rho = (q.x * q.x + q.z * q.z).sqrt();
+                let (sp, cp) = if rho > 0.0 { (-q.z / rho, q.x / rho) } else { (0.0, 1.0) };
                 let dpdu = TAU * radius * Vec3::new(-sin_theta * sp, 0.0, -sin_theta * cp);
                 let dpdv = -PI * radius * Vec3::new(cos_theta * cp, -sin_theta, -cos_theta * sp);
                 (q, n, phi / TAU, 1.0 - theta / PI, dpdu, dpdv, 0)
@@ -359,8 +372,15 @@ impl Shape {
                 }
             }
         };
-        let ng = (self.normal_matrix * n).normalize_or(Vec3::Y);
-        let (mut dpdu, mut dpdv) = (self.to_world.transform_vector3(dpdu), self.to_world.transform_vector3(dpdv));
+        let (ng, mut dpdu, mut dpdv) = if self.identity {
+            (n.normalize_or(Vec3::Y), dpdu, dpdv)
+        } else {
+            (
+                (self.normal_matrix * n).normalize_or(Vec3::Y),
+                self.to_world.transform_vector3(dpdu),
+                self.to_world.transform_vector3(dpdv),
+            )
+        };
         // Degenerate parametrisations (sphere poles, disk centres): any
         // tangent frame of the normal, so shaders never see a zero vector.
         if dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0 {
