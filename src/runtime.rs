@@ -345,19 +345,22 @@ fn noise2_at(a: Axis, b: Axis) -> f32 {
     finish(lerp(fade(y), lo, hi), SCALE2)
 }
 
+#[inline]
 fn noise3_at(a: Axis, b: Axis, c: Axis) -> f32 {
     let (x, y, z) = (a.t, b.t, c.t);
     let (x1, y1, z1) = (x - 1.0, y - 1.0, z - 1.0);
+    let (u, v, w) = (fade(x), fade(y), fade(z));
     // Perlin's hash p[p[p[X] + Y] + Z] with every corner's own coordinates,
     // so periodic wrapping works on each axis independently.
-    let h = |ix: usize, iy: usize, iz: usize| perm(perm(perm(ix) + iy) + iz);
-    let (u, v, w) = (fade(x), fade(y), fade(z));
+    let (px0, px1) = (perm(a.i0), perm(a.i1));
+    let (p00, p01, p10, p11) = (perm(px0 + b.i0), perm(px0 + b.i1), perm(px1 + b.i0), perm(px1 + b.i1));
     let face = |iz: usize, z: f64| {
-        let lo = lerp(u, grad3(h(a.i0, b.i0, iz), x, y, z), grad3(h(a.i1, b.i0, iz), x1, y, z));
-        let hi = lerp(u, grad3(h(a.i0, b.i1, iz), x, y1, z), grad3(h(a.i1, b.i1, iz), x1, y1, z));
+        let lo = lerp(u, grad3(perm(p00 + iz), x, y, z), grad3(perm(p10 + iz), x1, y, z));
+        let hi = lerp(u, grad3(perm(p01 + iz), x, y1, z), grad3(perm(p11 + iz), x1, y1, z));
         lerp(v, lo, hi)
     };
-    finish(lerp(w, face(c.i0, z), face(c.i1, z1)), SCALE3)
+    let (f0, f1) = (face(c.i0, z), face(c.i1, z1));
+    finish(lerp(w, f0, f1), SCALE3)
 }
 
 /// Improved Perlin noise in 1D, in [-1, 1], 0 at integers; 0 for non-finite `x`.
