@@ -40,7 +40,7 @@ pub struct Geometry {
 }
 
 /// At most this many primitives are tested one by one, without the BVH.
-const LINEAR_MAX: usize = 8;
+const LINEAR_MAX: usize = 4;
 
 impl Geometry {
     pub fn new(objects: Vec<ObjectGeometry>) -> Geometry {
