@@ -1,7 +1,8 @@
 //! Light sources: point, spot and directional lights (delta lights, given
-//! by intensity or irradiance), and area lights: emissive objects whose
-//! shape can be sampled (quads, disks, spheres, triangle meshes). Emissive
-//! objects of other shapes still glow; rays find them by chance only.
+//! by intensity or irradiance), and area lights: emissive objects of every
+//! bounded shape (spheres and cylinders only under similarity transforms).
+//! Other emissive objects (an emissive infinite plane, a stretched sphere)
+//! still glow; rays find them by chance only.
 //!
 //! Invariant: a [`LightSample`]'s `pdf` and [`Light::pdf`] are densities per
 //! unit solid angle at the shaded point, so the path tracer can weigh
@@ -59,17 +60,18 @@ impl Light {
     pub fn area(geometry: &Geometry, object: u32) -> Option<Light> {
         let sampler = match &geometry.objects[object as usize] {
             ObjectGeometry::Shape(s) => match s.kind() {
-                ShapeKind::Quad { .. } | ShapeKind::Disk { .. } => AreaSampler::Planar { area: s.area() },
+                // Planar pieces stay uniform under any affine map.
+                ShapeKind::Quad { .. } | ShapeKind::Disk { .. } | ShapeKind::Box { .. } => {
+                    AreaSampler::Planar { area: s.area() }
+                }
+                ShapeKind::Cylinder { .. } if is_similarity(&s.to_world()) => AreaSampler::Planar { area: s.area() },
                 ShapeKind::Sphere { center, radius } => {
                     let m = s.to_world();
-                    let sx = m.transform_vector3(Vec3::X).length();
-                    let sy = m.transform_vector3(Vec3::Y).length();
-                    let sz = m.transform_vector3(Vec3::Z).length();
-                    let similar = (sx - sy).abs() <= 1e-4 * sx && (sx - sz).abs() <= 1e-4 * sx;
-                    if !similar {
+                    if !is_similarity(&m) {
                         return None;
                     }
-                    AreaSampler::Sphere { center: m.transform_point3(*center), radius: radius * sx }
+                    let scale = m.transform_vector3(Vec3::X).length();
+                    AreaSampler::Sphere { center: m.transform_point3(*center), radius: radius * scale }
                 }
                 _ => return None,
             },
@@ -172,6 +174,18 @@ impl Light {
             _ => None,
         }
     }
+}
+
+/// Whether `m` scales all directions alike (rotations, translations and a
+/// uniform scale), which keeps spheres spheres.
+fn is_similarity(m: &glam::Mat4) -> bool {
+    let (x, y, z) = (m.transform_vector3(Vec3::X), m.transform_vector3(Vec3::Y), m.transform_vector3(Vec3::Z));
+    let s = x.length();
+    let tol = 1e-4 * s;
+    (y.length() - s).abs() <= tol
+        && (z.length() - s).abs() <= tol
+        && x.dot(y).abs() <= tol * s
+        && y.dot(z).abs() <= tol * s
 }
 
 /// Converts an area-density sample at `surface` to solid angle at `x`.

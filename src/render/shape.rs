@@ -414,18 +414,57 @@ impl Shape {
         }
     }
 
-    /// A point uniformly distributed over the area of a quad, disk or
-    /// sphere (world space); other shapes give their centre.
+    /// A point uniformly distributed over the shape's area (world space):
+    /// exact for quads, disks and boxes under any affine map, and for
+    /// spheres and cylinders under a similarity transform. The infinite
+    /// plane gives its point.
     pub fn sample_area(&self, u: [f32; 2]) -> Vec3 {
+        let m = |v: Vec3| self.to_world.transform_vector3(v);
         let local = match self.kind {
+            ShapeKind::Box { min, max } => {
+                // A face in proportion to its world area, then uniform on it.
+                let e = max - min;
+                let (x, y, z) = (m(Vec3::X * e.x), m(Vec3::Y * e.y), m(Vec3::Z * e.z));
+                let areas = [y.cross(z).length(), z.cross(x).length(), x.cross(y).length()];
+                let total = 2.0 * (areas[0] + areas[1] + areas[2]);
+                let mut pick = u[0] * total;
+                let mut face = 5;
+                for k in 0..6 {
+                    if pick < areas[k / 2] || k == 5 {
+                        face = k;
+                        break;
+                    }
+                    pick -= areas[k / 2];
+                }
+                let s = (pick / areas[face / 2]).clamp(0.0, 1.0);
+                let axis = face / 2;
+                let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+                let mut p = min;
+                p[axis] = if face % 2 == 0 { min[axis] } else { max[axis] };
+                p[a] = min[a] + e[a] * s;
+                p[b] = min[b] + e[b] * u[1];
+                p
+            }
+            ShapeKind::Cylinder { base, axis, radius, height } => {
+                let (side, cap) = (TAU * radius * height, PI * radius * radius);
+                let pick = u[0] * (side + 2.0 * cap);
+                let f = self.frame;
+                if pick < side {
+                    let phi = TAU * (pick / side);
+                    base + radius * (phi.cos() * f.s + phi.sin() * f.t) + axis * (height * u[1])
+                } else {
+                    let top = pick >= side + cap;
+                    let s = ((pick - side - if top { cap } else { 0.0 }) / cap).clamp(0.0, 1.0);
+                    let [x, y] = sampling::square_to_uniform_disk_concentric([s, u[1]]);
+                    base + radius * (x * f.s + y * f.t) + if top { axis * height } else { Vec3::ZERO }
+                }
+            }
             ShapeKind::Quad { corner, edge1, edge2 } => corner + u[0] * edge1 + u[1] * edge2,
             ShapeKind::Disk { center, radius, .. } => {
                 let [x, y] = sampling::square_to_uniform_disk_concentric(u);
                 center + radius * (x * self.frame.s + y * self.frame.t)
             }
             ShapeKind::Sphere { center, radius } => center + radius * sampling::square_to_uniform_sphere(u),
-            ShapeKind::Box { min, max } => (min + max) * 0.5,
-            ShapeKind::Cylinder { base, axis, height, .. } => base + axis * (height * 0.5),
             ShapeKind::Plane { point, .. } => point,
         };
         self.to_world.transform_point3(local)
@@ -742,6 +781,37 @@ mod tests {
         assert!((sphere.area() - 4.0 * PI).abs() < 1e-4);
         let quad = Shape::new(ShapeKind::Quad { corner: Vec3::ZERO, edge1: Vec3::X, edge2: Vec3::Y }, m).unwrap();
         assert!((quad.area() - 4.0).abs() < 1e-4);
+        // Boxes and cylinders: every sample on the surface, and the faces
+        // hit in proportion to their areas.
+        let boxy = Shape::new(ShapeKind::Box { min: Vec3::ZERO, max: Vec3::new(1.0, 2.0, 3.0) }, m).unwrap();
+        let cyl =
+            Shape::new(ShapeKind::Cylinder { base: Vec3::ZERO, axis: Vec3::Y, radius: 1.0, height: 2.0 }, m).unwrap();
+        let mut faces = [0usize; 6];
+        let mut cyl_faces = [0usize; 3];
+        let n = 100;
+        for i in 0..n {
+            for j in 0..n {
+                let u = sampling::Sampler::new(1, i, j, 0).next_2d();
+                for (s, counts) in [(&boxy, &mut faces[..]), (&cyl, &mut cyl_faces[..])] {
+                    let p = s.sample_area(u);
+                    let c = s.bounds().map(|(lo, hi)| (lo + hi) * 0.5).unwrap();
+                    let r = Ray::new(c + (p - c) * 3.0, (c - p) * 3.0);
+                    let t = s.intersect(&r, 0.0, 1.0).expect("the sample is on the surface");
+                    let h = s.surface(&r, t);
+                    assert!((h.p - p).length() < 1e-3 * (1.0 + p.length()), "{p} vs {}", h.p);
+                    counts[h.face as usize] += 1;
+                }
+            }
+        }
+        // World areas (uniform scale 2): faces 2*3, 2*3, 1*3, 1*3, 1*2, 1*2 times 4.
+        let expected = [6.0, 6.0, 3.0, 3.0, 2.0, 2.0].map(|a| a / 22.0 * (n * n) as f32);
+        for k in 0..6 {
+            assert!((faces[k] as f32 - expected[k]).abs() < 0.08 * expected[k], "{faces:?}");
+        }
+        let (side, cap) = (TAU * 2.0, PI);
+        let total = side + 2.0 * cap;
+        assert!((cyl_faces[0] as f32 / (n * n) as f32 - side / total).abs() < 0.02, "{cyl_faces:?}");
+        assert!((boxy.area() - 4.0 * 22.0).abs() < 1e-3);
         for k in 0..100 {
             let u = [(k % 10) as f32 / 10.0 + 0.05, (k / 10) as f32 / 10.0 + 0.05];
             let p = sphere.sample_area(u);
