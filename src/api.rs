@@ -288,6 +288,58 @@ impl Program {
         Ok(out)
     }
 
+    /// Compiles, for each material expression of the root program, the
+    /// entry `NAME.reflection_sum{lights}`: the sum of `reflection` over
+    /// `lights` lights in one call, with the texture evaluated once
+    /// (parameters `wi_1, light_1, ..., wi_K, light_K, wo`).
+    pub(crate) fn compile_reflection_sums(
+        &self,
+        materials: &[(String, &crate::syntax::ast::Expr)],
+        lights: usize,
+    ) -> Result<Vec<Function>, Error> {
+        let (ir, entries, diags) =
+            crate::ir::lower::lower_reflection_sums(&self.inner.program, self.inner.model, materials, lights);
+        if !diags.is_empty() {
+            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
+        }
+        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
+        let part = Arc::new(Part { ir, entries, jit });
+        let mut out = Vec::with_capacity(materials.len());
+        for (index, f) in part.ir.functions.iter().enumerate() {
+            let native = part
+                .jit
+                .function(&f.name)
+                .ok_or_else(|| Error::plain(format!("internal error: `{}` was not compiled", f.name)))?;
+            out.push(Function { part: part.clone(), index, native });
+        }
+        if let Ok(mut parts) = self.inner.parts.write() {
+            parts.push(part);
+        }
+        Ok(out)
+    }
+
+    /// [`Program::compile_reflection_sums`] for named materials of the
+    /// program (as [`Program::material`] accepts), for hosts and tests.
+    pub fn reflection_sums(&self, names: &[&str], lights: usize) -> Result<Vec<Function>, Error> {
+        let mut exprs = Vec::new();
+        for name in names {
+            let sym = self
+                .inner
+                .program
+                .symbols
+                .get(*name)
+                .ok_or_else(|| Error::plain(format!("no material named `{name}`")))?;
+            let item = &self.inner.program.loaded.modules[sym.module].ast.items[sym.item];
+            match item {
+                crate::syntax::ast::Item::MaterialTree(t) if t.params.is_none() => {
+                    exprs.push((name.to_string(), &t.body))
+                }
+                _ => return Err(Error::plain(format!("`{name}` is not a material tree without parameters"))),
+            }
+        }
+        self.compile_reflection_sums(&exprs, lights)
+    }
+
     /// A material defined in the program (a material tree, or a material
     /// model whose parameters all have defaults).
     pub fn material(&self, name: &str) -> Result<Material, Error> {

@@ -111,3 +111,67 @@ fn prelude_materials_compile_on_first_use() {
     assert_eq!(p.entries().len(), before + 11);
     assert!(p.material("glas").unwrap_err().to_string().contains("did you mean `glass`"));
 }
+
+#[test]
+fn a_reflection_sum_evaluates_the_texture_once_for_all_lights() {
+    let p = compile(
+        r#"
+        float veins() { return fract(noise(Pl * 3) * 4); }
+        material marble = mix(veins(), lambert(kd: gray(0.9)), phong(kd: gray(0.2)));
+        "#,
+    );
+    let one = ir(&p, "marble.reflection");
+    let sums = p.reflection_sums(&["marble"], 3).unwrap();
+    let three = sums[0].ir();
+    assert_eq!(calls(&one, "tsl_noise3"), 1, "{one}");
+    assert_eq!(calls(three, "tsl_noise3"), 1, "three lights, one texture:\n{three}");
+    assert_eq!(three.params.len(), 3 * (3 + 3) + 3);
+    // The sum equals three separate calls.
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], pl: [0.3, 0.1, 0.7], ..Default::default() };
+    let wis = [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [0.0, -0.6, 0.8]];
+    let lights = [[1.0, 2.0, 3.0], [0.5, 0.5, 0.5], [2.0, 0.0, 1.0]];
+    let wo = [0.0, 0.6, 0.8];
+    let m = p.material("marble").unwrap();
+    let mut expected = [0.0f32; 3];
+    for k in 0..3 {
+        let mut out = [0.0f32; 3];
+        m.reflection_into(&g, wis[k], &lights[k], wo, &mut out);
+        for c in 0..3 {
+            expected[c] += out[c];
+        }
+    }
+    let mut args = Vec::new();
+    for k in 0..3 {
+        args.extend(wis[k].map(f32::to_bits));
+        args.extend(lights[k].map(f32::to_bits));
+    }
+    args.extend(wo.map(f32::to_bits));
+    let mut out = [0u32; 3];
+    sums[0].call_words(tsl::Backend::Jit, &g, &args, &mut out).unwrap();
+    for c in 0..3 {
+        assert!((f32::from_bits(out[c]) - expected[c]).abs() <= 1e-5 * expected[c].abs().max(1.0));
+    }
+}
+
+#[test]
+fn methods_no_child_defines_skip_the_weights() {
+    let p = compile(
+        r#"
+        float veins() { return fract(noise(Pl * 3) * 4); }
+        material marble = mix(veins(), lambert(kd: gray(0.9)), phong(kd: gray(0.2)));
+        material half_glass = mix(veins(), lambert, glass);
+        material picked = select(int(veins() * 3), [lambert, phong, marble]);
+        "#,
+    );
+    // Neither lambert nor phong refracts: the default, with no noise.
+    for name in ["marble.refraction_dir", "marble.refraction_index", "marble.opaque", "picked.emission"] {
+        let f = ir(&p, name);
+        assert_eq!(calls(&f, "tsl_noise3"), 0, "{f}");
+        assert!(f.constant_results().is_some(), "{name} is constant:\n{f}");
+    }
+    // glass does: the weights stay.
+    let f = ir(&p, "half_glass.refraction_dir");
+    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+    let m = p.material("marble").unwrap();
+    assert!(!m.may_refract() && m.always_opaque() && !m.may_emit());
+}

@@ -135,6 +135,59 @@ pub fn lower_material_exprs(
     (module, entries, lw.diags)
 }
 
+/// Lowers, for each material expression, one entry point `NAME.reflection_sum{lights}`
+/// that returns the sum of `reflection` over `lights` lights:
+/// parameters `wi_1, light_1, ..., wi_K, light_K, wo`. The K copies of the
+/// method share one function and one coordinate context, so the texture
+/// they all read (generator calls, normals) is computed once: a renderer
+/// calls this once per hit instead of `reflection` once per light.
+pub fn lower_reflection_sums(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+    lights: usize,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
+    for (name, expr) in materials {
+        let fname = format!("{name}.reflection_sum{lights}");
+        let mut b = Builder::new(&fname);
+        let mut params: Vec<(String, Ty)> = Vec::new();
+        for k in 0..lights {
+            params.push((format!("wi{k}"), Ty::Vector));
+            params.push((format!("light{k}"), Ty::Color));
+        }
+        params.push(("wo".into(), Ty::Vector));
+        let args: Vec<Vec<Value>> = lw
+            .params_from_args(&mut b, &params)
+            .into_iter()
+            .map(|v| match v {
+                Val::Lanes(l) => l,
+                _ => Vec::new(),
+            })
+            .collect();
+        let ctx = lw.root_ctx();
+        let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+        let wo = args[2 * lights].clone();
+        let mut sum: Option<Vec<Value>> = None;
+        for k in 0..lights {
+            let one =
+                lw.mat_method(&mut b, &mat, im, &[args[2 * k].clone(), args[2 * k + 1].clone(), wo.clone()], &ctx);
+            sum = Some(match sum {
+                None => one,
+                Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
+            });
+        }
+        let sum = sum.unwrap_or_else(|| b.zeros(lw.lanes));
+        lw.write_results(&mut b, &Ty::Color, &sum);
+        module.functions.push(b.finish());
+        entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
+    }
+    (module, entries, lw.diags)
+}
+
 struct Lowerer<'p> {
     program: &'p Program,
     model: ColorModel,
@@ -2715,6 +2768,101 @@ impl<'p> Lowerer<'p> {
         Rc::new(env)
     }
 
+    /// Whether method `im` of the material expression is the interface
+    /// default everywhere in its tree (no leaf defines it and no node
+    /// changes it). Conservative: `false` when unsure.
+    fn uses_default(&self, mat: &Mat<'p>, im: &'static InterfaceMethod, depth: u32) -> bool {
+        if depth > 64 {
+            return false;
+        }
+        let defines = |def: &ast::MaterialDef| def.methods.iter().any(|m| m.name.name == im.name);
+        match &mat.expr.kind {
+            ExprKind::Name(n) => {
+                if let Some(Val::Material(m)) = mat.env.get(n) {
+                    return self.uses_default(m, im, depth + 1);
+                }
+                match self.symbol(mat.in_prelude, n) {
+                    Some(sym) => match self.item(sym) {
+                        Item::MaterialTree(t) if t.params.is_none() => {
+                            let m =
+                                Mat { expr: &t.body, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) };
+                            self.uses_default(&m, im, depth + 1)
+                        }
+                        Item::Material(def) => !defines(def),
+                        _ => false,
+                    },
+                    None => false,
+                }
+            }
+            ExprKind::Ternary { then_expr, else_expr, .. } => [then_expr, else_expr].iter().all(|e| {
+                self.uses_default(&Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude }, im, depth + 1)
+            }),
+            ExprKind::Call { callee, args: call_args } => {
+                if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
+                    return match self.item(sym) {
+                        Item::Material(def) => !defines(def),
+                        _ => false,
+                    };
+                }
+                // Named arguments (`only:`, `spline:`) are not analysed.
+                if call_args.iter().any(|a| a.name.is_some()) {
+                    return false;
+                }
+                let child = |k: usize| {
+                    call_args.get(k).map(|a| Mat { expr: &a.value, env: mat.env.clone(), in_prelude: mat.in_prelude })
+                };
+                let all = |items: Vec<Mat<'p>>| {
+                    !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
+                };
+                match callee.name.as_str() {
+                    "mix" => all([child(1), child(2)].into_iter().flatten().collect()),
+                    "blend" | "select" => all(self.material_items(child(1).map(|m| m.expr), mat)),
+                    // bump changes the normal; transform moves the point.
+                    "bump" => im.name != "normal" && all(child(2).into_iter().collect()),
+                    "transform" => all(child(1).into_iter().collect()),
+                    // scale keeps a black default black.
+                    "scale" => {
+                        matches!(
+                            im.name,
+                            "reflection"
+                                | "refraction"
+                                | "emission"
+                                | "diffuse"
+                                | "reflection_dir"
+                                | "refraction_dir"
+                                | "normal"
+                                | "opaque"
+                        ) && all(child(1).into_iter().collect())
+                    }
+                    _ => false,
+                }
+            }
+            _ => false,
+        }
+    }
+
+    /// The interface default of a method that needs no material to compute
+    /// (every default but `ambient`, which reads `diffuse`).
+    fn plain_default(
+        &mut self,
+        b: &mut Builder,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Option<Vec<Value>> {
+        Some(match im.name {
+            "refraction_index" => {
+                let one = b.f(1.0);
+                vec![one; self.lanes]
+            }
+            "absorption" => args[0].clone(),
+            "normal" => self.global(b, ctx, "N").unwrap_or_default(),
+            "opaque" => vec![b.b(true)],
+            "ambient" => return None,
+            _ => b.zeros(self.lanes_of(&im.ret)),
+        })
+    }
+
     /// The texture-tree nodes.
     #[allow(clippy::too_many_arguments)]
     fn tree_node(
@@ -2730,6 +2878,14 @@ impl<'p> Lowerer<'p> {
         let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == node) else {
             return b.zeros(self.lanes_of(&im.ret));
         };
+        // A method no child defines is the default whatever the weights:
+        // the weights (often noise) need not be computed at all.
+        if matches!(node, "mix" | "blend" | "select")
+            && self.uses_default(mat, im, 0)
+            && let Some(v) = self.plain_default(b, im, args, ctx)
+        {
+            return v;
+        }
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
         let bound = bind_args(&params, call_args);
         let child = |k: usize| {

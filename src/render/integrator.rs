@@ -110,6 +110,34 @@ const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
     dvdy: 0.0,
 };
 
+/// Argument words of a reflection sum: `wi, light` per delta light, then
+/// `wo`, gathered on the stack.
+struct Gathered {
+    words: [u32; GATHERED_WORDS],
+    len: usize,
+}
+
+const GATHERED_WORDS: usize = super::scene::MAX_SUMMED_LIGHTS * (3 + crate::color::MAX_SAMPLES) + 3;
+
+impl Gathered {
+    fn new() -> Gathered {
+        Gathered { words: [0; GATHERED_WORDS], len: 0 }
+    }
+
+    fn push(&mut self, v: Vec3, lanes: &[f32]) {
+        for x in v.to_array().iter().chain(lanes) {
+            if self.len < GATHERED_WORDS {
+                self.words[self.len] = x.to_bits();
+                self.len += 1;
+            }
+        }
+    }
+
+    fn words(&self) -> &[u32] {
+        &self.words[..self.len]
+    }
+}
+
 /// A light sample closer than this (cosine) to a delta direction of the
 /// material is skipped: a point light is never seen in a perfect mirror
 /// (the stdlib's delta lobes accept directions within 0.9999).
@@ -336,10 +364,33 @@ impl<'s, const N: usize> Tracer<'s, N> {
     ) -> Spectrum<N> {
         let mut sum = Spectrum::ZERO;
         let scene = self.scene;
+        // With a reflection sum, delta lights are gathered (black where
+        // they cannot reach) and shaded in one call after the loop.
+        let summed = sh.object.reflection_sum.as_ref();
+        let mut gathered = Gathered::new();
         for light in &scene.lights {
             let u = sampler.next_2d();
             let u3 = sampler.next_1d();
-            let Some(sample) = light.sample(&scene.geometry, sh.surface.p, u, u3) else { continue };
+            let sample = light.sample(&scene.geometry, sh.surface.p, u, u3);
+            let delta_light = light.object().is_none();
+            if summed.is_some() && delta_light {
+                let mut li = Spectrum::ZERO;
+                let mut dir = sh.surface.n;
+                if let Some(LightSample::Delta { wi, distance, scale }) = sample {
+                    dir = wi;
+                    // Reflected light comes from the viewer's side of the surface.
+                    let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
+                    li = self.delta_light(&light.kind, scale);
+                    if li.is_black() || !same_side || in_delta_cone(wi, deltas) {
+                        li = Spectrum::ZERO;
+                    } else {
+                        li *= self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
+                    }
+                }
+                gathered.push(dir, &li.0[..self.lanes]);
+                continue;
+            }
+            let Some(sample) = sample else { continue };
             match sample {
                 LightSample::Delta { wi, distance, scale } => {
                     let li = self.delta_light(&light.kind, scale);
@@ -374,6 +425,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
                     };
                     sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance) * (weight / pdf);
                 }
+            }
+        }
+        if let Some(f) = summed {
+            gathered.push(sh.wo, &[]);
+            let mut out = Spectrum::<N>::ZERO;
+            let mut words = [0u32; crate::color::MAX_SAMPLES];
+            if f.call_words(crate::Backend::Jit, &sh.g, gathered.words(), &mut words).is_ok() {
+                for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
+                    *o = f32::from_bits(*w);
+                }
+                sum += out;
             }
         }
         sum

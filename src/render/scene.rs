@@ -107,9 +107,16 @@ impl Background {
     }
 }
 
+/// Scenes with more delta lights than this shade them one call each.
+pub const MAX_SUMMED_LIGHTS: usize = 8;
+
 /// One object: its geometry and material.
 pub struct Object {
     pub material: Material,
+    /// `reflection` summed over all the scene's delta lights (point, spot,
+    /// directional, in scene order) in one call; see
+    /// `ir::lower::lower_reflection_sums`.
+    pub reflection_sum: Option<crate::Function>,
     /// Multiplies the material's emission (area lights given as `light rect`
     /// or `light sphere` use the stdlib `emitter` scaled to their radiance,
     /// as pbrt's area lights take a `scale`).
@@ -418,6 +425,8 @@ impl<'a> Builder<'a> {
         let mut lights = Vec::new();
         // Object materials that are not a plain name compile together.
         let mut pending: Vec<(usize, String, &'a Expr)> = Vec::new();
+        // Each object's material expression (none for `light rect`/`sphere`).
+        let mut material_exprs: Vec<Option<&'a Expr>> = Vec::new();
         for entry in &self.scene.entries {
             let SceneEntry::Block(b) = entry else { continue };
             let kind = b.kind.as_ref().map(|k| k.name.as_str()).unwrap_or("");
@@ -447,6 +456,7 @@ impl<'a> Builder<'a> {
                     };
                     geometry.push(shape);
                     objects.push((material, None, b.span));
+                    material_exprs.push(Some(expr));
                 }
                 "light" => match kind {
                     "point" | "spot" => {
@@ -509,6 +519,7 @@ impl<'a> Builder<'a> {
                         let emitter = self.program.material("emitter")?;
                         geometry.push(ObjectGeometry::Shape(shape));
                         objects.push((Some(emitter), Some(radiance), b.span));
+                        material_exprs.push(None);
                     }
                     _ => {}
                 },
@@ -534,6 +545,7 @@ impl<'a> Builder<'a> {
                 // u, v, dPdu, dPdv are consecutive, and the footprint needs them.
                 let uv_words = (!0u32 << word("u")) & !(!0u32 << (word("dPdv") + 3)) | footprint_words;
                 Some(Object {
+                    reflection_sum: None,
                     emission_scale: scale,
                     emissive,
                     always_opaque: material.always_opaque(),
@@ -546,6 +558,8 @@ impl<'a> Builder<'a> {
                 })
             })
             .collect();
+        let mut objects = objects;
+        self.reflection_sums(&mut objects, &material_exprs, &lights)?;
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
             if o.emissive
@@ -571,6 +585,33 @@ impl<'a> Builder<'a> {
             model: self.model,
             build_seconds: 0.0,
         })
+    }
+
+    /// With two or more delta lights, compiles for each object that only
+    /// reflects the sum of `reflection` over those lights in one function,
+    /// so its texture is evaluated once per hit rather than once per light.
+    fn reflection_sums(
+        &self,
+        objects: &mut [Object],
+        exprs: &[Option<&'a Expr>],
+        lights: &[Light],
+    ) -> Result<(), Error> {
+        let count = lights.iter().filter(|l| l.object().is_none()).count();
+        if !(2..=MAX_SUMMED_LIGHTS).contains(&count) {
+            return Ok(());
+        }
+        let wanted: Vec<(usize, String, &Expr)> = objects
+            .iter()
+            .zip(exprs)
+            .enumerate()
+            .filter_map(|(k, (o, e))| (!o.reflects && !o.refracts).then_some((k, format!("@object{k}"), (*e)?)))
+            .collect();
+        let items: Vec<(String, &Expr)> = wanted.iter().map(|(_, n, e)| (n.clone(), *e)).collect();
+        let functions = self.program.compile_reflection_sums(&items, count)?;
+        for ((k, _, _), f) in wanted.iter().zip(functions) {
+            objects[*k].reflection_sum = Some(f);
+        }
+        Ok(())
     }
 
     /// `intensity` (W/sr), or `power` (W) to be divided by the solid angle;
