@@ -529,6 +529,8 @@ struct Facts {
     may_refract: bool,
     /// Bit `k` is set when some method reads word `k` of the globals.
     globals_read: u32,
+    /// `absorption` returns its light unchanged (a clear medium).
+    clear: bool,
 }
 
 impl Facts {
@@ -543,7 +545,28 @@ impl Facts {
                 }
             });
         }
+        // absorption(light, d) writing its light words straight back.
+        let absorption = methods[7].ir();
+        let lanes = absorption.results.len();
+        let mut outputs = vec![None; lanes];
+        let mut params = std::collections::HashMap::new();
+        let mut plain = true;
+        for inst in &absorption.body {
+            match inst {
+                crate::ir::Inst::Def(v, crate::ir::Op::Param(k)) => {
+                    params.insert(*v, *k);
+                }
+                crate::ir::Inst::Output(k, v) => {
+                    if let Some(slot) = outputs.get_mut(*k as usize) {
+                        *slot = params.get(v).copied();
+                    }
+                }
+                _ => plain = false,
+            }
+        }
+        let clear = plain && outputs.iter().enumerate().all(|(k, p)| *p == Some(k as u32));
         Facts {
+            clear,
             may_emit: !zero(5),
             always_opaque: constant(10).is_some_and(|w| w.first() == Some(&1)),
             may_reflect_dir: !zero(3),
@@ -737,6 +760,18 @@ impl Material {
     /// False when `refraction_dir` is the default (nothing passes through).
     pub fn may_refract(&self) -> bool {
         self.facts.may_refract
+    }
+
+    /// True when `absorption` gives back the light it is given: light
+    /// crosses the material's inside unchanged.
+    pub fn clear(&self) -> bool {
+        self.facts.clear
+    }
+
+    /// The refraction index when it is the same everywhere (a constant),
+    /// in the color model's lanes.
+    pub fn constant_refraction_index(&self) -> Option<Vec<f32>> {
+        self.methods[2].ir().constant_results().map(|w| w.into_iter().map(f32::from_bits).collect())
     }
 
     /// True when `opaque` is the constant `true`: shadow rays need not ask.

@@ -175,3 +175,14 @@ fn methods_no_child_defines_skip_the_weights() {
     let m = p.material("marble").unwrap();
     assert!(!m.may_refract() && m.always_opaque() && !m.may_emit());
 }
+
+#[test]
+fn clear_glass_absorbs_nothing_and_its_index_is_a_constant() {
+    let p = compile("material clear = glass(ior: gray(1.5)); material smoky = glass(transmittance: gray(0.5));");
+    let clear = p.material("clear").unwrap();
+    assert!(clear.clear(), "{}", ir(&p, "clear.absorption"));
+    assert_eq!(clear.constant_refraction_index(), Some(vec![1.5; 3]));
+    let smoky = p.material("smoky").unwrap();
+    assert!(!smoky.clear());
+    assert_eq!(calls(&ir(&p, "smoky.absorption"), "tsl_pow"), 3);
+}

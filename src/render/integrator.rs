@@ -251,6 +251,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if !object.refracts {
             return self.ones;
         }
+        if let Some(ior) = &object.constant_ior {
+            return Spectrum::from_lanes(ior);
+        }
         let mut out = Spectrum::ZERO;
         object.material.refraction_index_into(g, &mut out.0);
         out
@@ -260,6 +263,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn absorb(&self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
         let Some(m) = medium else { return light };
         let object = &self.scene.objects[m.object as usize];
+        if object.clear {
+            return light;
+        }
         let mut out = Spectrum::ZERO;
         object.material.absorption_into(&m.g, &light.0, distance, &mut out.0);
         out

@@ -130,6 +130,10 @@ pub struct Object {
     pub refracts: bool,
     /// Some method reads the pixel footprint (dPdx, ..., dvdy).
     pub reads_footprint: bool,
+    /// `absorption` is the identity: nothing to call along rays inside.
+    pub clear: bool,
+    /// `refraction_index` when it is a constant, so it is not called.
+    pub constant_ior: Option<Vec<f32>>,
     /// Some method reads u, v, dPdu or dPdv (or the footprint, which
     /// needs them).
     pub reads_uv: bool,
@@ -553,6 +557,8 @@ impl<'a> Builder<'a> {
                     refracts: material.may_refract(),
                     reads_footprint: material.globals_read() & footprint_words != 0,
                     reads_uv: material.globals_read() & uv_words != 0,
+                    clear: material.clear(),
+                    constant_ior: material.constant_refraction_index(),
                     material,
                     span,
                 })
