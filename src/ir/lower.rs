@@ -116,14 +116,7 @@ pub fn lower_material_exprs(
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
-            let args: Vec<Vec<Value>> = lw
-                .params_from_args(&mut b, &params)
-                .into_iter()
-                .map(|v| match v {
-                    Val::Lanes(l) => l,
-                    _ => Vec::new(),
-                })
-                .collect();
+            let args = lw.method_args(&mut b, &params);
             let ctx = lw.root_ctx();
             let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
             let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
@@ -160,14 +153,7 @@ pub fn lower_reflection_sums(
             params.push((format!("light{k}"), Ty::Color));
         }
         params.push(("wo".into(), Ty::Vector));
-        let args: Vec<Vec<Value>> = lw
-            .params_from_args(&mut b, &params)
-            .into_iter()
-            .map(|v| match v {
-                Val::Lanes(l) => l,
-                _ => Vec::new(),
-            })
-            .collect();
+        let args = lw.method_args(&mut b, &params);
         let ctx = lw.root_ctx();
         let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
         let wo = args[2 * lights].clone();
@@ -818,6 +804,17 @@ impl<'p> Lowerer<'p> {
         Ctx { id, overrides: Rc::new(HashMap::new()) }
     }
 
+    /// Reads a method's parameters from the argument words, as lanes.
+    fn method_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Vec<Value>> {
+        self.params_from_args(b, params)
+            .into_iter()
+            .map(|v| match v {
+                Val::Lanes(l) => l,
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
     /// Reads parameters from the argument words.
     fn params_from_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Val<'p>> {
         let mut word = 0;
@@ -866,14 +863,7 @@ impl<'p> Lowerer<'p> {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
-            let args: Vec<Vec<Value>> = self
-                .params_from_args(&mut b, &params)
-                .into_iter()
-                .map(|v| match v {
-                    Val::Lanes(l) => l,
-                    _ => Vec::new(),
-                })
-                .collect();
+            let args = self.method_args(&mut b, &params);
             let ctx = self.root_ctx();
             let mat = match expr {
                 MatSource::Tree(e) => Mat { expr: e, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) },

@@ -218,13 +218,7 @@ impl Shape {
         match self.kind {
             ShapeKind::Sphere { center, radius } => {
                 let (t0, t1) = sphere_roots(&r, center, radius)?;
-                if ok(t0) {
-                    Some(t0)
-                } else if ok(t1) {
-                    Some(t1)
-                } else {
-                    None
-                }
+                nearer(t0, t1, ok)
             }
             ShapeKind::Plane { point, normal, .. } => plane_t(&r, point, normal).filter(|t| ok(*t)),
             ShapeKind::Quad { corner, edge1, edge2 } => {
@@ -239,13 +233,7 @@ impl Shape {
             }
             ShapeKind::Box { min, max } => {
                 let (t0, t1) = slabs(&r, min, max)?;
-                if ok(t0) {
-                    Some(t0)
-                } else if ok(t1) {
-                    Some(t1)
-                } else {
-                    None
-                }
+                nearer(t0, t1, ok)
             }
             ShapeKind::Cylinder { base, radius, height, .. } => self
                 .cylinder_hits(&r, base, radius, height)
@@ -494,6 +482,18 @@ fn sphere_roots(r: &Ray, center: Vec3, radius: f32) -> Option<(f32, f32)> {
     }
     let (t0, t1) = (c / q, q / a);
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+/// The first of the ordered roots `t0 <= t1` that `ok` accepts.
+#[inline]
+fn nearer(t0: f32, t1: f32, ok: impl Fn(f32) -> bool) -> Option<f32> {
+    if ok(t0) {
+        Some(t0)
+    } else if ok(t1) {
+        Some(t1)
+    } else {
+        None
+    }
 }
 
 fn plane_t(r: &Ray, point: Vec3, normal: Vec3) -> Option<f32> {
