@@ -110,34 +110,6 @@ const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
     dvdy: 0.0,
 };
 
-/// Argument words of a reflection sum: `wi, light` per delta light, then
-/// `wo`, gathered on the stack.
-struct Gathered {
-    words: [u32; GATHERED_WORDS],
-    len: usize,
-}
-
-const GATHERED_WORDS: usize = super::scene::MAX_SUMMED_LIGHTS * (3 + crate::color::MAX_SAMPLES) + 3;
-
-impl Gathered {
-    fn new() -> Gathered {
-        Gathered { words: [0; GATHERED_WORDS], len: 0 }
-    }
-
-    fn push(&mut self, v: Vec3, lanes: &[f32]) {
-        for x in v.to_array().iter().chain(lanes) {
-            if self.len < GATHERED_WORDS {
-                self.words[self.len] = x.to_bits();
-                self.len += 1;
-            }
-        }
-    }
-
-    fn words(&self) -> &[u32] {
-        &self.words[..self.len]
-    }
-}
-
 /// A light sample closer than this (cosine) to a delta direction of the
 /// material is skipped: a point light is never seen in a perfect mirror
 /// (the stdlib's delta lobes accept directions within 0.9999).
@@ -156,6 +128,9 @@ pub struct Tracer<'s, const N: usize> {
     spread: f32,
     /// Whether camera samples compute AOVs (they cost material calls).
     want_aov: bool,
+    /// Argument words of a reflection sum (`wi, light` per delta light,
+    /// then `wo`), kept to reuse its allocation.
+    gathered: Vec<u32>,
     pub counters: Counters,
 }
 
@@ -199,6 +174,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             ones: Spectrum::splat(1.0, lanes),
             spread: scene.camera.pixel_spread(),
             want_aov,
+            gathered: Vec::new(),
             counters: Counters::default(),
         }
     }
@@ -373,7 +349,11 @@ impl<'s, const N: usize> Tracer<'s, N> {
         // With a reflection sum, delta lights are gathered (black where
         // they cannot reach) and shaded in one call after the loop.
         let summed = sh.object.reflection_sum.as_ref();
-        let mut gathered = Gathered::new();
+        let mut gathered = std::mem::take(&mut self.gathered);
+        gathered.clear();
+        let push = |words: &mut Vec<u32>, v: Vec3, lanes: &[f32]| {
+            words.extend(v.to_array().iter().chain(lanes).map(|x| x.to_bits()));
+        };
         for light in &scene.lights {
             let u = sampler.next_2d();
             let u3 = sampler.next_1d();
@@ -393,7 +373,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                         li *= self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
                     }
                 }
-                gathered.push(dir, &li.0[..self.lanes]);
+                push(&mut gathered, dir, &li.0[..self.lanes]);
                 continue;
             }
             let Some(sample) = sample else { continue };
@@ -434,16 +414,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
             }
         }
         if let Some(f) = summed {
-            gathered.push(sh.wo, &[]);
+            push(&mut gathered, sh.wo, &[]);
             let mut out = Spectrum::<N>::ZERO;
-            let mut words = [0u32; crate::color::MAX_SAMPLES];
-            if f.call_words(crate::Backend::Jit, &sh.g, gathered.words(), &mut words).is_ok() {
+            let mut words = [0u32; N];
+            if f.call_words(crate::Backend::Jit, &sh.g, &gathered, &mut words).is_ok() {
                 for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
                     *o = f32::from_bits(*w);
                 }
                 sum += out;
             }
         }
+        self.gathered = gathered;
         sum
     }
 
