@@ -67,6 +67,9 @@ pub struct Shape {
     /// cylinders: the frame of the axis. Unit normals and axes.
     frame: Frame,
     identity: bool,
+    /// For quads: `edge1 x edge2` and one over its squared length.
+    quad_n: Vec3,
+    quad_inv_n2: f32,
 }
 
 /// Tangents `s, t` of a unit normal with `s x t = n`: `s` is +x made
@@ -148,7 +151,13 @@ impl Shape {
         };
         let to_object = to_world.inverse();
         let linear = Mat3::from_mat4(to_world);
+        let quad_n = match kind {
+            ShapeKind::Quad { edge1, edge2, .. } => edge1.cross(edge2),
+            _ => Vec3::Z,
+        };
         Ok(Shape {
+            quad_n,
+            quad_inv_n2: 1.0 / quad_n.length_squared(),
             kind,
             to_world,
             to_object,
@@ -222,9 +231,9 @@ impl Shape {
             }
             ShapeKind::Plane { point, normal, .. } => plane_t(&r, point, normal).filter(|t| ok(*t)),
             ShapeKind::Quad { corner, edge1, edge2 } => {
-                let n = edge1.cross(edge2);
+                let n = self.quad_n;
                 let t = plane_t(&r, corner, n).filter(|t| ok(*t))?;
-                let (s, q) = quad_coords(r.at(t) - corner, edge1, edge2, n);
+                let (s, q) = quad_coords(r.at(t) - corner, edge1, edge2, n, self.quad_inv_n2);
                 ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&q)).then_some(t)
             }
             ShapeKind::Disk { center, normal, radius } => {
@@ -319,8 +328,8 @@ impl Shape {
             }
             ShapeKind::Quad { corner, edge1, edge2 } => {
                 let q = p - corner;
-                let n = edge1.cross(edge2);
-                let (s, tt) = quad_coords(q, edge1, edge2, n);
+                let n = self.quad_n;
+                let (s, tt) = quad_coords(q, edge1, edge2, n, self.quad_inv_n2);
                 (q, n.normalize(), s, tt, edge1, edge2, 0)
             }
             ShapeKind::Disk { center, normal, radius } => {
@@ -506,9 +515,8 @@ fn plane_t(r: &Ray, point: Vec3, normal: Vec3) -> Option<f32> {
 }
 
 /// Coordinates of `w` (in the plane) along a parallelogram's edges.
-fn quad_coords(w: Vec3, e1: Vec3, e2: Vec3, n: Vec3) -> (f32, f32) {
-    let inv = 1.0 / n.length_squared();
-    (w.cross(e2).dot(n) * inv, e1.cross(w).dot(n) * inv)
+fn quad_coords(w: Vec3, e1: Vec3, e2: Vec3, n: Vec3, inv_n2: f32) -> (f32, f32) {
+    (w.cross(e2).dot(n) * inv_n2, e1.cross(w).dot(n) * inv_n2)
 }
 
 /// Entry and exit `t` of a ray through an axis-aligned box.
