@@ -187,3 +187,27 @@ fn clear_glass_absorbs_nothing_and_its_index_is_a_constant() {
     // One pow: the three gray lanes are the same value.
     assert_eq!(calls(&ir(&p, "smoky.absorption"), "tsl_pow"), 1);
 }
+
+#[test]
+fn work_before_an_early_return_is_shared_after_it() {
+    // The body has an early return, so it is lowered inside a block; the
+    // normal computed before the return is shared by the second copy.
+    let p = compile(
+        r#"
+        material bumpy(color kd = gray(0.5)) {
+            normal normal() { return normalize(N + 0.5 * vector(noise(Pl * 4))); }
+            color reflection(vector wi, color light, vector wo) {
+                normal n = faceforward(normal(), -wo);
+                float c = dot(n, wi);
+                if c <= 0 { return black(); }
+                return light * kd * c;
+            }
+        }
+        material b = bumpy;
+        "#,
+    );
+    let one = ir(&p, "b.reflection");
+    let sums = p.reflection_sums(&["b"], 2).unwrap();
+    assert_eq!(calls(&one, "tsl_noise3"), 1, "{one}");
+    assert_eq!(calls(sums[0].ir(), "tsl_noise3"), 1, "{}", sums[0].ir());
+}

@@ -552,6 +552,38 @@ impl Builder {
         v
     }
 
+    /// Like [`Builder::nested`] for the body of a `Block` (which is entered
+    /// unconditionally): what the body computed before its first possible
+    /// exit dominates the code after the block, so those memo entries stay
+    /// visible there. A method body inlined twice (a reflection sum) then
+    /// shares the texture its early-return block computed first.
+    fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
+        self.stack.push(Vec::new());
+        self.memo.push(HashMap::new());
+        f(self);
+        let scope = self.memo.pop().unwrap_or_default();
+        let body = self.stack.pop().unwrap_or_default();
+        let mut inside = HashSet::new();
+        defined_values(&body, &mut inside);
+        let mut dominating = HashSet::new();
+        for inst in &body {
+            if may_leave(inst) {
+                break;
+            }
+            if let Inst::Def(v, _) = inst {
+                dominating.insert(*v);
+            }
+        }
+        if let Some(parent) = self.memo.last_mut() {
+            for (key, values) in scope {
+                if values.iter().all(|v| !inside.contains(v) || dominating.contains(v)) {
+                    parent.insert(key, values);
+                }
+            }
+        }
+        body
+    }
+
     /// Runs `f` with a fresh instruction list and memo scope; returns the list.
     fn nested(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
         self.stack.push(Vec::new());
@@ -1087,7 +1119,7 @@ impl<'p> Lowerer<'p> {
             b.push(Inst::Set(*v, zero));
         }
         fr.ret = Some((label, vars.clone(), ret.clone()));
-        let inner = b.nested(|b| {
+        let inner = b.block_body(|b| {
             for s in &body.stmts {
                 if self.stmt(b, fr, ctx, s) {
                     break;
@@ -1342,6 +1374,34 @@ impl<'p> Lowerer<'p> {
 }
 
 /// Names assigned anywhere in a block (so they need variables).
+/// Every value an instruction list defines, nested bodies included.
+fn defined_values(body: &[Inst], out: &mut HashSet<Value>) {
+    for inst in body {
+        match inst {
+            Inst::Def(v, _) => {
+                out.insert(*v);
+            }
+            Inst::If { then_body, else_body, .. } => {
+                defined_values(then_body, out);
+                defined_values(else_body, out);
+            }
+            Inst::Block { body, .. } | Inst::Loop { body, .. } => defined_values(body, out),
+            _ => {}
+        }
+    }
+}
+
+/// Whether running `inst` may leave the enclosing block early (it holds a
+/// `Break` or `Continue` somewhere).
+fn may_leave(inst: &Inst) -> bool {
+    match inst {
+        Inst::Break(_) | Inst::Continue(_) => true,
+        Inst::If { then_body, else_body, .. } => then_body.iter().chain(else_body).any(may_leave),
+        Inst::Block { body, .. } | Inst::Loop { body, .. } => body.iter().any(may_leave),
+        _ => false,
+    }
+}
+
 fn assigned_names(block: &ast::Block) -> HashSet<String> {
     let mut out = HashSet::new();
     let mut stack: Vec<&Stmt> = block.stmts.iter().collect();
