@@ -122,3 +122,26 @@ fn bool_argument_words_are_true_when_non_zero() {
     assert_eq!(call(&p, "f", &[2]), 1);
     assert_eq!(call(&p, "f", &[0]), 0);
 }
+
+// Found by random_programs while work before an early return was first
+// shared past its block (this session, before it was committed in this
+// form): a block whose result nobody used was removed as dead code, taking
+// with it the definition of a value a later copy reused ("IR value used
+// before its definition" in the JIT). Work before a block's first exit now
+// goes before the block. The program is proptest's shrunk input.
+#[test]
+fn work_shared_out_of_a_dead_block_keeps_its_definition() {
+    let src = std::fs::read_to_string("tests/data/regressions/shared_block_work.tsl").unwrap();
+    let p = compile(&src);
+    let g = ShadingGlobals::default();
+    for entry in p.entries() {
+        let f = p.function(&entry.name).unwrap();
+        let args = vec![0u32; f.ir().params.len()];
+        let (mut jit, mut int) = (vec![0u32; f.ir().results.len()], vec![0u32; f.ir().results.len()]);
+        f.call_words(Backend::Jit, &g, &args, &mut jit).unwrap();
+        f.call_words(Backend::Interpreter, &g, &args, &mut int).unwrap();
+        let same =
+            jit.iter().zip(&int).all(|(a, b)| a == b || (f32::from_bits(*a).is_nan() && f32::from_bits(*b).is_nan()));
+        assert!(same, "{}: {jit:?} vs {int:?}", entry.name);
+    }
+}

@@ -553,35 +553,38 @@ impl Builder {
     }
 
     /// Like [`Builder::nested`] for the body of a `Block` (which is entered
-    /// unconditionally): what the body computed before its first possible
-    /// exit dominates the code after the block, so those memo entries stay
-    /// visible there. A method body inlined twice (a reflection sum) then
-    /// shares the texture its early-return block computed first.
-    fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
+    /// unconditionally). Returns the body split in two: the instructions
+    /// before its first possible exit, which run whenever the block runs
+    /// and so go before it, and the rest, which stays in the block. What the
+    /// first part defines dominates the code after the block, so its memo
+    /// entries stay visible there: a method body inlined twice (a
+    /// reflection sum) shares the texture its first copy computed.
+    fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> (Vec<Inst>, Vec<Inst>) {
         self.stack.push(Vec::new());
         self.memo.push(HashMap::new());
         f(self);
         let scope = self.memo.pop().unwrap_or_default();
-        let body = self.stack.pop().unwrap_or_default();
+        let mut body = self.stack.pop().unwrap_or_default();
+        let split = body.iter().position(may_leave).unwrap_or(body.len());
+        let rest = body.split_off(split);
+        let prefix = body;
         let mut inside = HashSet::new();
-        defined_values(&body, &mut inside);
-        let mut dominating = HashSet::new();
-        for inst in &body {
-            if may_leave(inst) {
-                break;
-            }
-            if let Inst::Def(v, _) = inst {
-                dominating.insert(*v);
+        defined_values(&rest, &mut inside);
+        let mut nested = Vec::new();
+        for inst in &prefix {
+            if !matches!(inst, Inst::Def(..)) {
+                nested.push(inst.clone());
             }
         }
+        defined_values(&nested, &mut inside);
         if let Some(parent) = self.memo.last_mut() {
             for (key, values) in scope {
-                if values.iter().all(|v| !inside.contains(v) || dominating.contains(v)) {
+                if values.iter().all(|v| !inside.contains(v)) {
                     parent.insert(key, values);
                 }
             }
         }
-        body
+        (prefix, rest)
     }
 
     /// Runs `f` with a fresh instruction list and memo scope; returns the list.
@@ -1119,13 +1122,16 @@ impl<'p> Lowerer<'p> {
             b.push(Inst::Set(*v, zero));
         }
         fr.ret = Some((label, vars.clone(), ret.clone()));
-        let inner = b.block_body(|b| {
+        let (prefix, inner) = b.block_body(|b| {
             for s in &body.stmts {
                 if self.stmt(b, fr, ctx, s) {
                     break;
                 }
             }
         });
+        for inst in prefix {
+            b.push(inst);
+        }
         b.push(Inst::Block { label, body: inner });
         let lanes = vars.iter().map(|v| b.get(*v)).collect();
         Val::Lanes(lanes)
