@@ -211,3 +211,21 @@ fn work_before_an_early_return_is_shared_after_it() {
     assert_eq!(calls(&one, "tsl_noise3"), 1, "{one}");
     assert_eq!(calls(sums[0].ir(), "tsl_noise3"), 1, "{}", sums[0].ir());
 }
+
+#[test]
+fn templates_and_spline_blends_are_seen_through() {
+    let p = compile(
+        r#"
+        float veins() { return fract(noise(Pl * 3) * 4); }
+        material framed(material inside, material frame) = mix(veins(), frame, inside);
+        material smooth = blend(veins(), [lambert, phong, lambert], spline: true);
+        material both = select(face, [framed(lambert, phong), smooth]);
+        material lit = select(face, [framed(lambert, emitter), smooth]);
+        "#,
+    );
+    let f = ir(&p, "both.emission");
+    assert!(f.constant_results().is_some() && calls(&f, "tsl_noise3") == 0, "{f}");
+    // An emitter inside the template: the weights stay.
+    let f = ir(&p, "lit.emission");
+    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+}

@@ -2867,15 +2867,41 @@ impl<'p> Lowerer<'p> {
                 if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
                     return match self.item(sym) {
                         Item::Material(def) => !defines(def),
+                        Item::MaterialTree(t) => {
+                            // A template: its body, with its material
+                            // parameters bound to the call's arguments.
+                            let params = t.params.as_deref().unwrap_or(&[]);
+                            let typed: Vec<(&str, Ty)> =
+                                params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
+                            let mut env = HashMap::new();
+                            for (p, a) in params.iter().zip(bind_args(&typed, call_args)) {
+                                if Ty::from_ast(&p.ty) != Ty::Material {
+                                    continue;
+                                }
+                                let bound = match (a, &p.default) {
+                                    (Some(a), _) => Mat { expr: a, env: mat.env.clone(), in_prelude: mat.in_prelude },
+                                    (None, Some(d)) => {
+                                        Mat { expr: d, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) }
+                                    }
+                                    (None, None) => continue,
+                                };
+                                env.insert(p.name.name.clone(), Val::Material(bound));
+                            }
+                            let body = Mat { expr: &t.body, env: Rc::new(env), in_prelude: self.is_prelude(sym) };
+                            self.uses_default(&body, im, depth + 1)
+                        }
                         _ => false,
                     };
                 }
-                // Named arguments (`only:`, `spline:`) are not analysed.
-                if call_args.iter().any(|a| a.name.is_some()) {
+                // Only `spline:` (a value) may be named; a named material
+                // child, or `only:` (which changes where a method comes
+                // from), is not analysed.
+                if call_args.iter().any(|a| a.name.as_ref().is_some_and(|n| n.name != "spline")) {
                     return false;
                 }
+                let positional: Vec<&'p ast::Arg> = call_args.iter().filter(|a| a.name.is_none()).collect();
                 let child = |k: usize| {
-                    call_args.get(k).map(|a| Mat { expr: &a.value, env: mat.env.clone(), in_prelude: mat.in_prelude })
+                    positional.get(k).map(|a| Mat { expr: &a.value, env: mat.env.clone(), in_prelude: mat.in_prelude })
                 };
                 let all = |items: Vec<Mat<'p>>| {
                     !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
@@ -2946,11 +2972,18 @@ impl<'p> Lowerer<'p> {
         };
         // A method no child defines is the default whatever the weights:
         // the weights (often noise) need not be computed at all.
-        if matches!(node, "mix" | "blend" | "select")
-            && self.uses_default(mat, im, 0)
-            && let Some(v) = self.plain_default(b, im, args, ctx)
-        {
-            return v;
+        if matches!(node, "mix" | "blend" | "select") && self.uses_default(mat, im, 0) {
+            if let Some(v) = self.plain_default(b, im, args, ctx) {
+                return v;
+            }
+            // The default ambient, light * diffuse(), is linear: blending the
+            // children's is the node's own, from the node's diffuse.
+            if im.name == "ambient"
+                && let Some(diffuse) = interface_method("diffuse")
+            {
+                let d = self.mat_method(b, mat, diffuse, &[], ctx);
+                return b.map2(BinOp::FMul, &args[0], &d);
+            }
         }
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
         let bound = bind_args(&params, call_args);
