@@ -593,23 +593,28 @@ struct Args {
 
 impl Args {
     fn new() -> Args {
-        // No zeroing: only the first `len` words are ever read.
-        Args { words: [std::mem::MaybeUninit::uninit(); MAX_ARG_WORDS], len: 0 }
+        // No zeroing: only the first `len` words are ever read. (A `const`
+        // block: `[MaybeUninit::uninit(); N]` compiles to a memset.)
+        Args { words: [const { std::mem::MaybeUninit::uninit() }; MAX_ARG_WORDS], len: 0 }
     }
-    fn push(&mut self, x: f32) {
-        self.words[self.len] = std::mem::MaybeUninit::new(x.to_bits());
-        self.len += 1;
+    /// Appends words with one bounds check and one length update.
+    fn extend(&mut self, xs: &[f32]) {
+        let end = self.len + xs.len();
+        for (w, x) in self.words[self.len..end].iter_mut().zip(xs) {
+            *w = std::mem::MaybeUninit::new(x.to_bits());
+        }
+        self.len = end;
     }
     fn v(&mut self, v: [f32; 3]) -> &mut Args {
-        v.into_iter().for_each(|x| self.push(x));
+        self.extend(&v);
         self
     }
     fn f(&mut self, x: f32) -> &mut Args {
-        self.push(x);
+        self.extend(&[x]);
         self
     }
     fn c(&mut self, c: &Color) -> &mut Args {
-        c.lanes().iter().for_each(|x| self.push(*x));
+        self.extend(c.lanes());
         self
     }
 }
@@ -677,7 +682,7 @@ impl Material {
         assert!(light.len() >= lanes && out.len() >= lanes, "light and out need {lanes} lanes");
         let mut args = Args::new();
         args.v(wi);
-        light[..lanes].iter().for_each(|x| args.push(*x));
+        args.extend(&light[..lanes]);
         args.v(wo);
         self.call_into(0, g, &args, out.as_mut_ptr().cast());
     }
@@ -704,8 +709,8 @@ impl Material {
         assert!(light.len() >= lanes && eta.len() >= lanes, "light and eta need {lanes} lanes");
         let mut args = Args::new();
         args.v(wi);
-        light[..lanes].iter().for_each(|x| args.push(*x));
-        eta[..lanes].iter().for_each(|x| args.push(*x));
+        args.extend(&light[..lanes]);
+        args.extend(&eta[..lanes]);
         args.v(wo);
         self.color_into(1, g, &args, out);
     }
@@ -721,7 +726,7 @@ impl Material {
         assert!(eta.len() >= lanes, "eta needs {lanes} lanes");
         let mut args = Args::new();
         args.v(wo);
-        eta[..lanes].iter().for_each(|x| args.push(*x));
+        args.extend(&eta[..lanes]);
         self.vector(4, g, &args)
     }
 
@@ -735,7 +740,7 @@ impl Material {
         let lanes = self.program.color_model().lanes();
         assert!(light.len() >= lanes, "light needs {lanes} lanes");
         let mut args = Args::new();
-        light[..lanes].iter().for_each(|x| args.push(*x));
+        args.extend(&light[..lanes]);
         args.f(distance);
         self.color_into(7, g, &args, out);
     }
