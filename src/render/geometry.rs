@@ -35,8 +35,10 @@ pub struct Geometry {
     prims: Vec<Prim>,
     unbounded: Vec<u32>,
     bvh: Bvh,
-    /// Few primitives: testing them all beats traversing a tree.
-    linear: bool,
+    /// With few primitives, testing them all beats traversing a tree:
+    /// then this holds every primitive, bounded ones first, then the
+    /// unbounded shapes.
+    linear: Option<Vec<Prim>>,
 }
 
 /// At most this many primitives are tested one by one, without the BVH.
@@ -65,8 +67,9 @@ impl Geometry {
                 }
             }
         }
-        let linear = prims.len() <= LINEAR_MAX;
-        let bvh = if linear { Bvh::build(&[]) } else { Bvh::build(&bounds) };
+        let linear = (prims.len() <= LINEAR_MAX)
+            .then(|| prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 })).collect());
+        let bvh = if linear.is_some() { Bvh::build(&[]) } else { Bvh::build(&bounds) };
         Geometry { objects, prims, unbounded, bvh, linear }
     }
 
@@ -84,13 +87,13 @@ impl Geometry {
 
     /// The nearest hit with `t` in `(t_min, t_max)`.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        if self.linear {
+        if let Some(prims) = &self.linear {
             let mut best: Option<Hit> = None;
-            let unbounded = self.unbounded.iter().map(|&object| Prim { object, tri: 0 });
-            for prim in self.prims.iter().copied().chain(unbounded) {
-                let t_max = best.map_or(t_max, |h| h.t);
+            let mut t_max = t_max;
+            for &prim in prims {
                 if let Some(t) = self.test(prim, ray, t_min, t_max) {
                     best = Some(Hit { object: prim.object, tri: prim.tri, t });
+                    t_max = t;
                 }
             }
             return best;
@@ -119,11 +122,13 @@ impl Geometry {
             Some(t) => blocks(Hit { object: prim.object, tri: prim.tri, t }),
             None => false,
         };
+        if let Some(prims) = &self.linear {
+            // Unbounded shapes first, as with the BVH below.
+            let (bounded, unbounded) = prims.split_at(self.prims.len());
+            return unbounded.iter().chain(bounded).any(|&prim| check(prim, t_max));
+        }
         if self.unbounded.iter().any(|&object| check(Prim { object, tri: 0 }, t_max)) {
             return true;
-        }
-        if self.linear {
-            return self.prims.iter().any(|&prim| check(prim, t_max));
         }
         self.bvh.any(ray, t_min, t_max, |id, _, t_max| check(self.prims[id as usize], t_max))
     }

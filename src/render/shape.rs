@@ -175,10 +175,8 @@ impl Shape {
         self.to_world
     }
 
+    /// The ray in the shape's frame (for a shape that is transformed).
     fn local_ray(&self, ray: &Ray) -> Ray {
-        if self.identity {
-            return *ray;
-        }
         Ray::new(self.to_object.transform_point3(ray.origin), self.to_object.transform_vector3(ray.dir))
     }
 
@@ -222,30 +220,38 @@ impl Shape {
 
     /// The nearest `t` in `(t_min, t_max)` where the ray meets the shape.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        let r = self.local_ray(ray);
+        // Untransformed shapes use `ray` itself: reading back a fresh copy
+        // of it stalls on store forwarding.
+        let local;
+        let r = if self.identity {
+            ray
+        } else {
+            local = self.local_ray(ray);
+            &local
+        };
         let ok = |t: f32| t > t_min && t < t_max;
         match self.kind {
             ShapeKind::Sphere { center, radius } => {
-                let (t0, t1) = sphere_roots(&r, center, radius)?;
+                let (t0, t1) = sphere_roots(r, center, radius)?;
                 nearer(t0, t1, ok)
             }
-            ShapeKind::Plane { point, normal, .. } => plane_t(&r, point, normal).filter(|t| ok(*t)),
+            ShapeKind::Plane { point, normal, .. } => plane_t(r, point, normal).filter(|t| ok(*t)),
             ShapeKind::Quad { corner, edge1, edge2 } => {
                 let n = self.quad_n;
-                let t = plane_t(&r, corner, n).filter(|t| ok(*t))?;
+                let t = plane_t(r, corner, n).filter(|t| ok(*t))?;
                 let (s, q) = quad_coords(r.at(t) - corner, edge1, edge2, n, self.quad_inv_n2);
                 ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&q)).then_some(t)
             }
             ShapeKind::Disk { center, normal, radius } => {
-                let t = plane_t(&r, center, normal).filter(|t| ok(*t))?;
+                let t = plane_t(r, center, normal).filter(|t| ok(*t))?;
                 ((r.at(t) - center).length_squared() <= radius * radius).then_some(t)
             }
             ShapeKind::Box { min, max } => {
-                let (t0, t1) = slabs(&r, min, max)?;
+                let (t0, t1) = slabs(r, min, max)?;
                 nearer(t0, t1, ok)
             }
             ShapeKind::Cylinder { base, radius, height, .. } => self
-                .cylinder_hits(&r, base, radius, height)
+                .cylinder_hits(r, base, radius, height)
                 .into_iter()
                 .flatten()
                 .filter(|(t, _)| ok(*t))
@@ -300,7 +306,15 @@ impl Shape {
     /// are left out (zero `u`, `v`, a tangent frame of the normal): they
     /// cost trigonometry that a material reading none of them need not pay.
     pub fn surface_at(&self, ray: &Ray, t: f32, uv: bool) -> SurfaceHit {
-        let r = self.local_ray(ray);
+        // Untransformed shapes use `ray` itself: reading back a fresh copy
+        // of it stalls on store forwarding.
+        let local;
+        let r = if self.identity {
+            ray
+        } else {
+            local = self.local_ray(ray);
+            &local
+        };
         let p = r.at(t);
         let (pl, n, u, v, dpdu, dpdv, face) = match self.kind {
             ShapeKind::Sphere { center, radius } if !uv => {
@@ -343,7 +357,7 @@ impl Shape {
                 let q = p - base;
                 let local = f.to_local(q);
                 let face = self
-                    .cylinder_hits(&r, base, radius, height)
+                    .cylinder_hits(r, base, radius, height)
                     .into_iter()
                     .flatten()
                     .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
@@ -475,6 +489,13 @@ fn sphere_roots(r: &Ray, center: Vec3, radius: f32) -> Option<(f32, f32)> {
     let f = r.origin - center;
     let a = r.dir.length_squared();
     if a == 0.0 {
+        return None;
+    }
+    // Most rays miss: reject them without a division. |f x d|^2 / a is the
+    // squared distance of closest approach; the margin leaves rays within
+    // rounding of the silhouette to the exact test below.
+    let r2 = radius * radius;
+    if f.cross(r.dir).length_squared() > r2 * a * (1.0 + 1e-3) {
         return None;
     }
     let b = -f.dot(r.dir);
