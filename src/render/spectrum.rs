@@ -23,10 +23,9 @@ impl<const N: usize> Spectrum<N> {
 
     /// Copies the first `N` lanes of `lanes` (fewer leave zeros).
     pub fn from_lanes(lanes: &[f32]) -> Self {
-        let mut s = Self::ZERO;
-        let n = lanes.len().min(N);
-        s.0[..n].copy_from_slice(&lanes[..n]);
-        s
+        // Lane by lane, not a memcpy into a zeroed array: reading that back
+        // right away stalls on store forwarding.
+        Spectrum(std::array::from_fn(|k| lanes.get(k).copied().unwrap_or(0.0)))
     }
 
     pub fn max_lane(&self) -> f32 {
