@@ -297,14 +297,36 @@ impl Program {
         materials: &[(String, &crate::syntax::ast::Expr)],
         lights: usize,
     ) -> Result<Vec<Function>, Error> {
-        let (ir, entries, diags) =
-            crate::ir::lower::lower_reflection_sums(&self.inner.program, self.inner.model, materials, lights);
+        self.compile_lowered(crate::ir::lower::lower_reflection_sums(
+            &self.inner.program,
+            self.inner.model,
+            materials,
+            lights,
+        ))
+    }
+
+    /// Compiles, for each material expression of the root program, the
+    /// entry `NAME.delta_lobes`: both perfect directions and their weights
+    /// in one call (see `ir::lower::lower_delta_lobes`).
+    pub(crate) fn compile_delta_lobes(
+        &self,
+        materials: &[(String, &crate::syntax::ast::Expr)],
+    ) -> Result<Vec<Function>, Error> {
+        self.compile_lowered(crate::ir::lower::lower_delta_lobes(&self.inner.program, self.inner.model, materials))
+    }
+
+    /// Compiles lowered entries into a part of the program, one
+    /// [`Function`] per IR function.
+    fn compile_lowered(
+        &self,
+        (ir, entries, diags): (IrModule, Vec<Entry>, Vec<Diagnostic>),
+    ) -> Result<Vec<Function>, Error> {
         if !diags.is_empty() {
             return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
         }
         let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
         let part = Arc::new(Part { ir, entries, jit });
-        let mut out = Vec::with_capacity(materials.len());
+        let mut out = Vec::with_capacity(part.ir.functions.len());
         for (index, f) in part.ir.functions.iter().enumerate() {
             let native = part
                 .jit
@@ -321,6 +343,17 @@ impl Program {
     /// [`Program::compile_reflection_sums`] for named materials of the
     /// program (as [`Program::material`] accepts), for hosts and tests.
     pub fn reflection_sums(&self, names: &[&str], lights: usize) -> Result<Vec<Function>, Error> {
+        self.compile_reflection_sums(&self.material_tree_bodies(names)?, lights)
+    }
+
+    /// [`Program::compile_delta_lobes`] for named materials of the program,
+    /// for hosts and tests.
+    pub fn delta_lobes(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
+        self.compile_delta_lobes(&self.material_tree_bodies(names)?)
+    }
+
+    /// The bodies of material trees without parameters, by name.
+    fn material_tree_bodies(&self, names: &[&str]) -> Result<Vec<(String, &crate::syntax::ast::Expr)>, Error> {
         let mut exprs = Vec::new();
         for name in names {
             let sym = self
@@ -337,7 +370,7 @@ impl Program {
                 _ => return Err(Error::plain(format!("`{name}` is not a material tree without parameters"))),
             }
         }
-        self.compile_reflection_sums(&exprs, lights)
+        Ok(exprs)
     }
 
     /// A material defined in the program (a material tree, or a material

@@ -229,3 +229,50 @@ fn templates_and_spline_blends_are_seen_through() {
     let f = ir(&p, "lit.emission");
     assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
 }
+
+#[test]
+fn delta_lobes_agree_with_the_four_methods() {
+    let p = compile(
+        r#"
+        float veins() { return fract(noise(Pl * 3) * 4); }
+        material clear = glass(ior: gray(1.5));
+        material tinted = glass(ior: rgb(1.4, 1.5, 1.6), kr: rgb(0.9, 0.8, 0.7), kt: gray(0.8));
+        material chrome = mirror(kr: gray(0.9));
+        material matte = lambert;
+        material veined = mix(veins(), glass(ior: gray(1.33)), mirror);
+        "#,
+    );
+    let names = ["clear", "tinted", "chrome", "matte", "veined"];
+    let lobes = p.delta_lobes(&names).unwrap();
+    // Outside, inside (wo against N) and grazing from inside (total
+    // internal reflection: no refraction direction).
+    let wos = [[0.0, 0.6, 0.8], [0.3, -0.2, -0.932_737_9], [0.0, 0.999, -0.044_710_2], [0.0, 0.0, 1.0]];
+    let etas = [[1.5, 1.5, 1.5], [0.7, 0.65, 0.6]];
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], pl: [0.3, 0.1, 0.7], ..Default::default() };
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let mut refracted = 0;
+    for (name, f) in names.iter().zip(&lobes) {
+        assert_eq!((f.ir().params.len(), f.ir().results.len()), (6, 12), "{name}");
+        let m = p.material(name).unwrap();
+        for wo in wos {
+            for eta in etas {
+                let mut args: Vec<u32> = wo.map(f32::to_bits).to_vec();
+                args.extend(eta.map(f32::to_bits));
+                let mut out = [0u32; 12];
+                f.call_words(tsl::Backend::Jit, &g, &args, &mut out).unwrap();
+                let got: Vec<f32> = out.iter().map(|w| f32::from_bits(*w)).collect();
+                let eta_c = tsl::Color::from_lanes(p.color_model(), &eta);
+                let dr = m.reflection_dir(&g, wo);
+                let wr = m.reflection(&g, dr, &one, wo);
+                let dt = m.refraction_dir(&g, wo, &eta_c);
+                let wt = m.refraction(&g, dt, &one, &eta_c, wo);
+                let want: Vec<f32> = [&dr[..], wr.lanes(), &dt[..], wt.lanes()].concat();
+                assert_eq!(got, want, "{name}, wo {wo:?}, eta {eta:?}");
+                refracted += usize::from(dt != [0.0; 3]);
+            }
+        }
+    }
+    assert!(refracted >= 8, "some glass refracts: {refracted}");
+    // The four methods share the tree's texture.
+    assert_eq!(calls(lobes[4].ir(), "tsl_noise3"), 1, "{}", lobes[4].ir());
+}

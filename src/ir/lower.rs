@@ -21,7 +21,8 @@ use std::rc::Rc;
 pub enum EntryKind {
     /// A generator (a user or prelude function).
     Function,
-    /// One interface method of a named material.
+    /// One interface method of a named material, or a combination of them
+    /// (`reflection` for reflection sums, `delta_lobes`).
     Method(&'static str),
 }
 
@@ -170,6 +171,51 @@ pub fn lower_reflection_sums(
         lw.write_results(&mut b, &Ty::Color, &sum);
         module.functions.push(b.finish());
         entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
+    }
+    (module, entries, lw.diags)
+}
+
+/// Lowers, for each material expression, one entry point `NAME.delta_lobes`
+/// with parameters `wo, eta` that returns both perfect directions with their
+/// weights, the responses to unit light: `reflection_dir(wo)`,
+/// `reflection(that, 1, wo)`, `refraction_dir(wo, eta)` and
+/// `refraction(that, 1, eta, wo)`, in that order (3 + lanes + 3 + lanes
+/// words). One call instead of four, and what the methods share (the
+/// faced normal, Fresnel terms, the texture) is computed once.
+pub fn lower_delta_lobes(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let methods = ["reflection_dir", "reflection", "refraction_dir", "refraction"].map(interface_method);
+    let [Some(reflection_dir), Some(reflection), Some(refraction_dir), Some(refraction)] = methods else {
+        return (module, entries, lw.diags);
+    };
+    for (name, expr) in materials {
+        let fname = format!("{name}.delta_lobes");
+        let mut b = Builder::new(&fname);
+        let params: Vec<(String, Ty)> = vec![("wo".into(), Ty::Vector), ("eta".into(), Ty::Color)];
+        let args = lw.method_args(&mut b, &params);
+        let (wo, eta) = (args[0].clone(), args[1].clone());
+        let ctx = lw.root_ctx();
+        let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+        let one = b.f(1.0);
+        let ones = vec![one; lw.lanes];
+        let dr = lw.mat_method(&mut b, &mat, reflection_dir, std::slice::from_ref(&wo), &ctx);
+        let wr = lw.mat_method(&mut b, &mat, reflection, &[dr.clone(), ones.clone(), wo.clone()], &ctx);
+        let dt = lw.mat_method(&mut b, &mat, refraction_dir, &[wo.clone(), eta.clone()], &ctx);
+        let wt = lw.mat_method(&mut b, &mat, refraction, &[dt.clone(), ones, eta, wo], &ctx);
+        let results: Vec<Value> = [dr, wr, dt, wt].concat();
+        b.func.results = vec![Scalar::F32; results.len()];
+        for (k, x) in results.iter().enumerate() {
+            b.push(Inst::Output(k as u32, *x));
+        }
+        let ret = Ty::Array(Box::new(Ty::Float), results.len() as u32);
+        module.functions.push(b.finish());
+        entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
     (module, entries, lw.diags)
 }

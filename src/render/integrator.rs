@@ -131,7 +131,24 @@ pub struct Tracer<'s, const N: usize> {
     /// Argument words of a reflection sum (`wi, light` per delta light,
     /// then `wo`), kept to reuse its allocation.
     gathered: Vec<u32>,
+    /// Argument and result words of `delta_lobes` calls, kept likewise.
+    lobe_args: Vec<u32>,
+    lobe_out: Vec<u32>,
     pub counters: Counters,
+}
+
+/// The perfect directions at a surface point, each with its weight (the
+/// material's response to unit light arriving along it).
+struct Lobes<const N: usize> {
+    reflect: Option<(Vec3, Spectrum<N>)>,
+    refract: Option<Refraction<N>>,
+}
+
+struct Refraction<const N: usize> {
+    dir: Vec3,
+    weight: Spectrum<N>,
+    /// Whether crossing the surface along `dir` enters the object.
+    entering: bool,
 }
 
 /// Where a Whitted ray is in its tree: its depth (the camera ray has 1),
@@ -175,6 +192,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
             spread: scene.camera.pixel_spread(),
             want_aov,
             gathered: Vec::new(),
+            lobe_args: Vec::new(),
+            lobe_out: vec![0; 2 * (3 + lanes)],
             counters: Counters::default(),
         }
     }
@@ -278,6 +297,31 @@ impl<'s, const N: usize> Tracer<'s, N> {
             out.len -= 1;
         }
         out
+    }
+
+    /// The perfect directions of the material at `sh` (reached through
+    /// `media`) with their weights, from one `delta_lobes` call.
+    fn lobes(&mut self, sh: &Shading, media: &Media) -> Lobes<N> {
+        let mut lobes = Lobes { reflect: None, refract: None };
+        let Some(f) = &sh.object.delta_lobes else { return lobes };
+        let (eta, entering) = if sh.object.refracts { self.eta(sh, media) } else { (self.ones, false) };
+        self.lobe_args.clear();
+        self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
+        if f.call_words(crate::Backend::Jit, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
+            return lobes;
+        }
+        let (out, lanes) = (&self.lobe_out, self.lanes);
+        let dir = |at: usize| [0, 1, 2].map(|k| f32::from_bits(out[at + k]));
+        let weight =
+            |at: usize| Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[at + k]) } else { 0.0 }));
+        let (dr, dt) = (dir(0), dir(3 + lanes));
+        if !is_zero(dr) {
+            lobes.reflect = Some((Vec3::from(dr), weight(3)));
+        }
+        if !is_zero(dt) {
+            lobes.refract = Some(Refraction { dir: Vec3::from(dt), weight: weight(6 + lanes), entering });
+        }
+        lobes
     }
 
     // ------------------------------------------------------------ visibility
@@ -475,45 +519,32 @@ impl<'s, const N: usize> Tracer<'s, N> {
             *aov = self.aov(&sh);
         }
         let here = distance + sh.g.t;
-        let m = &sh.object.material;
-        // The perfect directions, if the material has them here.
-        let dr =
-            if sh.object.reflects { Some(m.reflection_dir(&sh.g, v3(sh.wo))).filter(|d| !is_zero(*d)) } else { None };
-        let refracted = if sh.object.refracts {
-            let (eta, entering) = self.eta(&sh, media);
-            let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
-            (!is_zero(dt)).then_some((Vec3::from(dt), eta, entering))
-        } else {
-            None
-        };
-        let deltas = [dr.map(Vec3::from), refracted.as_ref().map(|r| r.0)];
+        let lobes = self.lobes(&sh, media);
+        let deltas = [lobes.reflect.map(|r| r.0), lobes.refract.as_ref().map(|r| r.dir)];
         let mut l = self.emission(sh.object, &sh.g, sh.wo);
         l += self.direct(&sh, sampler, None, &deltas);
         if depth < self.scene.settings.max_depth {
             // Materials are linear in the light they are given, so the
             // weight of a perfect direction is its response to unit light.
-            if let Some(dr) = dr {
-                let dr = Vec3::from(dr);
-                let w = self.reflection(&sh, dr, &self.ones);
-                if weight * w.max_lane() >= BAILOUT {
-                    self.counters.secondary_rays += 1;
-                    let r = spawn(sh.surface.p, sh.surface.ng, dr);
-                    let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
-                    let lr = self.whitted_ray(&r, next, media, sampler, None);
-                    l += w * lr;
-                }
+            if let Some((dr, w)) = lobes.reflect
+                && weight * w.max_lane() >= BAILOUT
+            {
+                self.counters.secondary_rays += 1;
+                let r = spawn(sh.surface.p, sh.surface.ng, dr);
+                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                let lr = self.whitted_ray(&r, next, media, sampler, None);
+                l += w * lr;
             }
-            if let Some((dt, eta, entering)) = refracted {
-                let w = self.refraction(&sh, dt, &self.ones, &eta);
-                if weight * w.max_lane() >= BAILOUT {
-                    let straight = dt.dot(-sh.wo) >= DELTA_CONE;
-                    let inner = self.crossed(&sh, media, entering, straight);
-                    self.counters.secondary_rays += 1;
-                    let r = spawn(sh.surface.p, sh.surface.ng, dt);
-                    let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
-                    let lt = self.whitted_ray(&r, next, &inner, sampler, None);
-                    l += w * lt;
-                }
+            if let Some(Refraction { dir: dt, weight: w, entering }) = lobes.refract
+                && weight * w.max_lane() >= BAILOUT
+            {
+                let straight = dt.dot(-sh.wo) >= DELTA_CONE;
+                let inner = self.crossed(&sh, media, entering, straight);
+                self.counters.secondary_rays += 1;
+                let r = spawn(sh.surface.p, sh.surface.ng, dt);
+                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                let lt = self.whitted_ray(&r, next, &inner, sampler, None);
+                l += w * lt;
             }
         }
         // The light came to this point through the medium the ray is in.
@@ -568,21 +599,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let m = &sh.object.material;
             let mut lobes: [(Vec3, Spectrum<N>, f32); 2] = [(Vec3::ZERO, Spectrum::ZERO, 0.0); 2];
             let mut refracted = None;
-            if sh.object.reflects {
-                let dr = m.reflection_dir(&sh.g, v3(sh.wo));
-                if !is_zero(dr) {
-                    let w = self.reflection(&sh, Vec3::from(dr), &self.ones);
-                    lobes[0] = (Vec3::from(dr), w, w.mean(self.lanes).max(0.0));
-                }
+            let found = self.lobes(&sh, &media);
+            if let Some((dr, w)) = found.reflect {
+                lobes[0] = (dr, w, w.mean(self.lanes).max(0.0));
             }
-            if sh.object.refracts {
-                let (eta, entering) = self.eta(&sh, &media);
-                let dt = m.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
-                if !is_zero(dt) {
-                    let w = self.refraction(&sh, Vec3::from(dt), &self.ones, &eta);
-                    lobes[1] = (Vec3::from(dt), w, w.mean(self.lanes).max(0.0));
-                    refracted = Some(entering);
-                }
+            if let Some(t) = found.refract {
+                lobes[1] = (t.dir, t.weight, t.weight.mean(self.lanes).max(0.0));
+                refracted = Some(t.entering);
             }
             let delta_weight = lobes[0].2 + lobes[1].2;
             let p_smooth = if delta_weight > 0.0 {

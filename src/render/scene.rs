@@ -117,6 +117,9 @@ pub struct Object {
     /// directional, in scene order) in one call; see
     /// `ir::lower::lower_reflection_sums`.
     pub reflection_sum: Option<crate::Function>,
+    /// For an object that reflects or refracts: both perfect directions
+    /// and their weights in one call (`ir::lower::lower_delta_lobes`).
+    pub delta_lobes: Option<crate::Function>,
     /// Multiplies the material's emission (area lights given as `light rect`
     /// or `light sphere` use the stdlib `emitter` scaled to their radiance,
     /// as pbrt's area lights take a `scale`).
@@ -550,6 +553,7 @@ impl<'a> Builder<'a> {
                 let uv_words = (!0u32 << word("u")) & !(!0u32 << (word("dPdv") + 3)) | footprint_words;
                 Some(Object {
                     reflection_sum: None,
+                    delta_lobes: None,
                     emission_scale: scale,
                     emissive,
                     always_opaque: material.always_opaque(),
@@ -566,6 +570,7 @@ impl<'a> Builder<'a> {
             .collect();
         let mut objects = objects;
         self.reflection_sums(&mut objects, &material_exprs, &lights)?;
+        self.delta_lobes(&mut objects, &material_exprs)?;
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
             if o.emissive
@@ -616,6 +621,30 @@ impl<'a> Builder<'a> {
         let functions = self.program.compile_reflection_sums(&items, count)?;
         for ((k, _, _), f) in wanted.iter().zip(functions) {
             objects[*k].reflection_sum = Some(f);
+        }
+        Ok(())
+    }
+
+    /// Compiles for each object that reflects or refracts its perfect
+    /// directions and their weights as one function.
+    fn delta_lobes(&self, objects: &mut [Object], exprs: &[Option<&'a Expr>]) -> Result<(), Error> {
+        let mut wanted = Vec::new();
+        for (k, (o, e)) in objects.iter().zip(exprs).enumerate() {
+            if !o.reflects && !o.refracts {
+                continue;
+            }
+            // Only area lights have no expression, and their emitter has
+            // no perfect directions.
+            let e = e.ok_or_else(|| self.error(o.span, "internal error: a specular object without a material"))?;
+            wanted.push((k, (format!("@object{k}"), e)));
+        }
+        if wanted.is_empty() {
+            return Ok(());
+        }
+        let items: Vec<(String, &Expr)> = wanted.iter().map(|(_, item)| item.clone()).collect();
+        let functions = self.program.compile_delta_lobes(&items)?;
+        for ((k, _), f) in wanted.iter().zip(functions) {
+            objects[*k].delta_lobes = Some(f);
         }
         Ok(())
     }
