@@ -7,7 +7,6 @@
 //! (they can never be hit); an empty BVH misses every ray.
 
 use super::{Ray, Vec3};
-use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray as BvhRay, RayHit};
@@ -34,7 +33,7 @@ impl Bvh {
         let mut ids = Vec::with_capacity(bounds.len());
         for (k, (lo, hi)) in bounds.iter().enumerate() {
             if lo.is_finite() && hi.is_finite() && lo.cmple(*hi).all() {
-                kept.push(Bounds(Aabb::new(Vec3A::from(*lo), Vec3A::from(*hi))));
+                kept.push(Bounds(Aabb::new(*lo, *hi)));
                 ids.push(k as u32);
             }
         }
@@ -60,7 +59,7 @@ impl Bvh {
     }
 
     fn bvh_ray(ray: &Ray, t_min: f32, t_max: f32) -> BvhRay {
-        BvhRay::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), t_min, t_max)
+        BvhRay::new(ray.origin, ray.dir, t_min, t_max)
     }
 
     /// The nearest primitive: `intersect(id, ray, t_max)` returns a hit `t`

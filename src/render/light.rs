@@ -70,8 +70,8 @@ impl Light {
                     if !is_similarity(&m) {
                         return None;
                     }
-                    let scale = m.transform_vector3(Vec3::X).length();
-                    AreaSampler::Sphere { center: m.transform_point3(*center), radius: radius * scale }
+                    let scale = m.transform_vector3a(Vec3::X).length();
+                    AreaSampler::Sphere { center: m.transform_point3a(*center), radius: radius * scale }
                 }
                 _ => return None,
             },
@@ -179,7 +179,7 @@ impl Light {
 /// Whether `m` scales all directions alike (rotations, translations and a
 /// uniform scale), which keeps spheres spheres.
 fn is_similarity(m: &glam::Mat4) -> bool {
-    let (x, y, z) = (m.transform_vector3(Vec3::X), m.transform_vector3(Vec3::Y), m.transform_vector3(Vec3::Z));
+    let (x, y, z) = (m.transform_vector3a(Vec3::X), m.transform_vector3a(Vec3::Y), m.transform_vector3a(Vec3::Z));
     let s = x.length();
     let tol = 1e-4 * s;
     (y.length() - s).abs() <= tol

@@ -105,8 +105,8 @@ impl Mesh {
         if !to_world.is_finite() || to_world.determinant().abs() < 1e-12 {
             return Err("the object's transform is singular or not finite".into());
         }
-        let positions: Vec<Vec3> = positions.into_iter().map(|p| to_world.transform_point3(p)).collect();
-        let normal_matrix = glam::Mat3::from_mat4(to_world).inverse().transpose();
+        let positions: Vec<Vec3> = positions.into_iter().map(|p| to_world.transform_point3a(p)).collect();
+        let normal_matrix = glam::Mat3A::from_mat4(to_world).inverse().transpose();
         let normals = normals.map(|n| n.into_iter().map(|v| (normal_matrix * v).normalize_or_zero()).collect());
         Ok(Mesh { positions, normals, uvs, triangles, to_object: to_world.inverse() })
     }
@@ -196,7 +196,7 @@ impl Mesh {
         SurfaceHit {
             t,
             p: if ray.dir == Vec3::ZERO { p } else { ray.at(t) },
-            pl: self.to_object.transform_point3(p),
+            pl: self.to_object.transform_point3a(p),
             ng,
             n,
             u,
@@ -261,7 +261,8 @@ mod tests {
             Some(vec![Vec3::Z; 3]),
             None,
             vec![[0, 1, 2]],
-            Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0)) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+            Mat4::from_translation(glam::Vec3::new(0.0, 0.0, -3.0))
+                * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2),
         )
         .unwrap();
         // Rotated to lie in the xz plane facing +y, moved to z = -3.

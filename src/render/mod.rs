@@ -30,7 +30,11 @@ pub mod scene;
 pub mod shape;
 pub mod spectrum;
 
-pub use glam::{Mat4, Vec3};
+pub use glam::Mat4;
+/// The renderer's vectors are glam's 16-byte SIMD vectors: arithmetic is one
+/// instruction per operation, and a vector is always loaded and stored
+/// whole, so a load never straddles two smaller stores (which stalls).
+pub type Vec3 = glam::Vec3A;
 pub use image_io::RenderedImage;
 pub use integrator::Counters;
 pub use scene::{IntegratorKind, Overrides, Scene, Settings};

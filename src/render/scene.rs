@@ -276,7 +276,7 @@ impl<'a> Builder<'a> {
         let mut m = Mat4::IDENTITY;
         for p in props {
             let step = match p.name.name.as_str() {
-                "translate" => Mat4::from_translation(self.vec3(p)?),
+                "translate" => Mat4::from_translation(self.vec3(p)?.into()),
                 "rotate" => {
                     let r = self.vec3(p)?;
                     Mat4::from_rotation_z(r.z.to_radians())
@@ -287,7 +287,7 @@ impl<'a> Builder<'a> {
                     let e = self.expr(p)?;
                     let ty = self.program.checked().expr_types.get(&e.span).cloned().unwrap_or(Ty::Float);
                     let s = if ty.is_triple() { self.vec3(p)? } else { Vec3::splat(self.float(p)?) };
-                    Mat4::from_scale(s)
+                    Mat4::from_scale(s.into())
                 }
                 "transform" => {
                     let w = f32s(&self.words(p, &Ty::Matrix)?);

@@ -22,7 +22,7 @@
 
 use super::sampling::{self, Frame};
 use super::{Mat4, Ray, Vec3};
-use glam::Mat3;
+use glam::Mat3A as Mat3;
 use std::f32::consts::{PI, TAU};
 
 /// A ray hit before shading, in world space unless noted.
@@ -177,7 +177,7 @@ impl Shape {
 
     /// The ray in the shape's frame (for a shape that is transformed).
     fn local_ray(&self, ray: &Ray) -> Ray {
-        Ray::new(self.to_object.transform_point3(ray.origin), self.to_object.transform_vector3(ray.dir))
+        Ray::new(self.to_object.transform_point3a(ray.origin), self.to_object.transform_vector3a(ray.dir))
     }
 
     /// The world bounding box; `None` for the infinite plane.
@@ -211,7 +211,7 @@ impl Shape {
                 if k & 2 == 0 { lo.y } else { hi.y },
                 if k & 4 == 0 { lo.z } else { hi.z },
             );
-            let w = self.to_world.transform_point3(c);
+            let w = self.to_world.transform_point3a(c);
             wlo = wlo.min(w);
             whi = whi.max(w);
         }
@@ -388,8 +388,8 @@ impl Shape {
         } else {
             (
                 (self.normal_matrix * n).normalize_or(Vec3::Y),
-                self.to_world.transform_vector3(dpdu),
-                self.to_world.transform_vector3(dpdv),
+                self.to_world.transform_vector3a(dpdu),
+                self.to_world.transform_vector3a(dpdv),
             )
         };
         // Degenerate parametrisations (sphere poles, disk centres): any
@@ -405,7 +405,7 @@ impl Shape {
     /// World-space area (exact for planar shapes under any affine map,
     /// and for the rest under a similarity transform).
     pub fn area(&self) -> f32 {
-        let m = |v: Vec3| self.to_world.transform_vector3(v);
+        let m = |v: Vec3| self.to_world.transform_vector3a(v);
         // The scale factor of a similarity transform.
         let similarity = m(Vec3::X).length();
         match self.kind {
@@ -430,7 +430,7 @@ impl Shape {
     /// spheres and cylinders under a similarity transform. The infinite
     /// plane gives its point.
     pub fn sample_area(&self, u: [f32; 2]) -> Vec3 {
-        let m = |v: Vec3| self.to_world.transform_vector3(v);
+        let m = |v: Vec3| self.to_world.transform_vector3a(v);
         let local = match self.kind {
             ShapeKind::Box { min, max } => {
                 // A face in proportion to its world area, then uniform on it.
@@ -478,7 +478,7 @@ impl Shape {
             ShapeKind::Sphere { center, radius } => center + radius * sampling::square_to_uniform_sphere(u),
             ShapeKind::Plane { point, .. } => point,
         };
-        self.to_world.transform_point3(local)
+        self.to_world.transform_point3a(local)
     }
 }
 
@@ -648,10 +648,10 @@ mod tests {
             state ^= state << 17;
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
-        let m = Mat4::from_translation(Vec3::new(0.5, -0.2, 0.3))
+        let m = Mat4::from_translation(glam::Vec3::new(0.5, -0.2, 0.3))
             * Mat4::from_rotation_y(0.7)
             * Mat4::from_rotation_x(-0.4)
-            * Mat4::from_scale(Vec3::new(1.5, 0.7, 1.2));
+            * Mat4::from_scale(glam::Vec3::new(1.5, 0.7, 1.2));
         let kinds = [
             ShapeKind::Sphere { center: Vec3::new(0.1, 0.2, -0.3), radius: 0.8 },
             ShapeKind::Quad {
@@ -699,7 +699,7 @@ mod tests {
                         ShapeKind::Cylinder { base, .. } => base,
                         ShapeKind::Box { .. } => Vec3::ZERO,
                     };
-                    assert!(close(transform.transform_point3(h.pl + anchor), h.p), "{kind:?}");
+                    assert!(close(transform.transform_point3a(h.pl + anchor), h.p), "{kind:?}");
                 }
                 assert!(hits > 50, "{kind:?}: only {hits} hits");
             }
@@ -732,7 +732,7 @@ mod tests {
         let b = hit(&s, Vec3::new(0.5, 0.5, 5.0), Vec3::NEG_Z).unwrap();
         assert!(b.u > a.u && b.v > a.v);
         // Scaled and rotated.
-        let m = Mat4::from_rotation_y(0.5) * Mat4::from_scale(Vec3::splat(2.0));
+        let m = Mat4::from_rotation_y(0.5) * Mat4::from_scale(glam::Vec3::splat(2.0));
         let t = Shape::new(ShapeKind::Box { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) }, m).unwrap();
         let h = hit(&t, Vec3::new(0.0, 10.0, 0.0), Vec3::NEG_Y).unwrap();
         assert!((h.t - 8.0).abs() < 1e-4 && close(h.ng, Vec3::Y) && close(h.pl, Vec3::new(0.0, 1.0, 0.0)));
@@ -796,16 +796,16 @@ mod tests {
         );
         let singular = Shape::new(
             ShapeKind::Sphere { center: Vec3::ZERO, radius: 1.0 },
-            Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)),
+            Mat4::from_scale(glam::Vec3::new(1.0, 0.0, 1.0)),
         );
         assert!(singular.unwrap_err().contains("singular"));
     }
 
     #[test]
     fn area_sampling_lands_on_the_shape() {
-        let m = Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0))
+        let m = Mat4::from_translation(glam::Vec3::new(1.0, 2.0, 3.0))
             * Mat4::from_rotation_z(0.3)
-            * Mat4::from_scale(Vec3::splat(2.0));
+            * Mat4::from_scale(glam::Vec3::splat(2.0));
         let sphere = Shape::new(ShapeKind::Sphere { center: Vec3::ZERO, radius: 0.5 }, m).unwrap();
         assert!((sphere.area() - 4.0 * PI).abs() < 1e-4);
         let quad = Shape::new(ShapeKind::Quad { corner: Vec3::ZERO, edge1: Vec3::X, edge2: Vec3::Y }, m).unwrap();
@@ -845,7 +845,7 @@ mod tests {
             let u = [(k % 10) as f32 / 10.0 + 0.05, (k / 10) as f32 / 10.0 + 0.05];
             let p = sphere.sample_area(u);
             assert!(((p - Vec3::new(1.0, 2.0, 3.0)).length() - 1.0).abs() < 1e-4);
-            let q = m.inverse().transform_point3(quad.sample_area(u));
+            let q = m.inverse().transform_point3a(quad.sample_area(u));
             assert!(q.z.abs() < 1e-5 && (0.0..=1.0).contains(&q.x) && (0.0..=1.0).contains(&q.y));
         }
     }
