@@ -56,13 +56,17 @@ struct Shading<'s> {
     hit: Hit,
 }
 
-/// A medium the ray is inside: the object entered, and the globals where it
-/// was entered (for its `absorption` and `refraction_index`).
+/// A medium the ray is inside: the object entered, and where the globals
+/// of the point it was entered at (for its `absorption` and
+/// `refraction_index`) are kept in [`Tracer::entered`]; [`NO_GLOBALS`]
+/// when the material reads neither. Small, so media copy cheaply.
 #[derive(Clone, Copy)]
 struct Medium {
     object: u32,
-    g: ShadingGlobals,
+    g: u32,
 }
+
+const NO_GLOBALS: u32 = u32::MAX;
 
 /// Media are nested at most this deep; deeper entries are ignored.
 const MAX_MEDIA: usize = 4;
@@ -80,7 +84,7 @@ struct Media {
 static NO_MEDIA: Media = Media::NONE;
 
 impl Media {
-    const NONE: Media = Media { items: [Medium { object: u32::MAX, g: ZERO_GLOBALS }; MAX_MEDIA], len: 0 };
+    const NONE: Media = Media { items: [Medium { object: u32::MAX, g: NO_GLOBALS }; MAX_MEDIA], len: 0 };
 
     fn as_slice(&self) -> &[Medium] {
         &self.items[..self.len]
@@ -134,6 +138,8 @@ pub struct Tracer<'s, const N: usize> {
     /// Argument and result words of `delta_lobes` calls, kept likewise.
     lobe_args: Vec<u32>,
     lobe_out: Vec<u32>,
+    /// The globals where the current camera sample's rays entered media.
+    entered: Vec<ShadingGlobals>,
     pub counters: Counters,
 }
 
@@ -194,6 +200,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             gathered: Vec::new(),
             lobe_args: Vec::new(),
             lobe_out: vec![0; 2 * (3 + lanes)],
+            entered: Vec::new(),
             counters: Counters::default(),
         }
     }
@@ -262,8 +269,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
             return light;
         }
         let mut out = Spectrum::ZERO;
-        object.material.absorption_into(&m.g, &light.0, distance, &mut out.0);
+        object.material.absorption_into(self.entry_globals(m), &light.0, distance, &mut out.0);
         out
+    }
+
+    /// The globals where a medium was entered.
+    fn entry_globals(&self, m: &Medium) -> &ShadingGlobals {
+        // Media whose material reads them always have them.
+        self.entered.get(m.g as usize).unwrap_or(&ZERO_GLOBALS)
     }
 
     /// The relative index `n_entered / n_left` for light crossing the
@@ -272,7 +285,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let entering = sh.surface.ng.dot(sh.wo) > 0.0;
         let inside = |m: &&Medium| m.object != sh.hit.object;
         let other = match media.as_slice().iter().rev().find(inside) {
-            Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], &m.g),
+            Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], self.entry_globals(m)),
             None => self.ones,
         };
         let own = self.refraction_index(sh.object, &sh.g);
@@ -282,14 +295,21 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// The media after crossing the surface of `sh` (entering pushes it,
     /// leaving removes it). Straight-through crossings (eta 1, the ray not
     /// bent: cutouts, thin sheets) are not media.
-    fn crossed(&self, sh: &Shading, media: &Media, entering: bool, straight: bool) -> Media {
+    fn crossed(&mut self, sh: &Shading, media: &Media, entering: bool, straight: bool) -> Media {
         let mut out = *media;
         if straight {
             return out;
         }
         if entering {
             if out.len < MAX_MEDIA {
-                out.items[out.len] = Medium { object: sh.hit.object, g: sh.g };
+                let o = sh.object;
+                let g = if o.clear && (!o.refracts || o.constant_ior.is_some()) {
+                    NO_GLOBALS
+                } else {
+                    self.entered.push(sh.g);
+                    self.entered.len() as u32 - 1
+                };
+                out.items[out.len] = Medium { object: sh.hit.object, g };
                 out.len += 1;
             }
         } else if let Some(k) = out.as_slice().iter().rposition(|m| m.object == sh.hit.object) {
@@ -497,6 +517,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// Radiance along a camera ray by Whitted's recursion.
     pub fn whitted(&mut self, ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
         self.counters.camera_rays += 1;
+        self.entered.clear();
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
         let start = Depth { depth: 1, weight: 1.0, distance: 0.0 };
         let l = self.whitted_ray(ray, start, &NO_MEDIA, sampler, self.want_aov.then_some(&mut aov));
@@ -556,6 +577,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// Radiance along a camera ray by path tracing.
     pub fn path(&mut self, camera_ray: &Ray, sampler: &mut Sampler) -> (Spectrum<N>, Aov) {
         self.counters.camera_rays += 1;
+        self.entered.clear();
         let max_depth = self.scene.settings.max_depth;
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
         let mut l = Spectrum::<N>::ZERO;
