@@ -86,18 +86,23 @@ impl Geometry {
     }
 
     /// The nearest hit with `t` in `(t_min, t_max)`.
+    // Inline, so that the hit of a few primitives' loop stays in registers
+    // (returned through memory, reading it back stalls).
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        if let Some(prims) = &self.linear {
-            let mut best: Option<Hit> = None;
-            let mut t_max = t_max;
-            for &prim in prims {
-                if let Some(t) = self.test(prim, ray, t_min, t_max) {
-                    best = Some(Hit { object: prim.object, tri: prim.tri, t });
-                    t_max = t;
-                }
+        let Some(prims) = &self.linear else { return self.intersect_bvh(ray, t_min, t_max) };
+        let mut best: Option<Hit> = None;
+        let mut t_max = t_max;
+        for &prim in prims {
+            if let Some(t) = self.test(prim, ray, t_min, t_max) {
+                best = Some(Hit { object: prim.object, tri: prim.tri, t });
+                t_max = t;
             }
-            return best;
         }
+        best
+    }
+
+    fn intersect_bvh(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let mut best = self
             .bvh
             .closest(ray, t_min, t_max, |id, ray, t_max| self.test(self.prims[id as usize], ray, t_min, t_max))
