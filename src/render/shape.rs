@@ -302,9 +302,9 @@ impl Shape {
         self.surface_at(ray, t, true)
     }
 
-    /// [`Shape::surface`]; without `uv`, a sphere's `u`, `v` and tangents
-    /// are left out (zero `u`, `v`, a tangent frame of the normal): they
-    /// cost trigonometry that a material reading none of them need not pay.
+    /// [`Shape::surface`]; without `uv`, a sphere's `u`, `v` and every
+    /// shape's tangents may be left out (zero): they cost trigonometry and
+    /// divisions that a material reading none of them need not pay.
     pub fn surface_at(&self, ray: &Ray, t: f32, uv: bool) -> SurfaceHit {
         // Untransformed shapes use `ray` itself: reading back a fresh copy
         // of it stalls on store forwarding.
@@ -317,9 +317,10 @@ impl Shape {
         };
         let p = r.at(t);
         let (pl, n, u, v, dpdu, dpdv, face) = match self.kind {
-            ShapeKind::Sphere { center, radius } if !uv => {
+            ShapeKind::Sphere { center, .. } if !uv => {
+                // The normal is normalised below.
                 let q = p - center;
-                (q, q / radius, 0.0, 0.0, Vec3::ZERO, Vec3::ZERO, 0)
+                (q, q, 0.0, 0.0, Vec3::ZERO, Vec3::ZERO, 0)
             }
             ShapeKind::Sphere { center, radius } => {
                 let q = p - center;
@@ -394,7 +395,7 @@ impl Shape {
         };
         // Degenerate parametrisations (sphere poles, disk centres): any
         // tangent frame of the normal, so shaders never see a zero vector.
-        if dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0 {
+        if uv && (dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0) {
             let f = Frame::new(ng);
             dpdu = f.s;
             dpdv = f.t;
