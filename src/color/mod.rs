@@ -425,8 +425,13 @@ pub fn resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f3
 /// The linear sRGB of a color's lanes, `to_rgb_weights(model) · lanes`
 /// (identity for `Rgb`). Missing lanes count as 0, extra lanes are ignored.
 pub fn lanes_to_rgb(model: ColorModel, lanes: &[f32]) -> [f32; 3] {
-    to_rgb_weights(model)
-        .map(|row| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32)
+    weighted_rgb(&to_rgb_weights(model), lanes)
+}
+
+/// [`lanes_to_rgb`] with the model's [`to_rgb_weights`] computed once, for
+/// converting many colors (spectral weights integrate the CIE table).
+pub fn weighted_rgb(weights: &[Vec<f32>; 3], lanes: &[f32]) -> [f32; 3] {
+    weights.each_ref().map(|row| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32)
 }
 
 // ---------------------------------------------------------------------------

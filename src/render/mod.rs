@@ -199,6 +199,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     let s = &scene.settings;
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
+    let to_rgb = crate::color::to_rgb_weights(scene.model);
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
     let mut dropped = 0;
@@ -235,7 +236,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                 }
             }
             let mean = sum * (1.0 / s.spp as f32);
-            color.push(crate::color::lanes_to_rgb(scene.model, &mean.0[..lanes]));
+            color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
             if want_aov {
                 let n = s.spp as f32;
                 aovs.push(Aov {
