@@ -8,13 +8,15 @@
 //! context reuses the first result (the second paper's caching).
 
 use super::*;
-use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, Ty, interface_method};
+use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
 use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
 use crate::globals;
 use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
+use crate::texture::Sampler;
 use std::collections::{HashMap, HashSet};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// What an entry point computes.
 #[derive(Debug, Clone, PartialEq)]
@@ -49,7 +51,7 @@ pub fn lower_entries(
     model: ColorModel,
     keep: impl Fn(&str, &Symbol) -> bool,
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     let mut names: Vec<(&String, &Symbol)> = program.symbols.iter().collect();
@@ -90,7 +92,7 @@ pub fn lower_value(
     expr: &Expr,
     to: &Ty,
 ) -> (Function, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut b = Builder::new(name);
     let ctx = lw.root_ctx();
     let mut fr = lw.new_frame(false, HashSet::new());
@@ -108,7 +110,7 @@ pub fn lower_material_exprs(
     model: ColorModel,
     materials: &[(String, &Expr)],
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     for (name, expr) in materials {
@@ -140,7 +142,7 @@ pub fn lower_reflection_sums(
     materials: &[(String, &Expr)],
     lights: usize,
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
@@ -180,6 +182,8 @@ struct Lowerer<'p> {
     lanes: usize,
     diags: Vec<Diagnostic>,
     next_id: u32,
+    /// One sampler per image, filter and address modes.
+    samplers: HashMap<TextureCall, Arc<Sampler>>,
 }
 
 // ---------------------------------------------------------------- values
@@ -271,8 +275,22 @@ enum Const {
 enum MemoKey {
     Op(OpKey),
     Const(ConstKey),
-    Call { item: (usize, usize), ctx: u32, args: Vec<Value> },
-    Method { instance: u32, method: &'static str, ctx: u32, args: Vec<Value> },
+    Call {
+        item: (usize, usize),
+        ctx: u32,
+        args: Vec<Value>,
+    },
+    Method {
+        instance: u32,
+        method: &'static str,
+        ctx: u32,
+        args: Vec<Value>,
+    },
+    /// A texture lookup: the sampler's address and the coordinates.
+    Texture {
+        sampler: usize,
+        coords: [Value; 6],
+    },
 }
 
 /// An operation as a value-numbering key: floats compare by bits, so
@@ -520,6 +538,12 @@ impl Builder {
         if a == b {
             return a;
         }
+        // A constant condition picks its side, constant or not.
+        match self.konst(cond) {
+            Some(Const::B(true)) => return a,
+            Some(Const::B(false)) => return b,
+            _ => {}
+        }
         let ty = self.ty(a);
         self.def(ty, Op::Select { cond, then_value: a, else_value: b })
     }
@@ -536,6 +560,25 @@ impl Builder {
             }
         }
         self.def(Scalar::F32, Op::Call { native, args })
+    }
+
+    /// A texture lookup (value-numbered: a lookup is pure): R, G, B, A.
+    fn texture(&mut self, sampler: &Arc<Sampler>, coords: [Value; 6]) -> [Value; 4] {
+        let key = MemoKey::Texture { sampler: Arc::as_ptr(sampler) as usize, coords };
+        if let Some(v) = self.lookup(&key) {
+            return [v[0], v[1], v[2], v[3]];
+        }
+        let out = ArrayId(self.func.arrays.len() as u32);
+        self.func.arrays.push((Scalar::F32, 4));
+        self.push(Inst::Texture { sampler: SamplerRef(sampler.clone()), coords, out });
+        let rgba = std::array::from_fn(|k| {
+            let index = self.i(k as i32);
+            let v = self.fresh_value(Scalar::F32);
+            self.push(Inst::Def(v, Op::Load { array: out, index }));
+            v
+        });
+        self.remember(key, rgba.to_vec());
+        rgba
     }
 
     fn get(&mut self, var: Var) -> Value {
@@ -793,6 +836,10 @@ impl Builder {
 // ---------------------------------------------------------------- entry points
 
 impl<'p> Lowerer<'p> {
+    fn new(program: &'p Program, model: ColorModel) -> Lowerer<'p> {
+        Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0, samplers: HashMap::new() }
+    }
+
     fn item(&self, sym: Symbol) -> &'p Item {
         &self.program.loaded.modules[sym.module].ast.items[sym.item]
     }
@@ -1953,6 +2000,9 @@ impl<'p> Lowerer<'p> {
         let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == name) else { return Val::Unit };
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
         let bound = bind_args(&params, args);
+        if matches!(name, "texture" | "texture_float") {
+            return self.texture(b, fr, ctx, name == "texture", &bound, e);
+        }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
         for a in &bound {
             vals.push(a.map(|a| (self.expr(b, fr, ctx, a), self.ty_of(a))));
@@ -2299,6 +2349,108 @@ impl<'p> Lowerer<'p> {
             }
             _ => Val::Lanes(b.zeros(n)),
         }
+    }
+
+    /// `texture(file, st, ...)` and `texture_float(file, st, channel, ...)`.
+    /// The footprint is `dx`/`dy` when given; else `st` is evaluated again at
+    /// the neighbouring pixels (the globals moved by their derivatives), so
+    /// any expression of the globals gets its true change per pixel. When
+    /// that shows no change (`st` is a local or a parameter computed
+    /// earlier), the footprint of (u, v) stands in.
+    fn texture(
+        &mut self,
+        b: &mut Builder,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+        color: bool,
+        bound: &[Option<&'p Expr>],
+        e: &'p Expr,
+    ) -> Val<'p> {
+        let width = if color { self.lanes } else { 1 };
+        let Some(sampler) = self.sampler(e.span) else {
+            self.error(e.span, "internal error: this texture call has no loaded image");
+            return Val::Lanes(b.zeros(width));
+        };
+        let (dx_at, dy_at) = (7, 8);
+        let eval_st = |me: &mut Self, b: &mut Builder, fr: &mut Frame<'p>, c: &Ctx| -> Vec<Value> {
+            match bound[1] {
+                Some(st) => {
+                    let v = me.expr_as(b, fr, c, st, &Ty::Vec2);
+                    me.lanes(b, v, &Ty::Vec2)
+                }
+                None => {
+                    let u = me.global(b, c, "u").unwrap_or_default();
+                    let v = me.global(b, c, "v").unwrap_or_default();
+                    vec![u[0], v[0]]
+                }
+            }
+        };
+        let st = eval_st(self, b, fr, ctx);
+        let uv_footprint = |me: &mut Self, b: &mut Builder, axis: &str| -> Vec<Value> {
+            let du = me.global(b, ctx, &format!("dud{axis}")).unwrap_or_default();
+            let dv = me.global(b, ctx, &format!("dvd{axis}")).unwrap_or_default();
+            vec![du[0], dv[0]]
+        };
+        let mut derivs = Vec::new();
+        for (at, axis) in [(dx_at, "x"), (dy_at, "y")] {
+            let d = match bound[at] {
+                Some(d) => {
+                    let v = self.expr_as(b, fr, ctx, d, &Ty::Vec2);
+                    self.lanes(b, v, &Ty::Vec2)
+                }
+                None if bound[1].is_none() => uv_footprint(self, b, axis),
+                None => {
+                    let shifted = self.pixel_neighbour(b, ctx, axis);
+                    let moved = eval_st(self, b, fr, &shifted);
+                    if moved == st { uv_footprint(self, b, axis) } else { b.map2(BinOp::FSub, &moved, &st) }
+                }
+            };
+            derivs.push(d);
+        }
+        let coords = [st[0], st[1], derivs[0][0], derivs[0][1], derivs[1][0], derivs[1][1]];
+        let rgba = b.texture(&sampler, coords);
+        if color {
+            return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
+        }
+        let channel = match bound[2] {
+            Some(c) => {
+                let v = self.expr(b, fr, ctx, c);
+                self.scalar(b, v)
+            }
+            None => b.i(0),
+        };
+        self.index(b, Val::Lanes(rgba.to_vec()), &Ty::Float, channel)
+    }
+
+    /// The sampler of the texture call at `span`, made once per image,
+    /// filter and address modes.
+    fn sampler(&mut self, span: Span) -> Option<Arc<Sampler>> {
+        let call = *self.program.texture_calls.get(&span)?;
+        let image = self.program.images.get(call.image)?.image.clone()?;
+        Some(
+            self.samplers
+                .entry(call)
+                .or_insert_with(|| Arc::new(Sampler { image, filter: call.filter, wrap: call.wrap }))
+                .clone(),
+        )
+    }
+
+    /// The coordinate context of the next pixel in `axis` ("x" or "y"):
+    /// P and Pl moved by dP/d`axis`, u and v by their derivatives.
+    fn pixel_neighbour(&mut self, b: &mut Builder, ctx: &Ctx, axis: &str) -> Ctx {
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let dp = g(self, b, &format!("dPd{axis}"));
+        let mut changes = Vec::new();
+        for name in ["P", "Pl"] {
+            let p = g(self, b, name);
+            changes.push((name, b.map2(BinOp::FAdd, &p, &dp)));
+        }
+        for name in ["u", "v"] {
+            let x = g(self, b, name);
+            let d = g(self, b, &format!("d{name}d{axis}"));
+            changes.push((name, vec![b.fadd(x[0], d[0])]));
+        }
+        self.with_overrides(ctx, changes)
     }
 
     fn scalar_arg(

@@ -141,6 +141,13 @@ pub enum Inst {
     },
     /// Word `i` of the result array.
     Output(u32, Value),
+    /// A filtered image lookup at `coords` = (s, t, ds/dx, dt/dx, ds/dy,
+    /// dt/dy), writing R, G, B, A into words 0..4 of the f32 array `out`.
+    Texture {
+        sampler: SamplerRef,
+        coords: [Value; 6],
+        out: ArrayId,
+    },
     If {
         cond: Value,
         then_body: Vec<Inst>,
@@ -164,6 +171,24 @@ pub enum Inst {
     },
     Break(Label),
     Continue(Label),
+}
+
+/// The sampler of a texture instruction: shared, compared by identity, and
+/// printed by its image and modes.
+#[derive(Clone)]
+pub struct SamplerRef(pub std::sync::Arc<crate::texture::Sampler>);
+
+impl PartialEq for SamplerRef {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl fmt::Debug for SamplerRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.0;
+        write!(f, "\"{}\" {:?} {:?}/{:?}", s.image.name, s.filter, s.wrap[0], s.wrap[1])
+    }
 }
 
 /// One entry point: `extern "C" fn(globals, args, out)`.
@@ -243,6 +268,10 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
             Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
             Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
             Inst::Output(i, v) => writeln!(out, "{pad}out[{i}] = v{}", v.0),
+            Inst::Texture { sampler, coords, out: array } => {
+                let c: Vec<String> = coords.iter().map(|v| format!("v{}", v.0)).collect();
+                writeln!(out, "{pad}a{}[0..4] = texture({sampler:?}, {})", array.0, c.join(", "))
+            }
             Inst::If { cond, then_body, else_body } => {
                 let _ = writeln!(out, "{pad}if v{} {{", cond.0);
                 print_body(out, func, then_body, depth + 1);
@@ -312,6 +341,22 @@ impl Function {
             }
         }
         out.into_iter().collect()
+    }
+}
+
+/// Calls `f` on every instruction of `body`, nested bodies included
+/// (a nested body's instructions after the instruction that holds it).
+pub fn for_each_inst(body: &[Inst], f: &mut impl FnMut(&Inst)) {
+    for inst in body {
+        f(inst);
+        match inst {
+            Inst::If { then_body, else_body, .. } => {
+                for_each_inst(then_body, f);
+                for_each_inst(else_body, f);
+            }
+            Inst::Block { body, .. } | Inst::Loop { body, .. } => for_each_inst(body, f),
+            _ => {}
+        }
     }
 }
 

@@ -31,6 +31,8 @@ pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, o
 pub struct Jit {
     module: Option<JITModule>,
     functions: HashMap<String, EntryFn>,
+    /// The samplers the code points to, kept alive as long as it.
+    _samplers: Vec<std::sync::Arc<crate::texture::Sampler>>,
     /// Cranelift IR text per function, when asked for (`tslc emit --emit clif`).
     pub clif: Vec<(String, String)>,
 }
@@ -82,6 +84,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
     for n in natives() {
         builder.symbol(n.name, n.ptr);
     }
+    builder.symbol(TEXTURE_SYMBOL, crate::texture::tsl_texture as *const u8);
     let mut jit = JITModule::new(builder);
     let ptr = jit.target_config().pointer_type();
 
@@ -94,6 +97,13 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         let id = jit.declare_function(n.name, Linkage::Import, &sig).map_err(|e| e.to_string())?;
         native_ids.insert(n.name, id);
     }
+
+    // tsl_texture(sampler, s, t, dsdx, dtdx, dsdy, dtdy, out).
+    let mut texture_sig = jit.make_signature();
+    texture_sig.params.push(AbiParam::new(ptr));
+    texture_sig.params.extend((0..6).map(|_| AbiParam::new(types::F32)));
+    texture_sig.params.push(AbiParam::new(ptr));
+    let texture_id = jit.declare_function(TEXTURE_SYMBOL, Linkage::Import, &texture_sig).map_err(|e| e.to_string())?;
 
     let mut entry_sig = jit.make_signature();
     entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
@@ -119,8 +129,9 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
             for (name, nid) in &native_ids {
                 natives_used.insert(name, jit.declare_func_in_func(*nid, &mut func));
             }
+            let texture = jit.declare_func_in_func(texture_id, &mut func);
             let mut b = FunctionBuilder::new(&mut func, &mut fctx);
-            let mut g = Gen::new(&mut b, f, natives_used, ptr);
+            let mut g = Gen::new(&mut b, f, natives_used, texture, ptr);
             g.entry();
             g.body(&f.body);
             g.finish();
@@ -145,8 +156,19 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         let entry = unsafe { std::mem::transmute::<*const u8, EntryFn>(code) };
         functions.insert(f.name.clone(), entry);
     }
-    Ok(Jit { module: Some(jit), functions, clif })
+    let mut samplers = Vec::new();
+    for f in &module.functions {
+        ir::for_each_inst(&f.body, &mut |inst| {
+            if let Inst::Texture { sampler, .. } = inst {
+                samplers.push(sampler.0.clone());
+            }
+        });
+    }
+    Ok(Jit { module: Some(jit), functions, clif, _samplers: samplers })
 }
+
+/// The symbol of [`crate::texture::tsl_texture`] in generated code.
+const TEXTURE_SYMBOL: &str = "tsl_texture";
 
 /// Machine code of one function, ready to define in the module.
 struct Code {
@@ -237,6 +259,7 @@ struct Gen<'a, 'b> {
     /// Exit block and, for loops, the continue block of each label.
     labels: HashMap<Label, (Block, Option<Block>)>,
     natives: HashMap<&'static str, FuncRef>,
+    texture: FuncRef,
     ptr: Type,
     globals: ClValue,
     args: ClValue,
@@ -248,6 +271,7 @@ impl<'a, 'b> Gen<'a, 'b> {
         b: &'a mut FunctionBuilder<'b>,
         func: &'a ir::Function,
         natives: HashMap<&'static str, FuncRef>,
+        texture: FuncRef,
         ptr: Type,
     ) -> Self {
         let entry = b.create_block();
@@ -263,6 +287,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             arrays: Vec::new(),
             labels: HashMap::new(),
             natives,
+            texture,
             ptr,
             globals: params[0],
             args: params[1],
@@ -356,6 +381,16 @@ impl<'a, 'b> Gen<'a, 'b> {
                 let x =
                     if self.func.value_type(*value) == Scalar::Bool { self.b.ins().uextend(types::I32, x) } else { x };
                 self.b.ins().store(trusted, x, addr, 0);
+            }
+            Inst::Texture { sampler, coords, out } => {
+                // The sampler is owned by this function's IR and kept alive
+                // by the `Jit`, so its address is a constant of the code.
+                let sampler = self.b.ins().iconst(self.ptr, std::sync::Arc::as_ptr(&sampler.0) as i64);
+                let dest = self.b.ins().stack_addr(self.ptr, self.arrays[out.0 as usize], 0);
+                let mut args = vec![sampler];
+                args.extend(coords.iter().map(|c| self.v(*c)));
+                args.push(dest);
+                self.b.ins().call(self.texture, &args);
             }
             Inst::Output(k, v) => {
                 let x = self.v(*v);
