@@ -250,13 +250,30 @@ fn bench_material(name: &str, m: &Material, p: &Program, rust: fn(&ShadingGlobal
 }
 
 fn main() {
+    // `cargo bench --bench shading -- lookups` runs one part: materials,
+    // spectral, lookups or compile.
+    let only: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let part = |name: &str| only.is_empty() || only.iter().any(|o| o == name);
     let rgb = program(ColorModel::Rgb);
-    for (name, rust) in [("marble", marble_rust as fn(&_, _, _, _) -> _), ("wood", wood_rust)] {
-        let m = rgb.material(name).expect("material exists");
-        bench_material(name, &m, &rgb, rust);
+    if part("materials") {
+        for (name, rust) in [("marble", marble_rust as fn(&_, _, _, _) -> _), ("wood", wood_rust)] {
+            let m = rgb.material(name).expect("material exists");
+            bench_material(name, &m, &rgb, rust);
+        }
     }
+    if part("spectral") {
+        bench_spectral(&rgb);
+    }
+    if part("lookups") {
+        bench_lookups();
+    }
+    if part("compile") {
+        bench_compile();
+    }
+}
 
-    // Spectral vs RGB, same material, same points.
+/// Spectral vs RGB, same material, same points.
+fn bench_spectral(rgb: &Program) {
     let spectral = program(ColorModel::Spectral { samples: 16 });
     let pts = points(1 << 16);
     for name in ["marble", "wood"] {
@@ -270,10 +287,10 @@ fn main() {
         }
         println!("{name} spectral16/rgb: {:.2} x", t_spec.as_secs_f64() / t_rgb.as_secs_f64());
     }
+}
 
-    bench_lookups();
-
-    // Compile time, source to callable code.
+/// Compile time, source to callable code.
+fn bench_compile() {
     let mut sources: Vec<(String, String)> = vec![("stdlib".into(), "const float UNUSED = 0;".into())];
     let mut examples: Vec<_> =
         std::fs::read_dir("examples").map(|d| d.filter_map(Result::ok).map(|e| e.path()).collect()).unwrap_or_default();
@@ -302,8 +319,8 @@ fn main() {
 }
 
 /// Texture lookups and noise, each the whole body of a JIT-compiled
-/// function called through `call_words`, at random points of a 1024 x 1024
-/// image with footprints spanning its first mip-map levels.
+/// function called through `call_words`, over a 1024 x 1024 image with
+/// footprints spanning its first mip-map levels.
 fn bench_lookups() {
     let dir = std::env::temp_dir().join(format!("tsl-bench-textures-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -318,16 +335,18 @@ fn bench_lookups() {
     let file = dir.join("lookups.tsl");
     std::fs::write(&file, src).expect("write the bench shader");
     let p = Compiler::new().file(&file).compile().expect("the lookup shaders compile");
-    let mut pts = points(1 << 16);
-    let mut state = 0x2545_f491_4f6c_dd1du64;
-    for g in &mut pts {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        // 1/4096 to 1/128 of the image per pixel: 0.25 to 8 texels.
-        let d = (1.0 / 4096.0) * (1u64 << (state % 6)) as f32;
-        (g.dudx, g.dvdy) = (d, d);
-        g.p = [g.u * 40.0, g.v * 40.0, g.p[2] * 40.0];
+    // A 256 x 256 pixel window seen in scanline order, as a renderer's
+    // tile would see it: each band of 32 rows magnifies the image
+    // differently, from 0.25 to 8 texels per pixel.
+    let mut pts = Vec::with_capacity(1 << 16);
+    for y in 0..256u32 {
+        let texels_per_pixel = 0.25 * f32::powi(2.0, (y / 32 % 6) as i32);
+        let d = texels_per_pixel / 1024.0;
+        for x in 0..256u32 {
+            let (u, v) = (0.1 + x as f32 * d, 0.9 - y as f32 * d);
+            let p = [u * 40.0, v * 40.0, 1.0];
+            pts.push(ShadingGlobals { p, pl: p, u, v, dudx: d, dvdy: d, ..Default::default() });
+        }
     }
     let reps = 16;
     let n = pts.len() * reps;

@@ -37,6 +37,10 @@ impl Wrap {
     #[inline]
     fn index(self, i: i64, n: u32) -> Option<u32> {
         let n = i64::from(n);
+        if (0..n).contains(&i) {
+            // Inside the image every mode agrees (and needs no division).
+            return Some(i as u32);
+        }
         let k = match self {
             Wrap::Repeat => i.rem_euclid(n),
             Wrap::Mirror => {
@@ -160,8 +164,15 @@ impl Sampler {
         let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
         let (x0, y0) = (x0 as i64, y0 as i64);
         let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
-        let (a, b) = (self.texel(level, x0, y0), self.texel(level, x1, y0));
-        let (c, d) = (self.texel(level, x0, y1), self.texel(level, x1, y1));
+        let (sx, sy) = (self.wrap[0], self.wrap[1]);
+        let (ix0, ix1) = (sx.index(x0, level.width), sx.index(x1, level.width));
+        let (iy0, iy1) = (sy.index(y0, level.height), sy.index(y1, level.height));
+        let fetch = |x: Option<u32>, y: Option<u32>| match (x, y) {
+            (Some(x), Some(y)) => level.texel(x, y),
+            _ => [0.0; 4],
+        };
+        let (a, b) = (fetch(ix0, iy0), fetch(ix1, iy0));
+        let (c, d) = (fetch(ix0, iy1), fetch(ix1, iy1));
         std::array::from_fn(|k| {
             let top = a[k] + fx * (b[k] - a[k]);
             let bottom = c[k] + fx * (d[k] - c[k]);
