@@ -15,6 +15,7 @@ pub const PRELUDE: &[(&str, &str)] = &[
     ("stdlib/math.tsl", include_str!("../stdlib/math.tsl")),
     ("stdlib/materials.tsl", include_str!("../stdlib/materials.tsl")),
     ("stdlib/generators.tsl", include_str!("../stdlib/generators.tsl")),
+    ("stdlib/texturing.tsl", include_str!("../stdlib/texturing.tsl")),
 ];
 
 /// Where imports are searched and whether the prelude is loaded.

@@ -426,7 +426,10 @@ const XXH_P1: u32 = 0x9E37_79B1;
 /// ±9.2e18), its high half folded in so cells beyond ±2^31 still differ.
 #[inline]
 fn cell(x: f32) -> u32 {
-    let i = x.floor() as i64;
+    // floor(x) as i64 without a libm call (as in `axis`): truncate, then
+    // step down for negative fractions; saturating like `as`.
+    let t = x as i64;
+    let i = if (t as f32) > x { t.saturating_sub(1) } else { t };
     (i as u32) ^ ((i >> 32) as u32).wrapping_mul(XXH_P1)
 }
 

@@ -215,6 +215,12 @@ const GLOSSY: &[&str] = &[
     "cook_torrance(kd: gray(0), roughness: 0.5)",
     "ward",
     "ward(kd: gray(0), ks: gray(1), alpha_x: 0.3, alpha_y: 0.3)",
+    "microvariation(p: 0)",
+    "microvariation(p: 1, base: gray(1))",
+    "microvariation(p: 0.6, base: gray(1), ks_hi: 0.9, ns_hi: 500)",
+    "rusted_steel(rust: 0)",
+    "rusted_steel(rust: 1)",
+    "rusted_steel(rust: 0.4, roughness: 0.5)",
 ];
 
 fn material(expr: &str) -> tsl::Material {
@@ -248,7 +254,7 @@ fn stdlib_materials_conserve_energy() {
         }
     }
     // Delta materials: the weights of their perfect directions.
-    for expr in ["mirror", "glass", "glass(ior: gray(1.9))"] {
+    for expr in ["mirror", "glass", "glass(ior: gray(1.9))", "smoked_glass(p: 1)", "cutout(0, lambert)"] {
         let program = Compiler::new().source("m.tsl", &format!("material m = {expr};")).compile().unwrap();
         let m = program.material("m").unwrap();
         // Entering from vacuum: the relative index is the material's own.
