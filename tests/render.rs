@@ -300,14 +300,21 @@ fn stdlib_brdfs_are_reciprocal() {
 /// changed light, material or camera does not). `UPDATE_EXPECT=1` rewrites
 /// the references.
 fn check_against_reference(example: &str, spp: u32) {
+    check_against_reference_in(example, spp, ColorModel::Rgb);
+}
+
+/// [`check_against_reference`] in a color model; spectral references are
+/// `NAME_spectral.exr`.
+fn check_against_reference_in(example: &str, spp: u32, model: ColorModel) {
     let path = format!("examples/{example}.tsl");
-    let program = Compiler::new().file(&path).compile().unwrap_or_else(|e| panic!("{e}"));
+    let program = Compiler::new().color_model(model).file(&path).compile().unwrap_or_else(|e| panic!("{e}"));
     let overrides = Overrides { resolution: Some((40, 40)), spp: Some(spp), ..Default::default() };
     let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
     let image = render::render(&scene, &RenderOptions::default()).unwrap().0;
-    let reference = std::path::PathBuf::from(format!("tests/data/render/{example}.exr"));
+    let suffix = if model == ColorModel::Rgb { "" } else { "_spectral" };
+    let reference = std::path::PathBuf::from(format!("tests/data/render/{example}{suffix}.exr"));
     if std::env::var_os("UPDATE_EXPECT").is_some() {
-        std::fs::create_dir_all("tests/data/render").unwrap();
+        std::fs::create_dir_all(reference.parent().unwrap()).unwrap();
         render::image_io::write_image(&reference, &image).unwrap();
         return;
     }
@@ -493,4 +500,38 @@ fn nan_samples_are_dropped_and_counted() {
     let (image, stats) = render::render(&scene, &RenderOptions::default()).unwrap();
     assert!(stats.dropped_samples > 0);
     assert!(image.color.iter().all(|p| p.iter().all(|c| c.is_finite())));
+}
+
+// The texturing examples: one scene per technique of the two papers, and
+// the room that combines them, in RGB and spectrally.
+
+#[test]
+fn technique_examples_match_their_reference_images() {
+    for example in [
+        "bump_procedural",
+        "bump_image",
+        "microvariation",
+        "image_spectral",
+        "spectral_perturbation",
+        "smoked_glass",
+        "rusted_steel",
+        "cutout",
+        "reversal_tiling",
+        "shapes",
+    ] {
+        check_against_reference(&format!("techniques/{example}"), 4);
+    }
+}
+
+#[test]
+fn spectral_technique_examples_match_their_reference_images() {
+    for example in ["image_spectral", "spectral_perturbation", "smoked_glass", "rusted_steel"] {
+        check_against_reference_in(&format!("techniques/{example}"), 4, ColorModel::Spectral { samples: 16 });
+    }
+}
+
+#[test]
+fn room_matches_its_reference_images() {
+    check_against_reference("room", 8);
+    check_against_reference_in("room", 8, ColorModel::Spectral { samples: 16 });
 }
