@@ -237,3 +237,19 @@ fn rusted_steel_mixes_two_spectral_curves() {
         assert!((h - 0.5 * r).abs() < 1e-5);
     }
 }
+
+#[test]
+fn planar_uv_tiles_in_world_units() {
+    let src = r#"
+        float s_of() { return planar_uv(0.5).x; }
+        float t_of() { return planar_uv(0.5).y; }
+        float s_wall() { return planar_uv(2, (0, 0, 1)).x; }
+    "#;
+    let p = program(src, ColorModel::Rgb);
+    let g = ShadingGlobals { p: [1.25, 7.0, -0.75], ..Default::default() };
+    // On the ground (axis +y): s along +x, t along -z, per half metre.
+    assert!((value(&p, "s_of", &g) - 2.5).abs() < 1e-6);
+    assert!((value(&p, "t_of", &g) - 1.5).abs() < 1e-6);
+    // A wall facing +z: s along +x again.
+    assert!((value(&p, "s_wall", &g) - 0.625).abs() < 1e-6);
+}

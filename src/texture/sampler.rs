@@ -121,7 +121,7 @@ impl Sampler {
                 let (w, h) = (levels[0].width as f32, levels[0].height as f32);
                 let width = (q.dsdx.abs() * w).max(q.dtdx.abs() * h).max(q.dsdy.abs() * w).max(q.dtdy.abs() * h);
                 // NaN and tiny footprints select the finest level.
-                let level = if width > 1.0 { width.log2() } else { 0.0 };
+                let level = if width > 1.0 { fast_log2(width) } else { 0.0 };
                 let last = (levels.len() - 1) as f32;
                 if level >= last {
                     return self.bilinear(&levels[levels.len() - 1], q.s, q.t);
@@ -154,15 +154,13 @@ impl Sampler {
 
     fn nearest(&self, level: &Level, s: f32, t: f32) -> [f32; 4] {
         let (x, y) = Self::texel_coords(level, s, t);
-        self.texel(level, x.floor() as i64, y.floor() as i64)
+        self.texel(level, floor(x), floor(y))
     }
 
     fn bilinear(&self, level: &Level, s: f32, t: f32) -> [f32; 4] {
         let (x, y) = Self::texel_coords(level, s, t);
         let (x, y) = (x - 0.5, y - 0.5);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
-        let (x0, y0) = (x0 as i64, y0 as i64);
+        let ((x0, fx), (y0, fy)) = (floor_fract(x), floor_fract(y));
         let (x1, y1) = (x0.saturating_add(1), y0.saturating_add(1));
         let (sx, sy) = (self.wrap[0], self.wrap[1]);
         let (ix0, ix1) = (sx.index(x0, level.width), sx.index(x1, level.width));
@@ -179,6 +177,34 @@ impl Sampler {
             top + fy * (bottom - top)
         })
     }
+}
+
+/// `floor(x)` as an integer, saturating, without a libm call (the
+/// baseline x86-64 target has no rounding instruction).
+#[inline]
+fn floor(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t.saturating_sub(1) } else { t }
+}
+
+/// `floor(x)` and the fraction `x - floor(x)` in [0, 1]; beyond 2^52 every
+/// `f64` is an integer, so the fraction is 0 (and the floor saturates).
+#[inline]
+fn floor_fract(x: f64) -> (i64, f32) {
+    let i = floor(x);
+    let f = if x.abs() < 4_503_599_627_370_496.0 { (x - i as f64) as f32 } else { 0.0 };
+    (i, f)
+}
+
+/// log2 of a finite `x > 0` to within 0.01: the exponent plus a quadratic
+/// in the mantissa, continuous and increasing, which is all choosing and
+/// blending mip-map levels needs (and cheaper than a libm call).
+#[inline]
+fn fast_log2(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let exponent = ((bits >> 23) & 0xff) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000) - 1.0;
+    exponent as f32 + m * (1.346_6 - 0.346_6 * m)
 }
 
 /// The native behind `texture()`: writes the RGBA value of `sampler` at
@@ -302,6 +328,25 @@ mod tests {
         assert!(mid >= l0.min(l1) - 1e-6 && mid <= l0.max(l1) + 1e-6);
         // NaN derivatives are treated as no footprint.
         assert_eq!(q(f32::NAN), at(&b, 0.3, 0.7)[0]);
+    }
+
+    #[test]
+    fn fast_log2_is_close_continuous_and_increasing() {
+        let mut prev = f32::NEG_INFINITY;
+        for k in 0..20_000 {
+            let x = 1.0 + k as f32 * 0.05;
+            let l = fast_log2(x);
+            assert!((l - x.log2()).abs() < 0.01, "{x}: {l} vs {}", x.log2());
+            assert!(l >= prev, "not increasing at {x}");
+            prev = l;
+        }
+        assert_eq!(fast_log2(2.0), 1.0);
+        assert_eq!(fast_log2(1024.0), 10.0);
+        assert_eq!(floor(-0.5), -1);
+        assert_eq!(floor(2.0), 2);
+        assert_eq!(floor(-3.0), -3);
+        assert_eq!(floor(f64::MAX), i64::MAX);
+        assert_eq!(floor(f64::MIN), i64::MIN);
     }
 
     #[test]
