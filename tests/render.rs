@@ -487,6 +487,47 @@ fn cutouts_let_light_and_camera_rays_through_their_holes() {
 }
 
 #[test]
+fn stdlib_cutouts_of_image_alpha_let_shadow_and_camera_rays_through() {
+    // The same setup with the stdlib `cutout` over an image whose left half
+    // is transparent, lit by a point light and seen by both integrators.
+    let dir = std::env::temp_dir().join(format!("tsl-cutout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    image::RgbaImage::from_fn(8, 8, |x, _| image::Rgba([200, 150, 60, if x < 4 { 0 } else { 255 }]))
+        .save(dir.join("holes.png"))
+        .unwrap();
+    let file = dir.join("cutout.tsl");
+    let scene = |x: f32, integrator: &str| {
+        let src = format!(
+            r#"
+            material panel = cutout(texture_float("holes.png", channel: 3, filter: "nearest"), lambert(kd: gray(0.5)));
+            scene {{
+                camera {{ from ({x}, 3, 0); to ({x}, 0, 0); up (0, 0, -1); fov 1; }}
+                render {{ width 1; height 1; spp 1; max_depth 3; integrator "{integrator}"; }}
+                light point {{ at ({x}, 4, 0); intensity gray(16); }}
+                object quad {{ corner (-50, 0, 50); edge1 (100, 0, 0); edge2 (0, 0, -100); material lambert(kd: gray(1)); }}
+                object quad {{ corner (-1, 2, 1); edge1 (2, 0, 0); edge2 (0, 0, -2); material panel; }}
+            }}"#
+        );
+        std::fs::write(&file, src).unwrap();
+        let program = Compiler::new().file(&file).compile().unwrap_or_else(|e| panic!("{e}"));
+        let scene = Scene::build(&program, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+        render::render(&scene, &RenderOptions::default()).unwrap().0.color[0][0]
+    };
+    // The camera, between the light and the sheet, looks down: at x = -0.5
+    // through the transparent half (u = 0.25) at the floor lit through it,
+    // at x = 0.5 at the sheet itself.
+    let pi = std::f32::consts::PI;
+    let (hole, solid) = (scene(-0.5, "whitted"), scene(0.5, "whitted"));
+    assert!((hole - 1.0 / pi).abs() < 1e-3, "lit through the hole: {hole}");
+    assert!((solid - 0.5 / pi * 16.0 / 4.0).abs() < 1e-3, "the sheet: {solid}");
+    // The path tracer adds a little light bounced between floor and sheet.
+    let (hole, solid) = (scene(-0.5, "path"), scene(0.5, "path"));
+    assert!(hole >= 0.99 / pi && hole < 1.2 / pi, "path: lit through the hole: {hole}");
+    assert!((solid - 0.5 / pi * 4.0).abs() < 0.05, "path: the sheet: {solid}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn nan_samples_are_dropped_and_counted() {
     let src = r#"
         material broken() { color emission(vector wo) { float zero = 0; return gray(zero / zero); } }
