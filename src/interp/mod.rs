@@ -152,6 +152,7 @@ impl Machine<'_, '_> {
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
+            Op::Table { table, index } => table[self.v(*index) as usize & (table.len() - 1)],
             Op::Load { array, index } => {
                 let a = &self.arrays[array.0 as usize];
                 a[clamp_index(i(self.v(*index)), a.len())]
@@ -187,6 +188,7 @@ impl Machine<'_, '_> {
                     BinOp::IMul => iw(i(x).wrapping_mul(i(y))),
                     BinOp::IDiv => iw(int_div(i(x), i(y))),
                     BinOp::IRem => iw(int_rem(i(x), i(y))),
+                    BinOp::IAnd => x & y,
                     BinOp::FLt => bw(f(x) < f(y)),
                     BinOp::FLe => bw(f(x) <= f(y)),
                     BinOp::FEq => bw(f(x) == f(y)),

@@ -7,6 +7,8 @@
 //! generator called again with the same arguments in the same coordinate
 //! context reuses the first result (the second paper's caching).
 
+mod noise;
+
 use super::*;
 use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
 use crate::color::{self, ColorModel};
@@ -14,7 +16,8 @@ use crate::diag::{Diagnostic, Span};
 use crate::globals;
 use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
 use crate::texture::Sampler;
-use std::collections::{HashMap, HashSet};
+// Lowering hashes small keys (values, ops) millions of times: FxHash.
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::rc::Rc;
 use std::sync::Arc;
 
@@ -95,7 +98,7 @@ pub fn lower_value(
     let mut lw = Lowerer::new(program, model);
     let mut b = Builder::new(name);
     let ctx = lw.root_ctx();
-    let mut fr = lw.new_frame(false, HashSet::new());
+    let mut fr = lw.new_frame(false, HashSet::default());
     let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
     let lanes = lw.lanes(&mut b, v, to);
     lw.write_results(&mut b, to, &lanes);
@@ -120,7 +123,7 @@ pub fn lower_material_exprs(
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
             let args = lw.method_args(&mut b, &params);
             let ctx = lw.root_ctx();
-            let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+            let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
             let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
             lw.write_results(&mut b, &im.ret, &result);
             module.functions.push(b.finish());
@@ -157,7 +160,7 @@ pub fn lower_reflection_sums(
         params.push(("wo".into(), Ty::Vector));
         let args = lw.method_args(&mut b, &params);
         let ctx = lw.root_ctx();
-        let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+        let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
         let wo = args[2 * lights].clone();
         let mut sum: Option<Vec<Value>> = None;
         for k in 0..lights {
@@ -261,8 +264,17 @@ struct Builder {
     globals: HashMap<u32, Value>,
     /// Values defined in the prologue (constants, global loads): they
     /// dominate everything.
-    in_prologue: std::collections::HashSet<Value>,
+    in_prologue: HashSet<Value>,
+    /// How many more noise sites are expanded inline; later ones call the
+    /// native (see [`NOISE_INLINE_SITES`]).
+    noise_budget: u32,
 }
+
+/// Noise sites per function expanded into IR (about 150 operations each
+/// for 3D noise); beyond them a function calls the native, which computes
+/// the same noise in f64 (within 1e-6). Inline noise is several times
+/// faster in a loop such as fBm, but every copy costs compile time.
+const NOISE_INLINE_SITES: u32 = 4;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Const {
@@ -286,6 +298,8 @@ enum MemoKey {
         ctx: u32,
         args: Vec<Value>,
     },
+    /// Inlined noise at these coordinates.
+    Noise(Vec<Value>),
     /// A texture lookup: the sampler's address and the coordinates.
     Texture {
         sampler: usize,
@@ -303,6 +317,7 @@ enum OpKey {
     Binary(BinOp, Value, Value),
     Select(Value, Value, Value),
     Call(&'static str, Vec<Value>),
+    Table(usize, Value),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -323,6 +338,7 @@ impl OpKey {
             Op::Binary(b, x, y) => OpKey::Binary(*b, *x, *y),
             Op::Select { cond, then_value, else_value } => OpKey::Select(*cond, *then_value, *else_value),
             Op::Call { native, args } => OpKey::Call(native, args.clone()),
+            Op::Table { table, index } => OpKey::Table(table.as_ptr() as usize, *index),
             Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Get(_) | Op::Load { .. } => return None,
         })
     }
@@ -334,10 +350,11 @@ impl Builder {
             func: Function { name: name.to_string(), ..Function::default() },
             prologue: Vec::new(),
             stack: vec![Vec::new()],
-            consts: HashMap::new(),
-            memo: vec![HashMap::new()],
-            globals: HashMap::new(),
-            in_prologue: std::collections::HashSet::new(),
+            consts: HashMap::default(),
+            memo: vec![HashMap::default()],
+            globals: HashMap::default(),
+            in_prologue: std::collections::HashSet::default(),
+            noise_budget: NOISE_INLINE_SITES,
         }
     }
 
@@ -488,6 +505,7 @@ impl Builder {
                     (BinOp::IMul, I(x), I(y)) => I(x.wrapping_mul(y)),
                     (BinOp::IDiv, I(x), I(y)) => I(crate::interp::int_div(x, y)),
                     (BinOp::IRem, I(x), I(y)) => I(crate::interp::int_rem(x, y)),
+                    (BinOp::IAnd, I(x), I(y)) => I(x & y),
                     (BinOp::FLt, F(x), F(y)) => B(x < y),
                     (BinOp::FLe, F(x), F(y)) => B(x <= y),
                     (BinOp::FEq, F(x), F(y)) => B(x == y),
@@ -558,6 +576,12 @@ impl Builder {
             if self.fconst(args[1]) == Some(1.0) {
                 return args[0];
             }
+            // A small whole exponent (Phong's ns) is a few multiplications
+            // instead of a libm call; exact to a few ulps, NaN, infinities
+            // and signed zeros as pow.
+            if let Some(e) = self.fconst(args[1]).filter(|e| e.fract() == 0.0 && (2.0..=64.0).contains(e)) {
+                return self.powi(args[0], e as u32);
+            }
         }
         self.def(Scalar::F32, Op::Call { native, args })
     }
@@ -579,6 +603,25 @@ impl Builder {
         });
         self.remember(key, rgba.to_vec());
         rgba
+    }
+
+    /// x^n for n >= 1 by repeated squaring.
+    fn powi(&mut self, x: Value, n: u32) -> Value {
+        let mut result: Option<Value> = None;
+        let (mut base, mut n) = (x, n);
+        while n > 0 {
+            if n & 1 == 1 {
+                result = Some(match result {
+                    Some(r) => self.fmul(r, base),
+                    None => base,
+                });
+            }
+            n >>= 1;
+            if n > 0 {
+                base = self.fmul(base, base);
+            }
+        }
+        result.unwrap_or(x)
     }
 
     fn get(&mut self, var: Var) -> Value {
@@ -604,14 +647,14 @@ impl Builder {
     /// reflection sum) shares the texture its first copy computed.
     fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> (Vec<Inst>, Vec<Inst>) {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::new());
+        self.memo.push(HashMap::default());
         f(self);
         let scope = self.memo.pop().unwrap_or_default();
         let mut body = self.stack.pop().unwrap_or_default();
         let split = body.iter().position(may_leave).unwrap_or(body.len());
         let rest = body.split_off(split);
         let prefix = body;
-        let mut inside = HashSet::new();
+        let mut inside = HashSet::default();
         defined_values(&rest, &mut inside);
         let mut nested = Vec::new();
         for inst in &prefix {
@@ -633,7 +676,7 @@ impl Builder {
     /// Runs `f` with a fresh instruction list and memo scope; returns the list.
     fn nested(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::new());
+        self.memo.push(HashMap::default());
         f(self);
         self.memo.pop();
         self.stack.pop().unwrap_or_default()
@@ -837,7 +880,7 @@ impl Builder {
 
 impl<'p> Lowerer<'p> {
     fn new(program: &'p Program, model: ColorModel) -> Lowerer<'p> {
-        Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0, samplers: HashMap::new() }
+        Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0, samplers: HashMap::default() }
     }
 
     fn item(&self, sym: Symbol) -> &'p Item {
@@ -883,7 +926,7 @@ impl<'p> Lowerer<'p> {
 
     fn root_ctx(&mut self) -> Ctx {
         let id = self.id();
-        Ctx { id, overrides: Rc::new(HashMap::new()) }
+        Ctx { id, overrides: Rc::new(HashMap::default()) }
     }
 
     /// Reads a method's parameters from the argument words, as lanes.
@@ -948,9 +991,11 @@ impl<'p> Lowerer<'p> {
             let args = self.method_args(&mut b, &params);
             let ctx = self.root_ctx();
             let mat = match expr {
-                MatSource::Tree(e) => Mat { expr: e, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) },
+                MatSource::Tree(e) => {
+                    Mat { expr: e, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) }
+                }
                 MatSource::Def => {
-                    let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::new()), false);
+                    let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::default()), false);
                     let result = self.instance_method(&mut b, &inst, im, &args, &ctx);
                     self.write_results(&mut b, &im.ret, &result);
                     module.functions.push(b.finish());
@@ -1018,7 +1063,7 @@ impl<'p> Lowerer<'p> {
     }
 
     fn new_frame(&self, in_prelude: bool, assigned: HashSet<String>) -> Frame<'p> {
-        Frame { scopes: vec![HashMap::new()], ret: None, loops: Vec::new(), material: None, assigned, in_prelude }
+        Frame { scopes: vec![HashMap::default()], ret: None, loops: Vec::new(), material: None, assigned, in_prelude }
     }
 
     /// Binds a name in the innermost scope: as a value when it is never
@@ -1239,7 +1284,7 @@ impl<'p> Lowerer<'p> {
                 let counter = b.var(Scalar::I32);
                 fr.loops.push(label);
                 let inner = b.nested(|b| {
-                    fr.scopes.push(HashMap::new());
+                    fr.scopes.push(HashMap::default());
                     let i = b.get(counter);
                     if let Some(scope) = fr.scopes.last_mut() {
                         scope.insert(var.name.clone(), Binding::Val(Val::Lanes(vec![i])));
@@ -1276,7 +1321,7 @@ impl<'p> Lowerer<'p> {
     }
 
     fn block(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, block: &'p ast::Block) -> bool {
-        fr.scopes.push(HashMap::new());
+        fr.scopes.push(HashMap::default());
         let mut ends = false;
         for s in &block.stmts {
             if self.stmt(b, fr, ctx, s) {
@@ -1456,7 +1501,7 @@ fn may_leave(inst: &Inst) -> bool {
 }
 
 fn assigned_names(block: &ast::Block) -> HashSet<String> {
-    let mut out = HashSet::new();
+    let mut out = HashSet::default();
     let mut stack: Vec<&Stmt> = block.stmts.iter().collect();
     while let Some(s) = stack.pop() {
         match &s.kind {
@@ -1618,7 +1663,7 @@ impl<'p> Lowerer<'p> {
     /// The template bindings visible from the current frame (materials and
     /// values bound by a template call).
     fn mat_env(&self, fr: &Frame<'p>) -> Rc<HashMap<String, Val<'p>>> {
-        let mut env = HashMap::new();
+        let mut env = HashMap::default();
         for scope in &fr.scopes {
             for (k, v) in scope {
                 if let Binding::Val(v) = v {
@@ -1682,7 +1727,7 @@ impl<'p> Lowerer<'p> {
                 let Item::Const(c) = self.item(sym) else { return Val::Unit };
                 // Constants fold, so lowering the value at each use is cheap.
                 let ty = Ty::from_ast(&c.ty);
-                let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::default());
                 self.expr_as(b, &mut cfr, ctx, &c.value, &ty)
             }
             Some(_) => Val::Material(Mat { expr: e, env: self.mat_env(fr), in_prelude: fr.in_prelude }),
@@ -1728,7 +1773,7 @@ impl<'p> Lowerer<'p> {
                             None => match &p.default {
                                 // Defaults are evaluated in the callee's scope.
                                 Some(d) => {
-                                    let mut dfr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                                    let mut dfr = self.new_frame(self.is_prelude(sym), HashSet::default());
                                     self.expr_as(b, &mut dfr, ctx, d, &ty)
                                 }
                                 None => self.zero_value(b, &ty),
@@ -2207,7 +2252,22 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "noise" | "cellnoise" => {
+            "noise" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let p = arg(self, b, 0, w);
+                let key = MemoKey::Noise(p.clone());
+                if let Some(v) = b.lookup(&key) {
+                    return Val::Lanes(v);
+                }
+                if b.noise_budget == 0 {
+                    return Val::Lanes(vec![b.call(native_name(name, w), p)]);
+                }
+                b.noise_budget -= 1;
+                let v = noise::noise(b, &p);
+                b.remember(key, vec![v]);
+                Val::Lanes(vec![v])
+            }
+            "cellnoise" => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
                 let p = arg(self, b, 0, w);
                 let native = native_name(name, w);
@@ -2805,7 +2865,7 @@ impl<'p> Lowerer<'p> {
                 }
                 None => match &p.default {
                     Some(d) => {
-                        let mut fr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                        let mut fr = self.new_frame(self.is_prelude(sym), HashSet::default());
                         self.expr_as(b, &mut fr, ctx, d, &ty)
                     }
                     None => self.zero_value(b, &ty),
@@ -2819,7 +2879,7 @@ impl<'p> Lowerer<'p> {
 
     /// A frame whose only scope is a template environment.
     fn env_frame(&self, env: &Rc<HashMap<String, Val<'p>>>, in_prelude: bool) -> Frame<'p> {
-        let mut fr = self.new_frame(in_prelude, HashSet::new());
+        let mut fr = self.new_frame(in_prelude, HashSet::default());
         fr.scopes[0] = env.iter().map(|(k, v)| (k.clone(), Binding::Val(v.clone()))).collect();
         fr
     }
@@ -2845,7 +2905,7 @@ impl<'p> Lowerer<'p> {
                 for (name, v) in &inst.params {
                     fr.scopes[0].insert(name.clone(), Binding::Val(v.clone()));
                 }
-                fr.scopes.push(HashMap::new());
+                fr.scopes.push(HashMap::default());
                 for (p, a) in m.params.iter().zip(args) {
                     let ty = Ty::from_ast(&p.ty);
                     self.bind(b, &mut fr, &p.name.name, Val::Lanes(a.clone()), &ty);
@@ -2903,8 +2963,11 @@ impl<'p> Lowerer<'p> {
                 match self.symbol(mat.in_prelude, n) {
                     Some(sym) => match self.item(sym) {
                         Item::MaterialTree(t) => {
-                            let m =
-                                Mat { expr: &t.body, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) };
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
                             self.mat_method(b, &m, im, args, ctx)
                         }
                         Item::Material(_) => {
@@ -2967,12 +3030,12 @@ impl<'p> Lowerer<'p> {
         let params = t.params.as_deref().unwrap_or(&[]);
         let typed: Vec<(&str, Ty)> = params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
         let bound = bind_args(&typed, call_args);
-        let mut env = HashMap::new();
+        let mut env = HashMap::default();
         for (p, a) in params.iter().zip(bound) {
             let ty = Ty::from_ast(&p.ty);
             let (expr, source_env, prelude) = match (a, &p.default) {
                 (Some(a), _) => (a, mat.env.clone(), mat.in_prelude),
-                (None, Some(d)) => (d, Rc::new(HashMap::new()), mat.in_prelude),
+                (None, Some(d)) => (d, Rc::new(HashMap::default()), mat.in_prelude),
                 (None, None) => continue,
             };
             let v = if ty == Ty::Material {
@@ -3002,8 +3065,11 @@ impl<'p> Lowerer<'p> {
                 match self.symbol(mat.in_prelude, n) {
                     Some(sym) => match self.item(sym) {
                         Item::MaterialTree(t) if t.params.is_none() => {
-                            let m =
-                                Mat { expr: &t.body, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) };
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
                             self.uses_default(&m, im, depth + 1)
                         }
                         Item::Material(def) => !defines(def),
@@ -3025,16 +3091,18 @@ impl<'p> Lowerer<'p> {
                             let params = t.params.as_deref().unwrap_or(&[]);
                             let typed: Vec<(&str, Ty)> =
                                 params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
-                            let mut env = HashMap::new();
+                            let mut env = HashMap::default();
                             for (p, a) in params.iter().zip(bind_args(&typed, call_args)) {
                                 if Ty::from_ast(&p.ty) != Ty::Material {
                                     continue;
                                 }
                                 let bound = match (a, &p.default) {
                                     (Some(a), _) => Mat { expr: a, env: mat.env.clone(), in_prelude: mat.in_prelude },
-                                    (None, Some(d)) => {
-                                        Mat { expr: d, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) }
-                                    }
+                                    (None, Some(d)) => Mat {
+                                        expr: d,
+                                        env: Rc::new(HashMap::default()),
+                                        in_prelude: self.is_prelude(sym),
+                                    },
                                     (None, None) => continue,
                                 };
                                 env.insert(p.name.name.clone(), Val::Material(bound));

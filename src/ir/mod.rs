@@ -79,6 +79,8 @@ pub enum BinOp {
     IDiv,
     /// Wrapping; remainder by zero gives 0.
     IRem,
+    /// Bitwise and.
+    IAnd,
     FLt,
     FLe,
     FEq,
@@ -95,7 +97,7 @@ impl BinOp {
         use BinOp::*;
         match self {
             FAdd | FSub | FMul | FDiv | FMin | FMax => Scalar::F32,
-            IAdd | ISub | IMul | IDiv | IRem => Scalar::I32,
+            IAdd | ISub | IMul | IDiv | IRem | IAnd => Scalar::I32,
             FLt | FLe | FEq | ILt | ILe | IEq | BEq | And | Or => Scalar::Bool,
         }
     }
@@ -122,6 +124,14 @@ pub enum Op {
         cond: Value,
         then_value: Value,
         else_value: Value,
+    },
+    /// Word `index & (len - 1)` of a constant table whose length is a
+    /// power of two, read as the value's type: the permutation and
+    /// gradients of inlined noise. The mask is the lookup's own, so no
+    /// index can leave the table.
+    Table {
+        table: &'static [u32],
+        index: Value,
     },
     /// A native function from `runtime` (f32 arguments, f32 result).
     Call {
@@ -306,6 +316,7 @@ fn print_op(op: &Op) -> String {
         Op::Global(i) => format!("globals[{i}]"),
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
+        Op::Table { table, index } => format!("table{}@{:p}[v{}]", table.len(), table.as_ptr(), index.0),
         Op::Unary(u, a) => format!("{u:?}(v{})", a.0).to_lowercase(),
         Op::Binary(b, x, y) => format!("{}(v{}, v{})", format!("{b:?}").to_lowercase(), x.0, y.0),
         Op::Select { cond, then_value, else_value } => {
@@ -342,6 +353,13 @@ impl Function {
         }
         out.into_iter().collect()
     }
+}
+
+/// The number of instructions in `body`, nested bodies included.
+pub fn count_insts(body: &[Inst]) -> usize {
+    let mut n = 0;
+    for_each_inst(body, &mut |_| n += 1);
+    n
 }
 
 /// Calls `f` on every instruction of `body`, nested bodies included

@@ -17,7 +17,7 @@ pub fn eliminate_dead_code(f: &mut Function) {
 fn operands(op: &Op, out: &mut Vec<Value>) {
     match op {
         Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Param(_) | Op::Global(_) | Op::Get(_) => {}
-        Op::Load { index, .. } => out.push(*index),
+        Op::Load { index, .. } | Op::Table { index, .. } => out.push(*index),
         Op::Unary(_, a) => out.push(*a),
         Op::Binary(_, a, b) => out.extend([*a, *b]),
         Op::Select { cond, then_value, else_value } => out.extend([*cond, *then_value, *else_value]),

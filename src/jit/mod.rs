@@ -70,17 +70,40 @@ pub struct JitOptions {
     pub keep_clif: bool,
 }
 
-/// Compiles every function of an IR module.
-pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String> {
+/// IR functions up to this many instructions get Cranelift's optimiser and
+/// its backtracking register allocator (the best code); larger ones, which
+/// deep texture trees produce, the single-pass allocator without the
+/// optimiser, whose cost grows gently with size. Our IR is value-numbered
+/// and folded already, so the optimiser adds little to either.
+const LARGE_FUNCTION: usize = 600;
+
+/// A native ISA with our settings; `large` picks the fast-compiling ones.
+fn native_isa(large: bool) -> Result<std::sync::Arc<dyn TargetIsa>, String> {
     let mut flags = settings::builder();
-    for (k, v) in [("use_colocated_libcalls", "false"), ("is_pic", "false"), ("opt_level", "speed")] {
+    // Cranelift's IR verifier checks our translation; debug builds (the
+    // tests) keep it, release builds skip its share of compile time.
+    let verify = if cfg!(debug_assertions) { "true" } else { "false" };
+    let (opt, regalloc) = if large { ("none", "single_pass") } else { ("speed", "backtracking") };
+    for (k, v) in [
+        ("use_colocated_libcalls", "false"),
+        ("is_pic", "false"),
+        ("opt_level", opt),
+        ("regalloc_algorithm", regalloc),
+        ("enable_verifier", verify),
+    ] {
         flags.set(k, v).map_err(|e| e.to_string())?;
     }
-    let isa = cranelift_native::builder()
+    cranelift_native::builder()
         .map_err(|e| format!("this machine is not supported by Cranelift: {e}"))?
         .finish(settings::Flags::new(flags))
-        .map_err(|e| e.to_string())?;
-    let mut builder = JITBuilder::with_isa(isa, cranelift_module::default_libcall_names());
+        .map_err(|e| e.to_string())
+}
+
+/// Compiles every function of an IR module.
+pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String> {
+    let isa = native_isa(false)?;
+    let large_isa = native_isa(true)?;
+    let mut builder = JITBuilder::with_isa(isa.clone(), cranelift_module::default_libcall_names());
     for n in natives() {
         builder.symbol(n.name, n.ptr);
     }
@@ -143,7 +166,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         }
         funcs.push(func);
     }
-    let compiled = compile_parallel(jit.isa(), funcs, &ids, &module.functions)?;
+    let compiled = compile_parallel([&*isa, &*large_isa], funcs, &ids, &module.functions)?;
     for (id, code) in ids.iter().zip(compiled) {
         jit.define_function_bytes(*id, code.alignment, &code.bytes, &code.relocs).map_err(|e| e.to_string())?;
     }
@@ -179,7 +202,7 @@ struct Code {
 
 /// Compiles functions on all available cores (each is independent).
 fn compile_parallel(
-    isa: &dyn TargetIsa,
+    isas: [&dyn TargetIsa; 2],
     funcs: Vec<cranelift_codegen::ir::Function>,
     ids: &[FuncId],
     ir_functions: &[ir::Function],
@@ -201,6 +224,8 @@ fn compile_parallel(
                     work.into_iter()
                         .map(|(k, func)| {
                             let name = &ir_functions[k].name;
+                            let large = ir::count_insts(&ir_functions[k].body) > LARGE_FUNCTION;
+                            let isa = isas[usize::from(large)];
                             let mut ctx = Context::for_function(func);
                             ctx.compile(isa, &mut ControlPlane::default())
                                 .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
@@ -485,6 +510,15 @@ impl<'a, 'b> Gen<'a, 'b> {
             Op::Param(k) => self.load_word(self.args, *k, ty, readonly),
             Op::Global(k) => self.load_word(self.globals, *k, ty, readonly),
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
+            Op::Table { table, index } => {
+                // The table is a `'static` slice: its address is a constant.
+                let i = self.v(*index);
+                let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
+                let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
+                let addr = self.word_addr(base, i);
+                let word = if ty == Scalar::F32 { types::F32 } else { types::I32 };
+                self.b.ins().load(word, readonly, addr, 0)
+            }
             Op::Load { array, index } => {
                 let len = self.func.arrays[array.0 as usize].1;
                 let i = self.v(*index);
@@ -568,6 +602,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             BinOp::ISub => ins.isub(x, y),
             BinOp::IMul => ins.imul(x, y),
             BinOp::IDiv | BinOp::IRem => self.safe_div(op, x, y),
+            BinOp::IAnd => ins.band(x, y),
             BinOp::FLt => ins.fcmp(FloatCC::LessThan, x, y),
             BinOp::FLe => ins.fcmp(FloatCC::LessThanOrEqual, x, y),
             BinOp::FEq => ins.fcmp(FloatCC::Equal, x, y),
