@@ -106,6 +106,24 @@ impl Compiler {
         self
     }
 
+    /// Loads images through `manager` instead of the process-wide
+    /// [`TextureManager::global`](crate::texture::TextureManager::global).
+    /// Programs compiled with one manager share each image.
+    ///
+    /// ```
+    /// use std::sync::Arc;
+    /// use tsl::{Compiler, texture::TextureManager};
+    /// let textures = Arc::new(TextureManager::new());
+    /// let program = Compiler::new().texture_manager(textures.clone()).source("m.tsl", "material m = lambert;").compile()?;
+    /// assert_eq!(textures.loaded(), 0); // no texture() calls, no images
+    /// # let _ = program;
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn texture_manager(mut self, manager: Arc<crate::texture::TextureManager>) -> Self {
+        self.options.textures = manager;
+        self
+    }
+
     /// Compiles every prelude material and generator up front. By default
     /// they are compiled on first use ([`Program::material`],
     /// [`Program::function`]), so a program pays only for what it uses.

@@ -30,6 +30,7 @@ pub mod load;
 pub mod render;
 pub mod runtime;
 pub mod syntax;
+pub mod texture;
 
 pub use api::{Backend, Color, Compiler, Error, Function, Material, Program};
 pub use color::ColorModel;
@@ -66,21 +67,22 @@ impl Checked {
 /// Loads and checks a program from source text.
 pub fn check_source(name: &str, text: &str, options: &LoadOptions) -> Checked {
     let (loaded, diags) = load::load_source(name, text, options);
-    finish(loaded, diags)
+    finish(loaded, diags, options)
 }
 
 /// Loads and checks a program from a file.
 pub fn check_file(path: &Path, options: &LoadOptions) -> Checked {
     let (loaded, diags) = load::load_file(path, options);
-    finish(loaded, diags)
+    finish(loaded, diags, options)
 }
 
-fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>) -> Checked {
+fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>, options: &LoadOptions) -> Checked {
     // Type checking a file that did not parse would only add noise.
     let parsed = !diagnostics.iter().any(Diagnostic::is_error);
     let program = if parsed {
-        let (program, more) = check::check(loaded);
+        let (mut program, more) = check::check(loaded);
         diagnostics.extend(more);
+        diagnostics.extend(load::load_images(&mut program, options));
         program
     } else {
         check::Program { loaded, ..Default::default() }

@@ -15,6 +15,7 @@ pub const PRELUDE: &[(&str, &str)] = &[
     ("stdlib/math.tsl", include_str!("../stdlib/math.tsl")),
     ("stdlib/materials.tsl", include_str!("../stdlib/materials.tsl")),
     ("stdlib/generators.tsl", include_str!("../stdlib/generators.tsl")),
+    ("stdlib/texturing.tsl", include_str!("../stdlib/texturing.tsl")),
 ];
 
 /// Where imports are searched and whether the prelude is loaded.
@@ -23,11 +24,13 @@ pub struct LoadOptions {
     /// Directories searched (after the importing file's own) for `import`.
     pub import_paths: Vec<PathBuf>,
     pub prelude: bool,
+    /// Where images named by `texture` calls are loaded and cached.
+    pub textures: std::sync::Arc<crate::texture::TextureManager>,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { import_paths: Vec::new(), prelude: true }
+        LoadOptions { import_paths: Vec::new(), prelude: true, textures: crate::texture::TextureManager::global() }
     }
 }
 
@@ -157,8 +160,8 @@ impl Loader<'_> {
                 .collect();
             let base = Path::new(self.loaded.sources.name(file)).parent().map(Path::to_path_buf);
             for (path, span) in imports {
-                let Some(found) = self.find_import(base.as_deref(), &path) else {
-                    let searched = self.searched(base.as_deref());
+                let Some(found) = find_file(base.as_deref(), &path, &self.options.import_paths) else {
+                    let searched = searched(base.as_deref(), &self.options.import_paths);
                     self.diags.push(
                         Diagnostic::error(span, format!("cannot find imported file `{path}`"))
                             .with_help(format!("searched {searched}; add a directory with -I")),
@@ -184,24 +187,6 @@ impl Loader<'_> {
             }
         }
         self.report_cycles(&edges);
-    }
-
-    fn find_import(&self, base: Option<&Path>, path: &str) -> Option<PathBuf> {
-        let direct = Path::new(path);
-        if direct.is_absolute() {
-            return direct.is_file().then(|| direct.to_path_buf());
-        }
-        base.into_iter()
-            .chain(self.options.import_paths.iter().map(PathBuf::as_path))
-            .map(|dir| dir.join(path))
-            .find(|p| p.is_file())
-            .or_else(|| (base.is_none() && direct.is_file()).then(|| direct.to_path_buf()))
-    }
-
-    fn searched(&self, base: Option<&Path>) -> String {
-        let mut dirs: Vec<String> = base.iter().map(|b| format!("`{}`", display_dir(b))).collect();
-        dirs.extend(self.options.import_paths.iter().map(|d| format!("`{}`", display_dir(d))));
-        if dirs.is_empty() { "the current directory".into() } else { dirs.join(", ") }
     }
 
     /// Finds cycles in the import graph with an iterative depth-first search
@@ -251,6 +236,53 @@ impl Loader<'_> {
             }
         }
     }
+}
+
+/// `path` as given when absolute, else the first of `base` and then the
+/// search directories holding it (the current directory when there is no
+/// base).
+fn find_file(base: Option<&Path>, path: &str, search: &[PathBuf]) -> Option<PathBuf> {
+    let direct = Path::new(path);
+    if direct.is_absolute() {
+        return direct.is_file().then(|| direct.to_path_buf());
+    }
+    base.into_iter()
+        .chain(search.iter().map(PathBuf::as_path))
+        .map(|dir| dir.join(path))
+        .find(|p| p.is_file())
+        .or_else(|| (base.is_none() && direct.is_file()).then(|| direct.to_path_buf()))
+}
+
+fn searched(base: Option<&Path>, search: &[PathBuf]) -> String {
+    let mut dirs: Vec<String> = base.iter().map(|b| format!("`{}`", display_dir(b))).collect();
+    dirs.extend(search.iter().map(|d| format!("`{}`", display_dir(d))));
+    if dirs.is_empty() { "the current directory".into() } else { dirs.join(", ") }
+}
+
+/// Loads the images a checked program's `texture` calls name, through the
+/// options' texture manager. A path is looked up relative to the file that
+/// names it, then in the import directories. Each failure is an error at
+/// the string literal.
+pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -> Vec<Diagnostic> {
+    let mut diags = Vec::new();
+    for use_ in &mut program.images {
+        let file = program.loaded.sources.name(use_.span.file);
+        let base = Path::new(file).parent();
+        let Some(found) = find_file(base, &use_.path, &options.import_paths) else {
+            diags.push(
+                Diagnostic::error(use_.span, format!("cannot find the image `{}`", use_.path))
+                    .with_help(format!("searched {}; add a directory with -I", searched(base, &options.import_paths))),
+            );
+            continue;
+        };
+        match options.textures.load(&found, use_.encoding) {
+            Ok(image) => use_.image = Some(image),
+            Err(e) => {
+                diags.push(Diagnostic::error(use_.span, format!("cannot read the image `{}`: {e}", found.display())))
+            }
+        }
+    }
+    diags
 }
 
 fn display_dir(p: &Path) -> String {

@@ -233,6 +233,78 @@ const GRAD2: [(f64, f64); 8] = {
     [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0), (s, s), (-s, s), (s, -s), (-s, -s)]
 };
 
+// The tables inlined noise reads (`ir::lower::noise`), as IR words: the
+// permutation as integers, the gradients as f32 bits.
+
+/// [`PERM`] as words.
+pub static PERM_WORDS: [u32; 256] = {
+    let mut w = [0u32; 256];
+    let mut i = 0;
+    while i < 256 {
+        w[i] = PERM[i] as u32;
+        i += 1;
+    }
+    w
+};
+
+/// The 1D gradient of hash `h & 15`: `±(1 + (h & 7))`, negative when bit 3 is set.
+pub static GRAD1_WORDS: [u32; 16] = {
+    let mut w = [0u32; 16];
+    let mut h = 0;
+    while h < 16 {
+        let g = (1 + (h & 7)) as f32;
+        w[h] = if h & 8 == 0 { g.to_bits() } else { (-g).to_bits() };
+        h += 1;
+    }
+    w
+};
+
+/// The x and y components of the 2D gradients ([`GRAD2`]) of hash `h & 7`.
+pub static GRAD2_WORDS: [[u32; 8]; 2] = {
+    let mut w = [[0u32; 8]; 2];
+    let mut h = 0;
+    while h < 8 {
+        w[0][h] = (GRAD2[h].0 as f32).to_bits();
+        w[1][h] = (GRAD2[h].1 as f32).to_bits();
+        h += 1;
+    }
+    w
+};
+
+/// The x, y and z components of Perlin's 3D gradients of hash `h & 15`
+/// (what [`grad3`] dots with the offset).
+pub static GRAD3_WORDS: [[u32; 16]; 3] = {
+    let mut w = [[0u32; 16]; 3];
+    let mut h = 0;
+    while h < 16 {
+        // grad3 adds ±u and ±v: u is x below 8, else y; v is y below 4,
+        // x for 12 and 14, else z.
+        let su: f32 = if h & 1 == 0 { 1.0 } else { -1.0 };
+        let sv: f32 = if h & 2 == 0 { 1.0 } else { -1.0 };
+        let mut g = [0.0f32; 3];
+        if h < 8 {
+            g[0] = su;
+        } else {
+            g[1] = su;
+        }
+        if h < 4 {
+            g[1] += sv;
+        } else if h == 12 || h == 14 {
+            g[0] += sv;
+        } else {
+            g[2] += sv;
+        }
+        w[0][h] = g[0].to_bits();
+        w[1][h] = g[1].to_bits();
+        w[2][h] = g[2].to_bits();
+        h += 1;
+    }
+    w
+};
+
+/// The output scales of 1D, 2D and 3D noise, as f32.
+pub const NOISE_SCALES: [f32; 3] = [SCALE1 as f32, SCALE2 as f32, SCALE3 as f32];
+
 /// The period of the permutation table: plain noise is periodic noise with
 /// this period on every axis.
 const TABLE_PERIOD: i64 = 256;
@@ -426,7 +498,10 @@ const XXH_P1: u32 = 0x9E37_79B1;
 /// ±9.2e18), its high half folded in so cells beyond ±2^31 still differ.
 #[inline]
 fn cell(x: f32) -> u32 {
-    let i = x.floor() as i64;
+    // floor(x) as i64 without a libm call (as in `axis`): truncate, then
+    // step down for negative fractions; saturating like `as`.
+    let t = x as i64;
+    let i = if (t as f32) > x { t.saturating_sub(1) } else { t };
     (i as u32) ^ ((i >> 32) as u32).wrapping_mul(XXH_P1)
 }
 
@@ -908,6 +983,20 @@ mod tests {
                     a[0], a[1], a[2], a[3], a[4], a[5],
                 ),
             }
+        }
+    }
+
+    #[test]
+    fn inline_noise_tables_match_the_gradient_functions() {
+        let f = |w: u32| f64::from(f32::from_bits(w));
+        for h in 0..256usize {
+            let (x, y, z) = (0.3125, -0.71875, 0.125);
+            let g = (f(GRAD3_WORDS[0][h & 15]), f(GRAD3_WORDS[1][h & 15]), f(GRAD3_WORDS[2][h & 15]));
+            assert_eq!(g.0 * x + g.1 * y + g.2 * z, grad3(h, x, y, z), "grad3 {h}");
+            assert_eq!(f(GRAD1_WORDS[h & 15]) * x, grad1(h, x), "grad1 {h}");
+            let g2 = (f(GRAD2_WORDS[0][h & 7]), f(GRAD2_WORDS[1][h & 7]));
+            assert!((g2.0 * x + g2.1 * y - grad2(h, x, y)).abs() < 1e-7, "grad2 {h}");
+            assert_eq!(PERM_WORDS[h] as usize, perm(h));
         }
     }
 

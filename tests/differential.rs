@@ -1,5 +1,6 @@
 //! Differential tests: the JIT and the reference interpreter agree on every
-//! generator and material method of `stdlib/`, `examples/` and
+//! generator and material method of `stdlib/`, `examples/` (and
+//! `examples/techniques/`) and
 //! `tests/check/ok/`, at 1,000 random shading points each, in the RGB and a
 //! spectral color model.
 
@@ -113,6 +114,11 @@ fn compare_files(dir: &str) {
 #[test]
 fn examples_agree() {
     compare_files("examples");
+}
+
+#[test]
+fn technique_examples_agree() {
+    compare_files("examples/techniques");
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! What lowering promises: material instances specialise on constant
 //! parameters, generators shared by several children of a texture tree run
-//! once, and `mix` at exactly 0 or 1 runs only one child.
+//! once, `mix` at exactly 0 or 1 runs only one child, noise is inlined at
+//! the first sites of a function and agrees with the native elsewhere, and
+//! small whole powers are multiplications.
 
 use tsl::ir::{Function, Inst, Op};
 use tsl::{Compiler, Program, ShadingGlobals};
@@ -38,6 +40,16 @@ fn calls(f: &Function, native: &str) -> usize {
     all_ops(f).iter().filter(|op| matches!(op, Op::Call { native: n, .. } if *n == native)).count()
 }
 
+/// How many times `f` evaluates 3D noise: native calls, plus inlined
+/// expansions, each of which reads the permutation table 14 times (2 + 4 + 8).
+fn noise3_evaluations(f: &Function) -> usize {
+    let perm = tsl::runtime::PERM_WORDS.as_ptr();
+    let lookups =
+        all_ops(f).iter().filter(|op| matches!(op, Op::Table { table, .. } if table.as_ptr() == perm)).count();
+    assert_eq!(lookups % 14, 0, "a partial noise expansion:\n{f}");
+    calls(f, "tsl_noise3") + lookups / 14
+}
+
 #[test]
 fn constant_parameters_are_folded_into_the_code() {
     let p = compile("material red = phong(kd: rgb(1, 0, 0));");
@@ -66,9 +78,9 @@ fn a_generator_shared_by_children_runs_once() {
     let f = ir(&p, "m.diffuse");
     // grain() at the shading point is shared by the mix and the scale node;
     // bump also evaluates it at two offset points (other contexts).
-    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+    assert_eq!(noise3_evaluations(&f), 1, "{f}");
     let refl = ir(&p, "m.reflection");
-    assert_eq!(calls(&refl, "tsl_noise3"), 3, "the point plus bump's two offsets:\n{refl}");
+    assert_eq!(noise3_evaluations(&refl), 3, "the point plus bump's two offsets:\n{refl}");
 }
 
 #[test]
@@ -123,8 +135,8 @@ fn a_reflection_sum_evaluates_the_texture_once_for_all_lights() {
     let one = ir(&p, "marble.reflection");
     let sums = p.reflection_sums(&["marble"], 3).unwrap();
     let three = sums[0].ir();
-    assert_eq!(calls(&one, "tsl_noise3"), 1, "{one}");
-    assert_eq!(calls(three, "tsl_noise3"), 1, "three lights, one texture:\n{three}");
+    assert_eq!(noise3_evaluations(&one), 1, "{one}");
+    assert_eq!(noise3_evaluations(three), 1, "three lights, one texture:\n{three}");
     assert_eq!(three.params.len(), 3 * (3 + 3) + 3);
     // The sum equals three separate calls.
     let g = ShadingGlobals { n: [0.0, 0.0, 1.0], pl: [0.3, 0.1, 0.7], ..Default::default() };
@@ -166,12 +178,12 @@ fn methods_no_child_defines_skip_the_weights() {
     // Neither lambert nor phong refracts: the default, with no noise.
     for name in ["marble.refraction_dir", "marble.refraction_index", "marble.opaque", "picked.emission"] {
         let f = ir(&p, name);
-        assert_eq!(calls(&f, "tsl_noise3"), 0, "{f}");
+        assert_eq!(noise3_evaluations(&f), 0, "{f}");
         assert!(f.constant_results().is_some(), "{name} is constant:\n{f}");
     }
     // glass does: the weights stay.
     let f = ir(&p, "half_glass.refraction_dir");
-    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+    assert_eq!(noise3_evaluations(&f), 1, "{f}");
     let m = p.material("marble").unwrap();
     assert!(!m.may_refract() && m.always_opaque() && !m.may_emit());
 }
@@ -208,8 +220,8 @@ fn work_before_an_early_return_is_shared_after_it() {
     );
     let one = ir(&p, "b.reflection");
     let sums = p.reflection_sums(&["b"], 2).unwrap();
-    assert_eq!(calls(&one, "tsl_noise3"), 1, "{one}");
-    assert_eq!(calls(sums[0].ir(), "tsl_noise3"), 1, "{}", sums[0].ir());
+    assert_eq!(noise3_evaluations(&one), 1, "{one}");
+    assert_eq!(noise3_evaluations(sums[0].ir()), 1, "{}", sums[0].ir());
 }
 
 #[test]
@@ -224,10 +236,104 @@ fn templates_and_spline_blends_are_seen_through() {
         "#,
     );
     let f = ir(&p, "both.emission");
-    assert!(f.constant_results().is_some() && calls(&f, "tsl_noise3") == 0, "{f}");
+    assert!(f.constant_results().is_some() && noise3_evaluations(&f) == 0, "{f}");
     // An emitter inside the template: the weights stay.
     let f = ir(&p, "lit.emission");
-    assert_eq!(calls(&f, "tsl_noise3"), 1, "{f}");
+    assert_eq!(noise3_evaluations(&f), 1, "{f}");
+}
+
+/// Runs a float entry with no arguments on both back ends; they agree.
+fn float_at(p: &Program, name: &str, g: &ShadingGlobals) -> f32 {
+    let f = p.function(name).unwrap();
+    let (mut a, mut b) = ([0u32], [0u32]);
+    f.call_words(tsl::Backend::Jit, g, &[], &mut a).unwrap();
+    f.call_words(tsl::Backend::Interpreter, g, &[], &mut b).unwrap();
+    assert_eq!(a, b, "{name}");
+    f32::from_bits(a[0])
+}
+
+#[test]
+fn inlined_noise_is_the_native_noise() {
+    // Six sites: the first are expanded inline, the rest call the native.
+    let p = compile(
+        r#"
+        float n1() { return noise(P.x); }
+        float n2() { return noise(vec2(P.x, P.y)); }
+        float n3() { return noise(P); }
+        float many() {
+            return noise(P) + noise(P + 1) + noise(P + 2) + noise(P + 3) + noise(P + 4) + noise(P + 5);
+        }
+        "#,
+    );
+    let f = ir(&p, "many");
+    assert!(noise3_evaluations(&f) == 6 && calls(&f, "tsl_noise3") > 0 && calls(&f, "tsl_noise3") < 6, "{f}");
+    assert_eq!(calls(&ir(&p, "n3"), "tsl_noise3"), 0, "a lone site is inlined");
+    let mut state = 0x1234_5678_9abc_def1u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    // Up to 2^63, where the native's integer cell saturates.
+    let special = [0.0, -0.0, 1e-30, 255.5, 256.0, -256.25, 16777215.5, 3e9, -7e12, 1e18];
+    for k in 0..20_000 {
+        let coord = |r: u64| -> f32 {
+            if r.is_multiple_of(13) {
+                special[(r / 13 % special.len() as u64) as usize]
+            } else {
+                (r >> 40) as f32 / 2e5 - 40.0
+            }
+        };
+        let p3 = [coord(next()), coord(next()), coord(next())];
+        let g = ShadingGlobals { p: p3, ..Default::default() };
+        let native = [
+            tsl::runtime::tsl_noise1(p3[0]),
+            tsl::runtime::tsl_noise2(p3[0], p3[1]),
+            tsl::runtime::tsl_noise3(p3[0], p3[1], p3[2]),
+        ];
+        for (name, want) in ["n1", "n2", "n3"].iter().zip(native) {
+            let got = float_at(&p, name, &g);
+            assert!((got - want).abs() <= 2e-6, "{name}({p3:?}) at {k}: inline {got} vs native {want}");
+        }
+    }
+    for bad in [f32::NAN, f32::INFINITY, -f32::INFINITY] {
+        let g = ShadingGlobals { p: [0.5, bad, 0.25], ..Default::default() };
+        assert_eq!(float_at(&p, "n3", &g), 0.0);
+        assert_eq!(float_at(&p, "n2", &g), 0.0);
+    }
+}
+
+#[test]
+fn small_whole_powers_are_multiplications() {
+    let p = compile(
+        r#"
+        float p2() { return pow(P.x, 2); }
+        float p5() { return pow(P.x, 5); }
+        float p32() { return pow(P.x, 32); }
+        float p64() { return pow(P.x, 64); }
+        float half() { return pow(P.x, 2.5); }
+        float far() { return pow(P.x, 65); }
+        "#,
+    );
+    for name in ["p2", "p5", "p32", "p64"] {
+        assert_eq!(calls(&ir(&p, name), "tsl_pow"), 0, "{}", ir(&p, name));
+    }
+    assert_eq!(calls(&ir(&p, "half"), "tsl_pow"), 1);
+    assert_eq!(calls(&ir(&p, "far"), "tsl_pow"), 1);
+    for x in [0.0f32, -0.0, 0.3, -0.7, 0.999, 1.0, 1.5, -2.0, 10.0, f32::INFINITY, -f32::INFINITY, f32::NAN] {
+        let g = ShadingGlobals { p: [x, 0.0, 0.0], ..Default::default() };
+        for (name, e) in [("p2", 2), ("p5", 5), ("p32", 32), ("p64", 64)] {
+            let (got, want) = (float_at(&p, name, &g), x.powi(e));
+            let ok = if want.is_nan() {
+                got.is_nan()
+            } else {
+                (got == want || (got - want).abs() <= 4.0 * f32::EPSILON * want.abs())
+                    && got.is_sign_negative() == want.is_sign_negative()
+            };
+            assert!(ok, "pow({x}, {e}) = {got}, expected {want}");
+        }
+    }
 }
 
 #[test]
@@ -274,5 +380,5 @@ fn delta_lobes_agree_with_the_four_methods() {
     }
     assert!(refracted >= 8, "some glass refracts: {refracted}");
     // The four methods share the tree's texture.
-    assert_eq!(calls(lobes[4].ir(), "tsl_noise3"), 1, "{}", lobes[4].ir());
+    assert_eq!(noise3_evaluations(lobes[4].ir()), 1, "{}", lobes[4].ir());
 }

@@ -215,6 +215,12 @@ const GLOSSY: &[&str] = &[
     "cook_torrance(kd: gray(0), roughness: 0.5)",
     "ward",
     "ward(kd: gray(0), ks: gray(1), alpha_x: 0.3, alpha_y: 0.3)",
+    "microvariation(p: 0)",
+    "microvariation(p: 1, base: gray(1))",
+    "microvariation(p: 0.6, base: gray(1), ks_hi: 0.9, ns_hi: 500)",
+    "rusted_steel(rust: 0)",
+    "rusted_steel(rust: 1)",
+    "rusted_steel(rust: 0.4, roughness: 0.5)",
 ];
 
 fn material(expr: &str) -> tsl::Material {
@@ -248,7 +254,7 @@ fn stdlib_materials_conserve_energy() {
         }
     }
     // Delta materials: the weights of their perfect directions.
-    for expr in ["mirror", "glass", "glass(ior: gray(1.9))"] {
+    for expr in ["mirror", "glass", "glass(ior: gray(1.9))", "smoked_glass(p: 1)", "cutout(0, lambert)"] {
         let program = Compiler::new().source("m.tsl", &format!("material m = {expr};")).compile().unwrap();
         let m = program.material("m").unwrap();
         // Entering from vacuum: the relative index is the material's own.
@@ -294,14 +300,21 @@ fn stdlib_brdfs_are_reciprocal() {
 /// changed light, material or camera does not). `UPDATE_EXPECT=1` rewrites
 /// the references.
 fn check_against_reference(example: &str, spp: u32) {
+    check_against_reference_in(example, spp, ColorModel::Rgb);
+}
+
+/// [`check_against_reference`] in a color model; spectral references are
+/// `NAME_spectral.exr`.
+fn check_against_reference_in(example: &str, spp: u32, model: ColorModel) {
     let path = format!("examples/{example}.tsl");
-    let program = Compiler::new().file(&path).compile().unwrap_or_else(|e| panic!("{e}"));
+    let program = Compiler::new().color_model(model).file(&path).compile().unwrap_or_else(|e| panic!("{e}"));
     let overrides = Overrides { resolution: Some((40, 40)), spp: Some(spp), ..Default::default() };
     let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
     let image = render::render(&scene, &RenderOptions::default()).unwrap().0;
-    let reference = std::path::PathBuf::from(format!("tests/data/render/{example}.exr"));
+    let suffix = if model == ColorModel::Rgb { "" } else { "_spectral" };
+    let reference = std::path::PathBuf::from(format!("tests/data/render/{example}{suffix}.exr"));
     if std::env::var_os("UPDATE_EXPECT").is_some() {
-        std::fs::create_dir_all("tests/data/render").unwrap();
+        std::fs::create_dir_all(reference.parent().unwrap()).unwrap();
         render::image_io::write_image(&reference, &image).unwrap();
         return;
     }
@@ -474,6 +487,47 @@ fn cutouts_let_light_and_camera_rays_through_their_holes() {
 }
 
 #[test]
+fn stdlib_cutouts_of_image_alpha_let_shadow_and_camera_rays_through() {
+    // The same setup with the stdlib `cutout` over an image whose left half
+    // is transparent, lit by a point light and seen by both integrators.
+    let dir = std::env::temp_dir().join(format!("tsl-cutout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    image::RgbaImage::from_fn(8, 8, |x, _| image::Rgba([200, 150, 60, if x < 4 { 0 } else { 255 }]))
+        .save(dir.join("holes.png"))
+        .unwrap();
+    let file = dir.join("cutout.tsl");
+    let scene = |x: f32, integrator: &str| {
+        let src = format!(
+            r#"
+            material panel = cutout(texture_float("holes.png", channel: 3, filter: "nearest"), lambert(kd: gray(0.5)));
+            scene {{
+                camera {{ from ({x}, 3, 0); to ({x}, 0, 0); up (0, 0, -1); fov 1; }}
+                render {{ width 1; height 1; spp 1; max_depth 3; integrator "{integrator}"; }}
+                light point {{ at ({x}, 4, 0); intensity gray(16); }}
+                object quad {{ corner (-50, 0, 50); edge1 (100, 0, 0); edge2 (0, 0, -100); material lambert(kd: gray(1)); }}
+                object quad {{ corner (-1, 2, 1); edge1 (2, 0, 0); edge2 (0, 0, -2); material panel; }}
+            }}"#
+        );
+        std::fs::write(&file, src).unwrap();
+        let program = Compiler::new().file(&file).compile().unwrap_or_else(|e| panic!("{e}"));
+        let scene = Scene::build(&program, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+        render::render(&scene, &RenderOptions::default()).unwrap().0.color[0][0]
+    };
+    // The camera, between the light and the sheet, looks down: at x = -0.5
+    // through the transparent half (u = 0.25) at the floor lit through it,
+    // at x = 0.5 at the sheet itself.
+    let pi = std::f32::consts::PI;
+    let (hole, solid) = (scene(-0.5, "whitted"), scene(0.5, "whitted"));
+    assert!((hole - 1.0 / pi).abs() < 1e-3, "lit through the hole: {hole}");
+    assert!((solid - 0.5 / pi * 16.0 / 4.0).abs() < 1e-3, "the sheet: {solid}");
+    // The path tracer adds a little light bounced between floor and sheet.
+    let (hole, solid) = (scene(-0.5, "path"), scene(0.5, "path"));
+    assert!(hole >= 0.99 / pi && hole < 1.2 / pi, "path: lit through the hole: {hole}");
+    assert!((solid - 0.5 / pi * 4.0).abs() < 0.05, "path: the sheet: {solid}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn nan_samples_are_dropped_and_counted() {
     let src = r#"
         material broken() { color emission(vector wo) { float zero = 0; return gray(zero / zero); } }
@@ -487,4 +541,38 @@ fn nan_samples_are_dropped_and_counted() {
     let (image, stats) = render::render(&scene, &RenderOptions::default()).unwrap();
     assert!(stats.dropped_samples > 0);
     assert!(image.color.iter().all(|p| p.iter().all(|c| c.is_finite())));
+}
+
+// The texturing examples: one scene per technique of the two papers, and
+// the room that combines them, in RGB and spectrally.
+
+#[test]
+fn technique_examples_match_their_reference_images() {
+    for example in [
+        "bump_procedural",
+        "bump_image",
+        "microvariation",
+        "image_spectral",
+        "spectral_perturbation",
+        "smoked_glass",
+        "rusted_steel",
+        "cutout",
+        "reversal_tiling",
+        "shapes",
+    ] {
+        check_against_reference(&format!("techniques/{example}"), 4);
+    }
+}
+
+#[test]
+fn spectral_technique_examples_match_their_reference_images() {
+    for example in ["image_spectral", "spectral_perturbation", "smoked_glass", "rusted_steel"] {
+        check_against_reference_in(&format!("techniques/{example}"), 4, ColorModel::Spectral { samples: 16 });
+    }
+}
+
+#[test]
+fn room_matches_its_reference_images() {
+    check_against_reference("room", 8);
+    check_against_reference_in("room", 8, ColorModel::Spectral { samples: 16 });
 }

@@ -76,6 +76,16 @@ pub const BUILTINS: &[Builtin] = &[
     b("transform_point", &["m", "p"], "transform_point(matrix m, point p) -> point"),
     b("transform_vector", &["m", "v"], "transform_vector(matrix m, vector v) -> vector"),
     b("transform_normal", &["m", "n"], "transform_normal(matrix m, normal n) -> normal"),
+    b(
+        "texture",
+        &["file", "st?", "filter?", "wrap?", "swrap?", "twrap?", "colorspace?", "dx?", "dy?"],
+        "texture(string file, vec2 st = (u, v), string filter, string wrap, ..., vec2 dx, vec2 dy) -> color",
+    ),
+    b(
+        "texture_float",
+        &["file", "st?", "channel?", "filter?", "wrap?", "swrap?", "twrap?", "dx?", "dy?"],
+        "texture_float(string file, vec2 st = (u, v), int channel = 0, string filter, ...) -> float",
+    ),
     // Texture-tree nodes and their scalar/color forms.
     b("mix", &["t", "a", "b", "only?"], "mix(float t, T a, T b) -> T, T a float, vec2, triple, color or material"),
     b("blend", &["t", "items", "spline?"], "blend(float t, T[n] items, bool spline = false) -> T"),
@@ -303,6 +313,15 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
                 _ => Ty::Normal,
             })
         }
+        "texture" | "texture_float" => {
+            let color = name == "texture";
+            for (i, want) in texture_param_types(color).iter().enumerate() {
+                if args.get(i).is_some_and(|a| a.is_some()) {
+                    expect(args, i, want)?;
+                }
+            }
+            Ok(if color { Ty::Color } else { Ty::Float })
+        }
         "mix" => {
             expect(args, 0, &Ty::Float)?;
             let (a, b) = (arg(args, 1), arg(args, 2));
@@ -364,6 +383,13 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         }
         _ => Err(ArgError { arg: None, message: format!("no typing rule for builtin `{name}`"), help: None }),
     }
+}
+
+/// The parameter types of `texture` (`color`) and `texture_float`, in the
+/// order of their [`BUILTINS`] entries.
+pub fn texture_param_types(color: bool) -> [Ty; 9] {
+    use Ty::{Int, String as S, Vec2};
+    if color { [S, Vec2, S, S, S, S, S, Vec2, Vec2] } else { [S, Vec2, Int, S, S, S, S, Vec2, Vec2] }
 }
 
 /// The common type of two branches (`?:`, `mix`, array items).

@@ -21,8 +21,10 @@ pub use ty::Ty;
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
 use crate::syntax::ast::*;
+use crate::texture::{Encoding, Filter, MipMap, Wrap};
 use builtins::{ArgError, builtin, elementwise, type_builtin, unify};
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// The most elements an array may have.
 pub const MAX_ARRAY_LEN: u32 = 4096;
@@ -48,6 +50,32 @@ pub struct Program {
     pub expr_types: HashMap<Span, Ty>,
     /// The global item each name or call resolved to, keyed by its span.
     pub resolutions: HashMap<Span, Symbol>,
+    /// The images `texture` calls name, each once per file and encoding.
+    pub images: Vec<ImageUse>,
+    /// Every `texture` / `texture_float` call, keyed by its span.
+    pub texture_calls: HashMap<Span, TextureCall>,
+}
+
+/// An image named by a `texture` call. Checking records the path as
+/// written; the front end then resolves and loads it (`image`).
+#[derive(Debug, Clone)]
+pub struct ImageUse {
+    /// The string literal naming the file.
+    pub span: Span,
+    pub path: String,
+    pub encoding: Encoding,
+    /// The loaded pyramid, once the front end has read the file.
+    pub image: Option<Arc<MipMap>>,
+}
+
+/// What one `texture` call reads and how.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct TextureCall {
+    /// Index into [`Program::images`].
+    pub image: usize,
+    pub filter: Filter,
+    /// Address modes along s and t.
+    pub wrap: [Wrap; 2],
 }
 
 /// A global name and the item that defines it.
@@ -94,13 +122,17 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         expr_types: HashMap::new(),
         graph: HashMap::new(),
         body: Body::default(),
+        images: Vec::new(),
+        texture_calls: HashMap::new(),
     };
     checker.check_items();
     checker.report_recursion();
     checker.report_varying_constants();
     let expr_types = std::mem::take(&mut checker.expr_types);
     let resolutions = std::mem::take(&mut checker.resolutions);
-    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions }, diags)
+    let images = std::mem::take(&mut checker.images);
+    let texture_calls = std::mem::take(&mut checker.texture_calls);
+    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions, images, texture_calls }, diags)
 }
 
 type Symbols = HashMap<String, Symbol>;
@@ -240,6 +272,8 @@ struct Checker<'a> {
     /// Dependencies between items, with the span of the first use.
     graph: HashMap<Node, Vec<(Node, Span)>>,
     body: Body,
+    images: Vec<ImageUse>,
+    texture_calls: HashMap<Span, TextureCall>,
 }
 
 /// A callee's parameter, for binding arguments.
@@ -1226,9 +1260,106 @@ impl<'a> Checker<'a> {
                     self.check_spectrum(samples);
                 }
             }
+            "texture" | "texture_float" => self.check_texture(b.name, &bound, span),
             _ => {}
         }
         result
+    }
+
+    /// A `texture` call: the file and the options are string literals
+    /// naming things that exist; the call is recorded for loading and
+    /// lowering. It depends on the shading point (its footprint).
+    fn check_texture(&mut self, name: &str, bound: &[Option<&Expr>], span: Span) {
+        let color = name == "texture";
+        let (filter_at, wrap_at, colorspace_at) = if color { (2, 3, Some(6)) } else { (3, 4, None) };
+        if !self.body.globals_allowed {
+            self.error(
+                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
+                    .with_help("a texture lookup depends on the shading point and its pixel footprint"),
+            );
+            return;
+        }
+        if let Some(node) = &self.body.node {
+            self.reads_globals.entry(node.clone()).or_insert(span);
+        }
+        let filter = self.option_literal(bound[filter_at], "filter", Filter::NAMES, Filter::from_name);
+        let wrap = self.option_literal(bound[wrap_at], "wrap", Wrap::NAMES, Wrap::from_name);
+        let swrap = self.option_literal(bound[wrap_at + 1], "swrap", Wrap::NAMES, Wrap::from_name);
+        let twrap = self.option_literal(bound[wrap_at + 2], "twrap", Wrap::NAMES, Wrap::from_name);
+        let encoding = match colorspace_at {
+            Some(k) => self.option_literal(bound[k], "colorspace", &["srgb", "linear"], |n| match n {
+                "srgb" => Some(Encoding::Srgb),
+                "linear" => Some(Encoding::Raw),
+                _ => None,
+            }),
+            None => Some(None),
+        };
+        let Some(file) = bound[0] else { return };
+        let ExprKind::Str(path) = &file.kind else {
+            self.error(
+                Diagnostic::error(file.span, "the image must be a string literal naming a file")
+                    .with_help(format!("for example `{name}(\"wood.png\", (u, v))`")),
+            );
+            return;
+        };
+        let (Some(filter), Some(wrap), Some(swrap), Some(twrap), Some(encoding)) =
+            (filter, wrap, swrap, twrap, encoding)
+        else {
+            return;
+        };
+        let encoding = encoding.unwrap_or(if color { Encoding::Srgb } else { Encoding::Raw });
+        let wrap = wrap.unwrap_or(Wrap::Repeat);
+        let image = match self
+            .images
+            .iter()
+            .position(|i| i.path == *path && i.encoding == encoding && i.span.file == file.span.file)
+        {
+            Some(k) => k,
+            None => {
+                self.images.push(ImageUse { span: file.span, path: path.clone(), encoding, image: None });
+                self.images.len() - 1
+            }
+        };
+        let call = TextureCall {
+            image,
+            filter: filter.unwrap_or(Filter::Trilinear),
+            wrap: [swrap.unwrap_or(wrap), twrap.unwrap_or(wrap)],
+        };
+        self.texture_calls.insert(span, call);
+    }
+
+    /// An optional string-literal option: `Some(None)` when absent,
+    /// `Some(Some(x))` when it names a known choice, `None` after an error.
+    fn option_literal<T>(
+        &mut self,
+        arg: Option<&Expr>,
+        option: &str,
+        names: &[&str],
+        parse: impl Fn(&str) -> Option<T>,
+    ) -> Option<Option<T>> {
+        let Some(arg) = arg else { return Some(None) };
+        let list = names.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ");
+        match &arg.kind {
+            ExprKind::Str(s) => match parse(s) {
+                Some(x) => Some(Some(x)),
+                None => {
+                    let mut d = Diagnostic::error(arg.span, format!("unknown {option} `{s}`"));
+                    d = match did_you_mean(s, names.iter().copied()) {
+                        Some(m) => d.with_help(format!("did you mean `{m}`? the choices are {list}")),
+                        None => d.with_help(format!("the choices are {list}")),
+                    };
+                    self.error(d);
+                    None
+                }
+            },
+            _ => {
+                self.error(
+                    Diagnostic::error(arg.span, format!("`{option}:` must be a string literal"))
+                        .with_help(format!("the choices are {list}")),
+                );
+                None
+            }
+        }
     }
 
     /// `mix(t, a, b, only: "method")` names an interface method.

@@ -8,6 +8,7 @@
 use crate::check::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
 use crate::runtime::{NativeFn, native};
+use crate::texture::Lookup;
 
 /// Runs `func` on the given globals and argument words, writing the result
 /// words into `out`.
@@ -101,6 +102,13 @@ impl Machine<'_, '_> {
                     a[k] = self.values[value.0 as usize];
                 }
                 Inst::Output(k, v) => self.out[*k as usize] = self.v(*v),
+                Inst::Texture { sampler, coords, out } => {
+                    let [s, t, dsdx, dtdx, dsdy, dtdy] = coords.map(|c| f(self.v(c)));
+                    let rgba = sampler.0.sample(&Lookup { s, t, dsdx, dtdx, dsdy, dtdy });
+                    for (word, x) in self.arrays[out.0 as usize].iter_mut().zip(rgba) {
+                        *word = fw(x);
+                    }
+                }
                 Inst::If { cond, then_body, else_body } => {
                     let flow = if self.v(*cond) != 0 { self.body(then_body) } else { self.body(else_body) };
                     if !matches!(flow, Flow::Normal) {
@@ -144,6 +152,7 @@ impl Machine<'_, '_> {
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
+            Op::Table { table, index } => table[self.v(*index) as usize & (table.len() - 1)],
             Op::Load { array, index } => {
                 let a = &self.arrays[array.0 as usize];
                 a[clamp_index(i(self.v(*index)), a.len())]
@@ -179,6 +188,7 @@ impl Machine<'_, '_> {
                     BinOp::IMul => iw(i(x).wrapping_mul(i(y))),
                     BinOp::IDiv => iw(int_div(i(x), i(y))),
                     BinOp::IRem => iw(int_rem(i(x), i(y))),
+                    BinOp::IAnd => x & y,
                     BinOp::FLt => bw(f(x) < f(y)),
                     BinOp::FLe => bw(f(x) <= f(y)),
                     BinOp::FEq => bw(f(x) == f(y)),

@@ -7,14 +7,19 @@
 //! generator called again with the same arguments in the same coordinate
 //! context reuses the first result (the second paper's caching).
 
+mod noise;
+
 use super::*;
-use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, Ty, interface_method};
+use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
 use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
 use crate::globals;
 use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
-use std::collections::{HashMap, HashSet};
+use crate::texture::Sampler;
+// Lowering hashes small keys (values, ops) millions of times: FxHash.
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::rc::Rc;
+use std::sync::Arc;
 
 /// What an entry point computes.
 #[derive(Debug, Clone, PartialEq)]
@@ -50,7 +55,7 @@ pub fn lower_entries(
     model: ColorModel,
     keep: impl Fn(&str, &Symbol) -> bool,
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     let mut names: Vec<(&String, &Symbol)> = program.symbols.iter().collect();
@@ -91,10 +96,10 @@ pub fn lower_value(
     expr: &Expr,
     to: &Ty,
 ) -> (Function, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut b = Builder::new(name);
     let ctx = lw.root_ctx();
-    let mut fr = lw.new_frame(false, HashSet::new());
+    let mut fr = lw.new_frame(false, HashSet::default());
     let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
     let lanes = lw.lanes(&mut b, v, to);
     lw.write_results(&mut b, to, &lanes);
@@ -109,7 +114,7 @@ pub fn lower_material_exprs(
     model: ColorModel,
     materials: &[(String, &Expr)],
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     for (name, expr) in materials {
@@ -119,7 +124,7 @@ pub fn lower_material_exprs(
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
             let args = lw.method_args(&mut b, &params);
             let ctx = lw.root_ctx();
-            let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+            let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
             let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
             lw.write_results(&mut b, &im.ret, &result);
             module.functions.push(b.finish());
@@ -141,7 +146,7 @@ pub fn lower_reflection_sums(
     materials: &[(String, &Expr)],
     lights: usize,
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
@@ -156,7 +161,7 @@ pub fn lower_reflection_sums(
         params.push(("wo".into(), Ty::Vector));
         let args = lw.method_args(&mut b, &params);
         let ctx = lw.root_ctx();
-        let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+        let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
         let wo = args[2 * lights].clone();
         let mut sum: Option<Vec<Value>> = None;
         for k in 0..lights {
@@ -187,7 +192,7 @@ pub fn lower_delta_lobes(
     model: ColorModel,
     materials: &[(String, &Expr)],
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    let mut lw = Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0 };
+    let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
     let methods = ["reflection_dir", "reflection", "refraction_dir", "refraction"].map(interface_method);
@@ -201,7 +206,7 @@ pub fn lower_delta_lobes(
         let args = lw.method_args(&mut b, &params);
         let (wo, eta) = (args[0].clone(), args[1].clone());
         let ctx = lw.root_ctx();
-        let mat = Mat { expr, env: Rc::new(HashMap::new()), in_prelude: false };
+        let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
         let one = b.f(1.0);
         let ones = vec![one; lw.lanes];
         let dr = lw.mat_method(&mut b, &mat, reflection_dir, std::slice::from_ref(&wo), &ctx);
@@ -226,6 +231,8 @@ struct Lowerer<'p> {
     lanes: usize,
     diags: Vec<Diagnostic>,
     next_id: u32,
+    /// One sampler per image, filter and address modes.
+    samplers: HashMap<TextureCall, Arc<Sampler>>,
 }
 
 // ---------------------------------------------------------------- values
@@ -303,8 +310,17 @@ struct Builder {
     globals: HashMap<u32, Value>,
     /// Values defined in the prologue (constants, global loads): they
     /// dominate everything.
-    in_prologue: std::collections::HashSet<Value>,
+    in_prologue: HashSet<Value>,
+    /// How many more noise sites are expanded inline; later ones call the
+    /// native (see [`NOISE_INLINE_SITES`]).
+    noise_budget: u32,
 }
+
+/// Noise sites per function expanded into IR (about 150 operations each
+/// for 3D noise); beyond them a function calls the native, which computes
+/// the same noise in f64 (within 1e-6). Inline noise is several times
+/// faster in a loop such as fBm, but every copy costs compile time.
+const NOISE_INLINE_SITES: u32 = 4;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Const {
@@ -317,8 +333,24 @@ enum Const {
 enum MemoKey {
     Op(OpKey),
     Const(ConstKey),
-    Call { item: (usize, usize), ctx: u32, args: Vec<Value> },
-    Method { instance: u32, method: &'static str, ctx: u32, args: Vec<Value> },
+    Call {
+        item: (usize, usize),
+        ctx: u32,
+        args: Vec<Value>,
+    },
+    Method {
+        instance: u32,
+        method: &'static str,
+        ctx: u32,
+        args: Vec<Value>,
+    },
+    /// Inlined noise at these coordinates.
+    Noise(Vec<Value>),
+    /// A texture lookup: the sampler's address and the coordinates.
+    Texture {
+        sampler: usize,
+        coords: [Value; 6],
+    },
 }
 
 /// An operation as a value-numbering key: floats compare by bits, so
@@ -331,6 +363,7 @@ enum OpKey {
     Binary(BinOp, Value, Value),
     Select(Value, Value, Value),
     Call(&'static str, Vec<Value>),
+    Table(usize, Value),
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -351,6 +384,7 @@ impl OpKey {
             Op::Binary(b, x, y) => OpKey::Binary(*b, *x, *y),
             Op::Select { cond, then_value, else_value } => OpKey::Select(*cond, *then_value, *else_value),
             Op::Call { native, args } => OpKey::Call(native, args.clone()),
+            Op::Table { table, index } => OpKey::Table(table.as_ptr() as usize, *index),
             Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Get(_) | Op::Load { .. } => return None,
         })
     }
@@ -362,10 +396,11 @@ impl Builder {
             func: Function { name: name.to_string(), ..Function::default() },
             prologue: Vec::new(),
             stack: vec![Vec::new()],
-            consts: HashMap::new(),
-            memo: vec![HashMap::new()],
-            globals: HashMap::new(),
-            in_prologue: std::collections::HashSet::new(),
+            consts: HashMap::default(),
+            memo: vec![HashMap::default()],
+            globals: HashMap::default(),
+            in_prologue: std::collections::HashSet::default(),
+            noise_budget: NOISE_INLINE_SITES,
         }
     }
 
@@ -516,6 +551,7 @@ impl Builder {
                     (BinOp::IMul, I(x), I(y)) => I(x.wrapping_mul(y)),
                     (BinOp::IDiv, I(x), I(y)) => I(crate::interp::int_div(x, y)),
                     (BinOp::IRem, I(x), I(y)) => I(crate::interp::int_rem(x, y)),
+                    (BinOp::IAnd, I(x), I(y)) => I(x & y),
                     (BinOp::FLt, F(x), F(y)) => B(x < y),
                     (BinOp::FLe, F(x), F(y)) => B(x <= y),
                     (BinOp::FEq, F(x), F(y)) => B(x == y),
@@ -566,6 +602,12 @@ impl Builder {
         if a == b {
             return a;
         }
+        // A constant condition picks its side, constant or not.
+        match self.konst(cond) {
+            Some(Const::B(true)) => return a,
+            Some(Const::B(false)) => return b,
+            _ => {}
+        }
         let ty = self.ty(a);
         self.def(ty, Op::Select { cond, then_value: a, else_value: b })
     }
@@ -580,8 +622,52 @@ impl Builder {
             if self.fconst(args[1]) == Some(1.0) {
                 return args[0];
             }
+            // A small whole exponent (Phong's ns) is a few multiplications
+            // instead of a libm call; exact to a few ulps, NaN, infinities
+            // and signed zeros as pow.
+            if let Some(e) = self.fconst(args[1]).filter(|e| e.fract() == 0.0 && (2.0..=64.0).contains(e)) {
+                return self.powi(args[0], e as u32);
+            }
         }
         self.def(Scalar::F32, Op::Call { native, args })
+    }
+
+    /// A texture lookup (value-numbered: a lookup is pure): R, G, B, A.
+    fn texture(&mut self, sampler: &Arc<Sampler>, coords: [Value; 6]) -> [Value; 4] {
+        let key = MemoKey::Texture { sampler: Arc::as_ptr(sampler) as usize, coords };
+        if let Some(v) = self.lookup(&key) {
+            return [v[0], v[1], v[2], v[3]];
+        }
+        let out = ArrayId(self.func.arrays.len() as u32);
+        self.func.arrays.push((Scalar::F32, 4));
+        self.push(Inst::Texture { sampler: SamplerRef(sampler.clone()), coords, out });
+        let rgba = std::array::from_fn(|k| {
+            let index = self.i(k as i32);
+            let v = self.fresh_value(Scalar::F32);
+            self.push(Inst::Def(v, Op::Load { array: out, index }));
+            v
+        });
+        self.remember(key, rgba.to_vec());
+        rgba
+    }
+
+    /// x^n for n >= 1 by repeated squaring.
+    fn powi(&mut self, x: Value, n: u32) -> Value {
+        let mut result: Option<Value> = None;
+        let (mut base, mut n) = (x, n);
+        while n > 0 {
+            if n & 1 == 1 {
+                result = Some(match result {
+                    Some(r) => self.fmul(r, base),
+                    None => base,
+                });
+            }
+            n >>= 1;
+            if n > 0 {
+                base = self.fmul(base, base);
+            }
+        }
+        result.unwrap_or(x)
     }
 
     fn get(&mut self, var: Var) -> Value {
@@ -607,14 +693,14 @@ impl Builder {
     /// reflection sum) shares the texture its first copy computed.
     fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> (Vec<Inst>, Vec<Inst>) {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::new());
+        self.memo.push(HashMap::default());
         f(self);
         let scope = self.memo.pop().unwrap_or_default();
         let mut body = self.stack.pop().unwrap_or_default();
         let split = body.iter().position(may_leave).unwrap_or(body.len());
         let rest = body.split_off(split);
         let prefix = body;
-        let mut inside = HashSet::new();
+        let mut inside = HashSet::default();
         defined_values(&rest, &mut inside);
         let mut nested = Vec::new();
         for inst in &prefix {
@@ -636,7 +722,7 @@ impl Builder {
     /// Runs `f` with a fresh instruction list and memo scope; returns the list.
     fn nested(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::new());
+        self.memo.push(HashMap::default());
         f(self);
         self.memo.pop();
         self.stack.pop().unwrap_or_default()
@@ -839,6 +925,10 @@ impl Builder {
 // ---------------------------------------------------------------- entry points
 
 impl<'p> Lowerer<'p> {
+    fn new(program: &'p Program, model: ColorModel) -> Lowerer<'p> {
+        Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0, samplers: HashMap::default() }
+    }
+
     fn item(&self, sym: Symbol) -> &'p Item {
         &self.program.loaded.modules[sym.module].ast.items[sym.item]
     }
@@ -882,7 +972,7 @@ impl<'p> Lowerer<'p> {
 
     fn root_ctx(&mut self) -> Ctx {
         let id = self.id();
-        Ctx { id, overrides: Rc::new(HashMap::new()) }
+        Ctx { id, overrides: Rc::new(HashMap::default()) }
     }
 
     /// Reads a method's parameters from the argument words, as lanes.
@@ -947,9 +1037,11 @@ impl<'p> Lowerer<'p> {
             let args = self.method_args(&mut b, &params);
             let ctx = self.root_ctx();
             let mat = match expr {
-                MatSource::Tree(e) => Mat { expr: e, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) },
+                MatSource::Tree(e) => {
+                    Mat { expr: e, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) }
+                }
                 MatSource::Def => {
-                    let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::new()), false);
+                    let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::default()), false);
                     let result = self.instance_method(&mut b, &inst, im, &args, &ctx);
                     self.write_results(&mut b, &im.ret, &result);
                     module.functions.push(b.finish());
@@ -1017,7 +1109,7 @@ impl<'p> Lowerer<'p> {
     }
 
     fn new_frame(&self, in_prelude: bool, assigned: HashSet<String>) -> Frame<'p> {
-        Frame { scopes: vec![HashMap::new()], ret: None, loops: Vec::new(), material: None, assigned, in_prelude }
+        Frame { scopes: vec![HashMap::default()], ret: None, loops: Vec::new(), material: None, assigned, in_prelude }
     }
 
     /// Binds a name in the innermost scope: as a value when it is never
@@ -1238,7 +1330,7 @@ impl<'p> Lowerer<'p> {
                 let counter = b.var(Scalar::I32);
                 fr.loops.push(label);
                 let inner = b.nested(|b| {
-                    fr.scopes.push(HashMap::new());
+                    fr.scopes.push(HashMap::default());
                     let i = b.get(counter);
                     if let Some(scope) = fr.scopes.last_mut() {
                         scope.insert(var.name.clone(), Binding::Val(Val::Lanes(vec![i])));
@@ -1275,7 +1367,7 @@ impl<'p> Lowerer<'p> {
     }
 
     fn block(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, block: &'p ast::Block) -> bool {
-        fr.scopes.push(HashMap::new());
+        fr.scopes.push(HashMap::default());
         let mut ends = false;
         for s in &block.stmts {
             if self.stmt(b, fr, ctx, s) {
@@ -1455,7 +1547,7 @@ fn may_leave(inst: &Inst) -> bool {
 }
 
 fn assigned_names(block: &ast::Block) -> HashSet<String> {
-    let mut out = HashSet::new();
+    let mut out = HashSet::default();
     let mut stack: Vec<&Stmt> = block.stmts.iter().collect();
     while let Some(s) = stack.pop() {
         match &s.kind {
@@ -1617,7 +1709,7 @@ impl<'p> Lowerer<'p> {
     /// The template bindings visible from the current frame (materials and
     /// values bound by a template call).
     fn mat_env(&self, fr: &Frame<'p>) -> Rc<HashMap<String, Val<'p>>> {
-        let mut env = HashMap::new();
+        let mut env = HashMap::default();
         for scope in &fr.scopes {
             for (k, v) in scope {
                 if let Binding::Val(v) = v {
@@ -1681,7 +1773,7 @@ impl<'p> Lowerer<'p> {
                 let Item::Const(c) = self.item(sym) else { return Val::Unit };
                 // Constants fold, so lowering the value at each use is cheap.
                 let ty = Ty::from_ast(&c.ty);
-                let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::default());
                 self.expr_as(b, &mut cfr, ctx, &c.value, &ty)
             }
             Some(_) => Val::Material(Mat { expr: e, env: self.mat_env(fr), in_prelude: fr.in_prelude }),
@@ -1727,7 +1819,7 @@ impl<'p> Lowerer<'p> {
                             None => match &p.default {
                                 // Defaults are evaluated in the callee's scope.
                                 Some(d) => {
-                                    let mut dfr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                                    let mut dfr = self.new_frame(self.is_prelude(sym), HashSet::default());
                                     self.expr_as(b, &mut dfr, ctx, d, &ty)
                                 }
                                 None => self.zero_value(b, &ty),
@@ -1999,6 +2091,9 @@ impl<'p> Lowerer<'p> {
         let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == name) else { return Val::Unit };
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
         let bound = bind_args(&params, args);
+        if matches!(name, "texture" | "texture_float") {
+            return self.texture(b, fr, ctx, name == "texture", &bound, e);
+        }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
         for a in &bound {
             vals.push(a.map(|a| (self.expr(b, fr, ctx, a), self.ty_of(a))));
@@ -2203,7 +2298,22 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "noise" | "cellnoise" => {
+            "noise" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let p = arg(self, b, 0, w);
+                let key = MemoKey::Noise(p.clone());
+                if let Some(v) = b.lookup(&key) {
+                    return Val::Lanes(v);
+                }
+                if b.noise_budget == 0 {
+                    return Val::Lanes(vec![b.call(native_name(name, w), p)]);
+                }
+                b.noise_budget -= 1;
+                let v = noise::noise(b, &p);
+                b.remember(key, vec![v]);
+                Val::Lanes(vec![v])
+            }
+            "cellnoise" => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
                 let p = arg(self, b, 0, w);
                 let native = native_name(name, w);
@@ -2345,6 +2455,108 @@ impl<'p> Lowerer<'p> {
             }
             _ => Val::Lanes(b.zeros(n)),
         }
+    }
+
+    /// `texture(file, st, ...)` and `texture_float(file, st, channel, ...)`.
+    /// The footprint is `dx`/`dy` when given; else `st` is evaluated again at
+    /// the neighbouring pixels (the globals moved by their derivatives), so
+    /// any expression of the globals gets its true change per pixel. When
+    /// that shows no change (`st` is a local or a parameter computed
+    /// earlier), the footprint of (u, v) stands in.
+    fn texture(
+        &mut self,
+        b: &mut Builder,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+        color: bool,
+        bound: &[Option<&'p Expr>],
+        e: &'p Expr,
+    ) -> Val<'p> {
+        let width = if color { self.lanes } else { 1 };
+        let Some(sampler) = self.sampler(e.span) else {
+            self.error(e.span, "internal error: this texture call has no loaded image");
+            return Val::Lanes(b.zeros(width));
+        };
+        let (dx_at, dy_at) = (7, 8);
+        let eval_st = |me: &mut Self, b: &mut Builder, fr: &mut Frame<'p>, c: &Ctx| -> Vec<Value> {
+            match bound[1] {
+                Some(st) => {
+                    let v = me.expr_as(b, fr, c, st, &Ty::Vec2);
+                    me.lanes(b, v, &Ty::Vec2)
+                }
+                None => {
+                    let u = me.global(b, c, "u").unwrap_or_default();
+                    let v = me.global(b, c, "v").unwrap_or_default();
+                    vec![u[0], v[0]]
+                }
+            }
+        };
+        let st = eval_st(self, b, fr, ctx);
+        let uv_footprint = |me: &mut Self, b: &mut Builder, axis: &str| -> Vec<Value> {
+            let du = me.global(b, ctx, &format!("dud{axis}")).unwrap_or_default();
+            let dv = me.global(b, ctx, &format!("dvd{axis}")).unwrap_or_default();
+            vec![du[0], dv[0]]
+        };
+        let mut derivs = Vec::new();
+        for (at, axis) in [(dx_at, "x"), (dy_at, "y")] {
+            let d = match bound[at] {
+                Some(d) => {
+                    let v = self.expr_as(b, fr, ctx, d, &Ty::Vec2);
+                    self.lanes(b, v, &Ty::Vec2)
+                }
+                None if bound[1].is_none() => uv_footprint(self, b, axis),
+                None => {
+                    let shifted = self.pixel_neighbour(b, ctx, axis);
+                    let moved = eval_st(self, b, fr, &shifted);
+                    if moved == st { uv_footprint(self, b, axis) } else { b.map2(BinOp::FSub, &moved, &st) }
+                }
+            };
+            derivs.push(d);
+        }
+        let coords = [st[0], st[1], derivs[0][0], derivs[0][1], derivs[1][0], derivs[1][1]];
+        let rgba = b.texture(&sampler, coords);
+        if color {
+            return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
+        }
+        let channel = match bound[2] {
+            Some(c) => {
+                let v = self.expr(b, fr, ctx, c);
+                self.scalar(b, v)
+            }
+            None => b.i(0),
+        };
+        self.index(b, Val::Lanes(rgba.to_vec()), &Ty::Float, channel)
+    }
+
+    /// The sampler of the texture call at `span`, made once per image,
+    /// filter and address modes.
+    fn sampler(&mut self, span: Span) -> Option<Arc<Sampler>> {
+        let call = *self.program.texture_calls.get(&span)?;
+        let image = self.program.images.get(call.image)?.image.clone()?;
+        Some(
+            self.samplers
+                .entry(call)
+                .or_insert_with(|| Arc::new(Sampler { image, filter: call.filter, wrap: call.wrap }))
+                .clone(),
+        )
+    }
+
+    /// The coordinate context of the next pixel in `axis` ("x" or "y"):
+    /// P and Pl moved by dP/d`axis`, u and v by their derivatives.
+    fn pixel_neighbour(&mut self, b: &mut Builder, ctx: &Ctx, axis: &str) -> Ctx {
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let dp = g(self, b, &format!("dPd{axis}"));
+        let mut changes = Vec::new();
+        for name in ["P", "Pl"] {
+            let p = g(self, b, name);
+            changes.push((name, b.map2(BinOp::FAdd, &p, &dp)));
+        }
+        for name in ["u", "v"] {
+            let x = g(self, b, name);
+            let d = g(self, b, &format!("d{name}d{axis}"));
+            changes.push((name, vec![b.fadd(x[0], d[0])]));
+        }
+        self.with_overrides(ctx, changes)
     }
 
     fn scalar_arg(
@@ -2699,7 +2911,7 @@ impl<'p> Lowerer<'p> {
                 }
                 None => match &p.default {
                     Some(d) => {
-                        let mut fr = self.new_frame(self.is_prelude(sym), HashSet::new());
+                        let mut fr = self.new_frame(self.is_prelude(sym), HashSet::default());
                         self.expr_as(b, &mut fr, ctx, d, &ty)
                     }
                     None => self.zero_value(b, &ty),
@@ -2713,7 +2925,7 @@ impl<'p> Lowerer<'p> {
 
     /// A frame whose only scope is a template environment.
     fn env_frame(&self, env: &Rc<HashMap<String, Val<'p>>>, in_prelude: bool) -> Frame<'p> {
-        let mut fr = self.new_frame(in_prelude, HashSet::new());
+        let mut fr = self.new_frame(in_prelude, HashSet::default());
         fr.scopes[0] = env.iter().map(|(k, v)| (k.clone(), Binding::Val(v.clone()))).collect();
         fr
     }
@@ -2739,7 +2951,7 @@ impl<'p> Lowerer<'p> {
                 for (name, v) in &inst.params {
                     fr.scopes[0].insert(name.clone(), Binding::Val(v.clone()));
                 }
-                fr.scopes.push(HashMap::new());
+                fr.scopes.push(HashMap::default());
                 for (p, a) in m.params.iter().zip(args) {
                     let ty = Ty::from_ast(&p.ty);
                     self.bind(b, &mut fr, &p.name.name, Val::Lanes(a.clone()), &ty);
@@ -2797,8 +3009,11 @@ impl<'p> Lowerer<'p> {
                 match self.symbol(mat.in_prelude, n) {
                     Some(sym) => match self.item(sym) {
                         Item::MaterialTree(t) => {
-                            let m =
-                                Mat { expr: &t.body, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) };
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
                             self.mat_method(b, &m, im, args, ctx)
                         }
                         Item::Material(_) => {
@@ -2861,12 +3076,12 @@ impl<'p> Lowerer<'p> {
         let params = t.params.as_deref().unwrap_or(&[]);
         let typed: Vec<(&str, Ty)> = params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
         let bound = bind_args(&typed, call_args);
-        let mut env = HashMap::new();
+        let mut env = HashMap::default();
         for (p, a) in params.iter().zip(bound) {
             let ty = Ty::from_ast(&p.ty);
             let (expr, source_env, prelude) = match (a, &p.default) {
                 (Some(a), _) => (a, mat.env.clone(), mat.in_prelude),
-                (None, Some(d)) => (d, Rc::new(HashMap::new()), mat.in_prelude),
+                (None, Some(d)) => (d, Rc::new(HashMap::default()), mat.in_prelude),
                 (None, None) => continue,
             };
             let v = if ty == Ty::Material {
@@ -2896,8 +3111,11 @@ impl<'p> Lowerer<'p> {
                 match self.symbol(mat.in_prelude, n) {
                     Some(sym) => match self.item(sym) {
                         Item::MaterialTree(t) if t.params.is_none() => {
-                            let m =
-                                Mat { expr: &t.body, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) };
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
                             self.uses_default(&m, im, depth + 1)
                         }
                         Item::Material(def) => !defines(def),
@@ -2919,16 +3137,18 @@ impl<'p> Lowerer<'p> {
                             let params = t.params.as_deref().unwrap_or(&[]);
                             let typed: Vec<(&str, Ty)> =
                                 params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
-                            let mut env = HashMap::new();
+                            let mut env = HashMap::default();
                             for (p, a) in params.iter().zip(bind_args(&typed, call_args)) {
                                 if Ty::from_ast(&p.ty) != Ty::Material {
                                     continue;
                                 }
                                 let bound = match (a, &p.default) {
                                     (Some(a), _) => Mat { expr: a, env: mat.env.clone(), in_prelude: mat.in_prelude },
-                                    (None, Some(d)) => {
-                                        Mat { expr: d, env: Rc::new(HashMap::new()), in_prelude: self.is_prelude(sym) }
-                                    }
+                                    (None, Some(d)) => Mat {
+                                        expr: d,
+                                        env: Rc::new(HashMap::default()),
+                                        in_prelude: self.is_prelude(sym),
+                                    },
                                     (None, None) => continue,
                                 };
                                 env.insert(p.name.name.clone(), Val::Material(bound));

@@ -79,6 +79,8 @@ pub enum BinOp {
     IDiv,
     /// Wrapping; remainder by zero gives 0.
     IRem,
+    /// Bitwise and.
+    IAnd,
     FLt,
     FLe,
     FEq,
@@ -95,7 +97,7 @@ impl BinOp {
         use BinOp::*;
         match self {
             FAdd | FSub | FMul | FDiv | FMin | FMax => Scalar::F32,
-            IAdd | ISub | IMul | IDiv | IRem => Scalar::I32,
+            IAdd | ISub | IMul | IDiv | IRem | IAnd => Scalar::I32,
             FLt | FLe | FEq | ILt | ILe | IEq | BEq | And | Or => Scalar::Bool,
         }
     }
@@ -123,6 +125,14 @@ pub enum Op {
         then_value: Value,
         else_value: Value,
     },
+    /// Word `index & (len - 1)` of a constant table whose length is a
+    /// power of two, read as the value's type: the permutation and
+    /// gradients of inlined noise. The mask is the lookup's own, so no
+    /// index can leave the table.
+    Table {
+        table: &'static [u32],
+        index: Value,
+    },
     /// A native function from `runtime` (f32 arguments, f32 result).
     Call {
         native: &'static str,
@@ -141,6 +151,13 @@ pub enum Inst {
     },
     /// Word `i` of the result array.
     Output(u32, Value),
+    /// A filtered image lookup at `coords` = (s, t, ds/dx, dt/dx, ds/dy,
+    /// dt/dy), writing R, G, B, A into words 0..4 of the f32 array `out`.
+    Texture {
+        sampler: SamplerRef,
+        coords: [Value; 6],
+        out: ArrayId,
+    },
     If {
         cond: Value,
         then_body: Vec<Inst>,
@@ -164,6 +181,24 @@ pub enum Inst {
     },
     Break(Label),
     Continue(Label),
+}
+
+/// The sampler of a texture instruction: shared, compared by identity, and
+/// printed by its image and modes.
+#[derive(Clone)]
+pub struct SamplerRef(pub std::sync::Arc<crate::texture::Sampler>);
+
+impl PartialEq for SamplerRef {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl fmt::Debug for SamplerRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let s = &self.0;
+        write!(f, "\"{}\" {:?} {:?}/{:?}", s.image.name, s.filter, s.wrap[0], s.wrap[1])
+    }
 }
 
 /// One entry point: `extern "C" fn(globals, args, out)`.
@@ -243,6 +278,10 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
             Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
             Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
             Inst::Output(i, v) => writeln!(out, "{pad}out[{i}] = v{}", v.0),
+            Inst::Texture { sampler, coords, out: array } => {
+                let c: Vec<String> = coords.iter().map(|v| format!("v{}", v.0)).collect();
+                writeln!(out, "{pad}a{}[0..4] = texture({sampler:?}, {})", array.0, c.join(", "))
+            }
             Inst::If { cond, then_body, else_body } => {
                 let _ = writeln!(out, "{pad}if v{} {{", cond.0);
                 print_body(out, func, then_body, depth + 1);
@@ -277,6 +316,7 @@ fn print_op(op: &Op) -> String {
         Op::Global(i) => format!("globals[{i}]"),
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
+        Op::Table { table, index } => format!("table{}@{:p}[v{}]", table.len(), table.as_ptr(), index.0),
         Op::Unary(u, a) => format!("{u:?}(v{})", a.0).to_lowercase(),
         Op::Binary(b, x, y) => format!("{}(v{}, v{})", format!("{b:?}").to_lowercase(), x.0, y.0),
         Op::Select { cond, then_value, else_value } => {
@@ -312,6 +352,29 @@ impl Function {
             }
         }
         out.into_iter().collect()
+    }
+}
+
+/// The number of instructions in `body`, nested bodies included.
+pub fn count_insts(body: &[Inst]) -> usize {
+    let mut n = 0;
+    for_each_inst(body, &mut |_| n += 1);
+    n
+}
+
+/// Calls `f` on every instruction of `body`, nested bodies included
+/// (a nested body's instructions after the instruction that holds it).
+pub fn for_each_inst(body: &[Inst], f: &mut impl FnMut(&Inst)) {
+    for inst in body {
+        f(inst);
+        match inst {
+            Inst::If { then_body, else_body, .. } => {
+                for_each_inst(then_body, f);
+                for_each_inst(else_body, f);
+            }
+            Inst::Block { body, .. } | Inst::Loop { body, .. } => for_each_inst(body, f),
+            _ => {}
+        }
     }
 }
 

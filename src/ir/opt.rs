@@ -17,7 +17,7 @@ pub fn eliminate_dead_code(f: &mut Function) {
 fn operands(op: &Op, out: &mut Vec<Value>) {
     match op {
         Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Param(_) | Op::Global(_) | Op::Get(_) => {}
-        Op::Load { index, .. } => out.push(*index),
+        Op::Load { index, .. } | Op::Table { index, .. } => out.push(*index),
         Op::Unary(_, a) => out.push(*a),
         Op::Binary(_, a, b) => out.extend([*a, *b]),
         Op::Select { cond, then_value, else_value } => out.extend([*cond, *then_value, *else_value]),
@@ -60,7 +60,7 @@ fn scan(body: &[Inst], u: &mut Uses) {
                 u.roots.extend([*start, *end]);
                 scan(body, u);
             }
-            Inst::Set(..) | Inst::Store { .. } | Inst::Break(_) | Inst::Continue(_) => {}
+            Inst::Set(..) | Inst::Store { .. } | Inst::Texture { .. } | Inst::Break(_) | Inst::Continue(_) => {}
         }
     }
 }
@@ -71,6 +71,7 @@ fn write_roots(body: &[Inst], u: &Uses, out: &mut Vec<Value>) {
         match inst {
             Inst::Set(var, v) if u.vars_read.contains(var) => out.push(*v),
             Inst::Store { array, index, value } if u.arrays_read.contains(array) => out.extend([*index, *value]),
+            Inst::Texture { coords, out: array, .. } if u.arrays_read.contains(array) => out.extend(coords),
             Inst::If { then_body, else_body, .. } => {
                 write_roots(then_body, u, out);
                 write_roots(else_body, u, out);
@@ -121,6 +122,7 @@ fn sweep(body: Vec<Inst>, live: &[bool], u: &Uses) -> Vec<Inst> {
             Inst::Def(v, _) if !live[v.0 as usize] => {}
             Inst::Set(var, _) if !u.vars_read.contains(&var) => {}
             Inst::Store { array, .. } if !u.arrays_read.contains(&array) => {}
+            Inst::Texture { out: array, .. } if !u.arrays_read.contains(&array) => {}
             Inst::If { cond, then_body, else_body } => {
                 let (then_body, else_body) = (sweep(then_body, live, u), sweep(else_body, live, u));
                 let inst = Inst::If { cond, then_body, else_body };
@@ -152,7 +154,7 @@ fn sweep(body: Vec<Inst>, live: &[bool], u: &Uses) -> Vec<Inst> {
 fn has_effects(body: &[Inst], inner: &mut Vec<Label>) -> bool {
     body.iter().any(|inst| match inst {
         Inst::Def(..) => false,
-        Inst::Set(..) | Inst::Store { .. } | Inst::Output(..) => true,
+        Inst::Set(..) | Inst::Store { .. } | Inst::Texture { .. } | Inst::Output(..) => true,
         Inst::Break(l) | Inst::Continue(l) => !inner.contains(l),
         Inst::If { then_body, else_body, .. } => has_effects(then_body, inner) || has_effects(else_body, inner),
         Inst::Block { label, body } | Inst::Loop { label, body, .. } => {

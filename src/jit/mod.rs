@@ -31,6 +31,8 @@ pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, o
 pub struct Jit {
     module: Option<JITModule>,
     functions: HashMap<String, EntryFn>,
+    /// The samplers the code points to, kept alive as long as it.
+    _samplers: Vec<std::sync::Arc<crate::texture::Sampler>>,
     /// Cranelift IR text per function, when asked for (`tslc emit --emit clif`).
     pub clif: Vec<(String, String)>,
 }
@@ -68,20 +70,44 @@ pub struct JitOptions {
     pub keep_clif: bool,
 }
 
-/// Compiles every function of an IR module.
-pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String> {
+/// IR functions up to this many instructions get Cranelift's optimiser and
+/// its backtracking register allocator (the best code); larger ones, which
+/// deep texture trees produce, the single-pass allocator without the
+/// optimiser, whose cost grows gently with size. Our IR is value-numbered
+/// and folded already, so the optimiser adds little to either.
+const LARGE_FUNCTION: usize = 600;
+
+/// A native ISA with our settings; `large` picks the fast-compiling ones.
+fn native_isa(large: bool) -> Result<std::sync::Arc<dyn TargetIsa>, String> {
     let mut flags = settings::builder();
-    for (k, v) in [("use_colocated_libcalls", "false"), ("is_pic", "false"), ("opt_level", "speed")] {
+    // Cranelift's IR verifier checks our translation; debug builds (the
+    // tests) keep it, release builds skip its share of compile time.
+    let verify = if cfg!(debug_assertions) { "true" } else { "false" };
+    let (opt, regalloc) = if large { ("none", "single_pass") } else { ("speed", "backtracking") };
+    for (k, v) in [
+        ("use_colocated_libcalls", "false"),
+        ("is_pic", "false"),
+        ("opt_level", opt),
+        ("regalloc_algorithm", regalloc),
+        ("enable_verifier", verify),
+    ] {
         flags.set(k, v).map_err(|e| e.to_string())?;
     }
-    let isa = cranelift_native::builder()
+    cranelift_native::builder()
         .map_err(|e| format!("this machine is not supported by Cranelift: {e}"))?
         .finish(settings::Flags::new(flags))
-        .map_err(|e| e.to_string())?;
-    let mut builder = JITBuilder::with_isa(isa, cranelift_module::default_libcall_names());
+        .map_err(|e| e.to_string())
+}
+
+/// Compiles every function of an IR module.
+pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String> {
+    let isa = native_isa(false)?;
+    let large_isa = native_isa(true)?;
+    let mut builder = JITBuilder::with_isa(isa.clone(), cranelift_module::default_libcall_names());
     for n in natives() {
         builder.symbol(n.name, n.ptr);
     }
+    builder.symbol(TEXTURE_SYMBOL, crate::texture::tsl_texture as *const u8);
     let mut jit = JITModule::new(builder);
     let ptr = jit.target_config().pointer_type();
 
@@ -94,6 +120,13 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         let id = jit.declare_function(n.name, Linkage::Import, &sig).map_err(|e| e.to_string())?;
         native_ids.insert(n.name, id);
     }
+
+    // tsl_texture(sampler, s, t, dsdx, dtdx, dsdy, dtdy, out).
+    let mut texture_sig = jit.make_signature();
+    texture_sig.params.push(AbiParam::new(ptr));
+    texture_sig.params.extend((0..6).map(|_| AbiParam::new(types::F32)));
+    texture_sig.params.push(AbiParam::new(ptr));
+    let texture_id = jit.declare_function(TEXTURE_SYMBOL, Linkage::Import, &texture_sig).map_err(|e| e.to_string())?;
 
     let mut entry_sig = jit.make_signature();
     entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
@@ -119,8 +152,9 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
             for (name, nid) in &native_ids {
                 natives_used.insert(name, jit.declare_func_in_func(*nid, &mut func));
             }
+            let texture = jit.declare_func_in_func(texture_id, &mut func);
             let mut b = FunctionBuilder::new(&mut func, &mut fctx);
-            let mut g = Gen::new(&mut b, f, natives_used, ptr);
+            let mut g = Gen::new(&mut b, f, natives_used, texture, ptr);
             g.entry();
             g.body(&f.body);
             g.finish();
@@ -132,7 +166,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         }
         funcs.push(func);
     }
-    let compiled = compile_parallel(jit.isa(), funcs, &ids, &module.functions)?;
+    let compiled = compile_parallel([&*isa, &*large_isa], funcs, &ids, &module.functions)?;
     for (id, code) in ids.iter().zip(compiled) {
         jit.define_function_bytes(*id, code.alignment, &code.bytes, &code.relocs).map_err(|e| e.to_string())?;
     }
@@ -145,8 +179,19 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         let entry = unsafe { std::mem::transmute::<*const u8, EntryFn>(code) };
         functions.insert(f.name.clone(), entry);
     }
-    Ok(Jit { module: Some(jit), functions, clif })
+    let mut samplers = Vec::new();
+    for f in &module.functions {
+        ir::for_each_inst(&f.body, &mut |inst| {
+            if let Inst::Texture { sampler, .. } = inst {
+                samplers.push(sampler.0.clone());
+            }
+        });
+    }
+    Ok(Jit { module: Some(jit), functions, clif, _samplers: samplers })
 }
+
+/// The symbol of [`crate::texture::tsl_texture`] in generated code.
+const TEXTURE_SYMBOL: &str = "tsl_texture";
 
 /// Machine code of one function, ready to define in the module.
 struct Code {
@@ -157,7 +202,7 @@ struct Code {
 
 /// Compiles functions on all available cores (each is independent).
 fn compile_parallel(
-    isa: &dyn TargetIsa,
+    isas: [&dyn TargetIsa; 2],
     funcs: Vec<cranelift_codegen::ir::Function>,
     ids: &[FuncId],
     ir_functions: &[ir::Function],
@@ -179,6 +224,8 @@ fn compile_parallel(
                     work.into_iter()
                         .map(|(k, func)| {
                             let name = &ir_functions[k].name;
+                            let large = ir::count_insts(&ir_functions[k].body) > LARGE_FUNCTION;
+                            let isa = isas[usize::from(large)];
                             let mut ctx = Context::for_function(func);
                             ctx.compile(isa, &mut ControlPlane::default())
                                 .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
@@ -237,6 +284,7 @@ struct Gen<'a, 'b> {
     /// Exit block and, for loops, the continue block of each label.
     labels: HashMap<Label, (Block, Option<Block>)>,
     natives: HashMap<&'static str, FuncRef>,
+    texture: FuncRef,
     ptr: Type,
     globals: ClValue,
     args: ClValue,
@@ -248,6 +296,7 @@ impl<'a, 'b> Gen<'a, 'b> {
         b: &'a mut FunctionBuilder<'b>,
         func: &'a ir::Function,
         natives: HashMap<&'static str, FuncRef>,
+        texture: FuncRef,
         ptr: Type,
     ) -> Self {
         let entry = b.create_block();
@@ -263,6 +312,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             arrays: Vec::new(),
             labels: HashMap::new(),
             natives,
+            texture,
             ptr,
             globals: params[0],
             args: params[1],
@@ -357,6 +407,16 @@ impl<'a, 'b> Gen<'a, 'b> {
                     if self.func.value_type(*value) == Scalar::Bool { self.b.ins().uextend(types::I32, x) } else { x };
                 self.b.ins().store(trusted, x, addr, 0);
             }
+            Inst::Texture { sampler, coords, out } => {
+                // The sampler is owned by this function's IR and kept alive
+                // by the `Jit`, so its address is a constant of the code.
+                let sampler = self.b.ins().iconst(self.ptr, std::sync::Arc::as_ptr(&sampler.0) as i64);
+                let dest = self.b.ins().stack_addr(self.ptr, self.arrays[out.0 as usize], 0);
+                let mut args = vec![sampler];
+                args.extend(coords.iter().map(|c| self.v(*c)));
+                args.push(dest);
+                self.b.ins().call(self.texture, &args);
+            }
             Inst::Output(k, v) => {
                 let x = self.v(*v);
                 let x = if self.func.value_type(*v) == Scalar::Bool { self.b.ins().uextend(types::I32, x) } else { x };
@@ -450,6 +510,15 @@ impl<'a, 'b> Gen<'a, 'b> {
             Op::Param(k) => self.load_word(self.args, *k, ty, readonly),
             Op::Global(k) => self.load_word(self.globals, *k, ty, readonly),
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
+            Op::Table { table, index } => {
+                // The table is a `'static` slice: its address is a constant.
+                let i = self.v(*index);
+                let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
+                let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
+                let addr = self.word_addr(base, i);
+                let word = if ty == Scalar::F32 { types::F32 } else { types::I32 };
+                self.b.ins().load(word, readonly, addr, 0)
+            }
             Op::Load { array, index } => {
                 let len = self.func.arrays[array.0 as usize].1;
                 let i = self.v(*index);
@@ -533,6 +602,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             BinOp::ISub => ins.isub(x, y),
             BinOp::IMul => ins.imul(x, y),
             BinOp::IDiv | BinOp::IRem => self.safe_div(op, x, y),
+            BinOp::IAnd => ins.band(x, y),
             BinOp::FLt => ins.fcmp(FloatCC::LessThan, x, y),
             BinOp::FLe => ins.fcmp(FloatCC::LessThanOrEqual, x, y),
             BinOp::FEq => ins.fcmp(FloatCC::Equal, x, y),

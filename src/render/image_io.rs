@@ -61,10 +61,6 @@ pub fn srgb_encode(linear: f32) -> u8 {
     (v * 255.0 + 0.5).floor().clamp(0.0, 255.0) as u8
 }
 
-fn srgb_decode(v: f32) -> f32 {
-    if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
-}
-
 enum Format {
     Png,
     Exr,
@@ -167,50 +163,76 @@ fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
     out.write().to_file(path).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
-/// Reads an EXR written by [`write_image`] (or any EXR with R, G, B).
-pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
-    let fail = |e: String| format!("cannot read {}: {e}", path.display());
-    let image = exrp::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| fail(e.to_string()))?;
-    let layer = &image.layer_data;
-    let frame = image.attributes.display_window;
-    let pos = layer.attributes.layer_position;
-    let (w, h) = (layer.size.0, layer.size.1);
-    let channel = |name: &str| -> Option<Vec<f32>> {
-        layer
+/// The first layer of an EXR file: its channels by name, its size, and
+/// where it sits in the display window.
+pub(crate) struct ExrLayer {
+    pub width: usize,
+    pub height: usize,
+    pub display_size: (usize, usize),
+    /// The data window's position relative to the display window's.
+    pub offset: (i32, i32),
+    channels: Vec<(String, Vec<f32>)>,
+}
+
+impl ExrLayer {
+    pub fn read(path: &Path) -> Result<ExrLayer, String> {
+        let image = exrp::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+            .map_err(|e| e.to_string())?;
+        let layer = &image.layer_data;
+        let frame = image.attributes.display_window;
+        let pos = layer.attributes.layer_position;
+        let channels = layer
             .channel_data
             .list
             .iter()
-            .find(|c| c.name.to_string() == name)
-            .map(|c| c.sample_data.values_as_f32().collect())
-    };
+            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+            .collect();
+        Ok(ExrLayer {
+            width: layer.size.0,
+            height: layer.size.1,
+            display_size: (frame.size.0, frame.size.1),
+            offset: (pos.0 - frame.position.0, pos.1 - frame.position.1),
+            channels,
+        })
+    }
+
+    /// The samples of channel `name`, row by row.
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
+    }
+}
+
+/// Reads an EXR written by [`write_image`] (or any EXR with R, G, B).
+pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
+    let fail = |e: String| format!("cannot read {}: {e}", path.display());
+    let layer = ExrLayer::read(path).map_err(fail)?;
     let triple = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
-        let [a, b, c] = names.map(channel);
+        let [a, b, c] = names.map(|n| layer.channel(n));
         let (a, b, c) = (a?, b?, c?);
         Some((0..a.len()).map(|k| [a[k], b[k], c[k]]).collect())
     };
     let color = triple(["R", "G", "B"]).ok_or_else(|| fail("it has no R, G and B channels".into()))?;
-    let (x0, y0) = (pos.0 - frame.position.0, pos.1 - frame.position.1);
+    let (x0, y0) = layer.offset;
     if x0 < 0 || y0 < 0 {
         return Err(fail("its data window starts outside its display window".into()));
     }
     let out = RenderedImage {
-        full_width: frame.size.0 as u32,
-        full_height: frame.size.1 as u32,
+        full_width: layer.display_size.0 as u32,
+        full_height: layer.display_size.1 as u32,
         x0: x0 as u32,
         y0: y0 as u32,
-        width: w as u32,
-        height: h as u32,
+        width: layer.width as u32,
+        height: layer.height as u32,
         color,
         albedo: triple(["albedo.R", "albedo.G", "albedo.B"]),
         normal: triple(["normal.X", "normal.Y", "normal.Z"]),
-        depth: channel("Z"),
+        depth: layer.channel("Z").map(<[f32]>::to_vec),
     };
     out.check().map_err(fail)?;
     Ok(out)
@@ -296,21 +318,10 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
 /// A lat-long environment image as linear RGB: EXR and Radiance HDR as
 /// stored, PNG and JPEG decoded from sRGB.
 pub fn load_environment(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
-    let fail = |e: String| format!("cannot read the environment image {}: {e}", path.display());
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-    if ext == "exr" {
-        let image = read_exr(path)?;
-        return Ok((image.width, image.height, image.color));
-    }
-    let decoded = image::open(path).map_err(|e| fail(e.to_string()))?;
-    let srgb = !matches!(ext.as_str(), "hdr");
-    let rgb = decoded.into_rgb32f();
-    let (w, h) = rgb.dimensions();
-    let texels = rgb.pixels().map(|p| if srgb { p.0.map(srgb_decode) } else { p.0 }).collect();
-    if w == 0 || h == 0 {
-        return Err(fail("it is empty".into()));
-    }
-    Ok((w, h, texels))
+    let image = crate::texture::MipMap::load(path, crate::texture::Encoding::Srgb)
+        .map_err(|e| format!("cannot read the environment image {}: {e}", path.display()))?;
+    let base = &image.levels[0];
+    Ok((base.width, base.height, base.texels.iter().map(|t| [t[0], t[1], t[2]]).collect()))
 }
 
 /// The window of tile `index` of `count` (0-based): horizontal bands of
@@ -402,7 +413,7 @@ mod tests {
         assert_eq!(srgb_encode(f32::NAN), 0);
         assert_eq!(srgb_encode(0.5), 188);
         assert_eq!(srgb_encode(0.003_130_8), 10);
-        assert!((srgb_decode(188.0 / 255.0) - 0.5).abs() < 0.003);
+        assert!((crate::texture::srgb_to_linear(188.0 / 255.0) - 0.5).abs() < 0.003);
     }
 
     #[test]

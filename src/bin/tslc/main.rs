@@ -128,7 +128,7 @@ fn main() -> ExitCode {
 }
 
 fn check(args: CheckArgs) -> ExitCode {
-    let options = LoadOptions { import_paths: args.include.clone(), prelude: true };
+    let options = LoadOptions { import_paths: args.include.clone(), ..LoadOptions::default() };
     let colors = match args.color {
         ColorChoice::Always => Colors::Always,
         ColorChoice::Never => Colors::Never,
@@ -169,7 +169,7 @@ fn emit(args: EmitArgs) -> ExitCode {
     let wanted = |name: &str| args.only.as_deref().is_none_or(|p| name.starts_with(p));
     let mut out = std::io::stdout().lock();
     if args.emit == EmitKind::Ast {
-        let options = LoadOptions { import_paths: args.include.clone(), prelude: true };
+        let options = LoadOptions { import_paths: args.include.clone(), ..LoadOptions::default() };
         let checked = tsl::check_file(&args.file, &options);
         if !checked.is_ok() {
             eprint!("{}", checked.render_diagnostics());

@@ -1,0 +1,241 @@
+//! Image textures from source to shading: `texture` and `texture_float`
+//! calls are checked, their images loaded at check time (missing or bad
+//! files are located errors), and both back ends sample them alike, with
+//! the footprint the renderer gives and in both color models.
+
+use std::path::{Path, PathBuf};
+use tsl::texture::srgb_to_linear;
+use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
+
+mod common;
+use common::Rng;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tsl-texture-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A 4 x 4 PNG: red ramps left to right (0, 85, 170, 255), green is 255 on
+/// the top row only, blue is 0, alpha 255 except the bottom-left texel (0).
+fn ramp_png(dir: &Path) -> PathBuf {
+    let path = dir.join("ramp.png");
+    let img = image::RgbaImage::from_fn(4, 4, |x, y| {
+        image::Rgba([(x * 85) as u8, if y == 0 { 255 } else { 0 }, 0, if x == 0 && y == 3 { 0 } else { 255 }])
+    });
+    img.save(&path).unwrap();
+    path
+}
+
+/// An 8 x 8 black-and-white checkerboard of single texels.
+fn checker_png(dir: &Path) -> PathBuf {
+    let path = dir.join("checker.png");
+    image::GrayImage::from_fn(8, 8, |x, y| image::Luma([if (x + y) % 2 == 0 { 255 } else { 0 }])).save(&path).unwrap();
+    path
+}
+
+fn compile(dir: &Path, src: &str, model: ColorModel) -> Result<Program, tsl::Error> {
+    let file = dir.join("shader.tsl");
+    std::fs::write(&file, src).unwrap();
+    Compiler::new().color_model(model).file(&file).compile()
+}
+
+fn call(program: &Program, name: &str, g: &ShadingGlobals, backend: Backend) -> Vec<f32> {
+    let f = program.function(name).unwrap_or_else(|| panic!("no function {name}"));
+    let mut out = vec![0u32; f.ir().results.len()];
+    f.call_words(backend, g, &[], &mut out).unwrap();
+    out.into_iter().map(f32::from_bits).collect()
+}
+
+/// Calls through both back ends and checks they agree exactly.
+fn both(program: &Program, name: &str, g: &ShadingGlobals) -> Vec<f32> {
+    let jit = call(program, name, g, Backend::Jit);
+    let interp = call(program, name, g, Backend::Interpreter);
+    assert_eq!(
+        jit.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        interp.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        "{name}: jit {jit:?} vs interpreter {interp:?}"
+    );
+    jit
+}
+
+fn at(u: f32, v: f32) -> ShadingGlobals {
+    ShadingGlobals { u, v, n: [0.0, 0.0, 1.0], ..Default::default() }
+}
+
+#[test]
+fn texels_reach_shaders_decoded_and_raw() {
+    let dir = temp_dir("texels");
+    ramp_png(&dir);
+    let src = r#"
+        vector linear_rgb() { return to_rgb(texture("ramp.png", filter: "nearest")); }
+        float raw_red() { return texture_float("ramp.png", filter: "nearest"); }
+        float alpha() { return texture_float("ramp.png", channel: 3, filter: "nearest"); }
+        float green_raw(int c) { return texture_float("ramp.png", (u, v), c, "nearest"); }
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    // Column 2 (s in [0.5, 0.75)), top row (t in [0.75, 1)).
+    let g = at(0.6, 0.9);
+    let rgb = both(&p, "linear_rgb", &g);
+    assert!((rgb[0] - srgb_to_linear(170.0 / 255.0)).abs() < 1e-5, "{rgb:?}");
+    assert!((rgb[1] - 1.0).abs() < 1e-5 && rgb[2].abs() < 1e-6);
+    assert_eq!(both(&p, "raw_red", &g)[0], 170.0 / 255.0);
+    assert_eq!(both(&p, "alpha", &g)[0], 1.0);
+    // The bottom-left texel is transparent; t = 0 is the bottom of the picture.
+    assert_eq!(both(&p, "alpha", &at(0.1, 0.1))[0], 0.0);
+    // A run-time channel index, clamped.
+    let f = p.function("green_raw").unwrap();
+    for (c, want) in [(1, 1.0), (3, 1.0), (0, 170.0 / 255.0), (99, 1.0), (-5, 170.0 / 255.0)] {
+        for backend in [Backend::Jit, Backend::Interpreter] {
+            let mut out = [0u32];
+            f.call_words(backend, &g, &[c as u32], &mut out).unwrap();
+            assert_eq!(f32::from_bits(out[0]), want, "channel {c}");
+        }
+    }
+}
+
+#[test]
+fn address_modes_and_filters_from_source() {
+    let dir = temp_dir("modes");
+    ramp_png(&dir);
+    let src = r#"
+        float rep() { return texture_float("ramp.png", filter: "nearest"); }
+        float mir() { return texture_float("ramp.png", filter: "nearest", wrap: "mirror"); }
+        float clamped() { return texture_float("ramp.png", filter: "nearest", swrap: "clamp"); }
+        float outside() { return texture_float("ramp.png", filter: "nearest", wrap: "black", channel: 3); }
+        float smooth() { return texture_float("ramp.png", filter: "bilinear", wrap: "clamp"); }
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let g = at(1.1, 0.5);
+    assert_eq!(both(&p, "rep", &g)[0], 0.0);
+    assert_eq!(both(&p, "mir", &g)[0], 1.0);
+    assert_eq!(both(&p, "clamped", &g)[0], 1.0);
+    assert_eq!(both(&p, "outside", &g)[0], 0.0);
+    assert_eq!(both(&p, "outside", &at(0.5, 0.5))[0], 1.0);
+    // Halfway between the centres of columns 1 and 2: the mean of 85 and 170.
+    assert!((both(&p, "smooth", &at(0.5, 0.5))[0] - 0.5).abs() < 1e-6);
+}
+
+#[test]
+fn footprint_selects_the_mip_level() {
+    let dir = temp_dir("footprint");
+    checker_png(&dir);
+    let src = r#"
+        float plain() { return texture_float("checker.png"); }
+        float tiled() { return texture_float("checker.png", (u * 4, v * 4)); }
+        vec2 tile_uv() { return vec2(u, v) * 4; }
+        float through_function() { return texture_float("checker.png", tile_uv()); }
+        float explicit() { return texture_float("checker.png", (u, v), dx: (1, 0), dy: (0, 1)); }
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    // A texel centre, no footprint: the texel itself.
+    let mut g = at(0.5 / 8.0, 1.0 - 0.5 / 8.0);
+    assert_eq!(both(&p, "plain", &g)[0], 1.0);
+    // A footprint of two texels: one level up, where the checker is gray.
+    g.dudx = 0.25;
+    g.dvdy = 0.25;
+    assert!((both(&p, "plain", &g)[0] - 0.5).abs() < 1e-6);
+    // Coordinates scaled by 4 change 4 times as fast per pixel: at a texel
+    // centre of the scaled lookup, half a texel of (u, v) footprint stays
+    // on level 0, but the scaled footprint is two texels: gray.
+    let mut g = at(0.5 / 32.0, 1.0 - 0.5 / 32.0);
+    g.dudx = 1.0 / 64.0;
+    g.dvdy = 1.0 / 64.0;
+    assert_eq!(both(&p, "tiled", &g)[0], 1.0);
+    assert_eq!(both(&p, "through_function", &g)[0], 1.0);
+    g.dudx = 1.0 / 16.0;
+    g.dvdy = 1.0 / 16.0;
+    assert!((both(&p, "tiled", &g)[0] - 0.5).abs() < 1e-6, "{:?}", both(&p, "tiled", &g));
+    assert!((both(&p, "through_function", &g)[0] - 0.5).abs() < 1e-6);
+    assert!((both(&p, "explicit", &at(0.3, 0.3))[0] - 0.5).abs() < 1e-6);
+}
+
+#[test]
+fn spectral_mode_upsamples_texels() {
+    let dir = temp_dir("spectral");
+    ramp_png(&dir);
+    let src = r#"
+        color c() { return texture("ramp.png", filter: "nearest"); }
+        float y() { return brightness(texture("ramp.png", filter: "nearest")); }
+        vector back() { return to_rgb(texture("ramp.png", filter: "nearest")); }
+    "#;
+    let rgb = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let spectral = compile(&dir, src, ColorModel::Spectral { samples: 16 }).unwrap();
+    let mut rng = Rng(7);
+    for _ in 0..200 {
+        let g = at(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+        assert_eq!(both(&spectral, "c", &g).len(), 16);
+        let (a, b) = (both(&rgb, "y", &g)[0], both(&spectral, "y", &g)[0]);
+        assert!((a - b).abs() < 0.02, "brightness rgb {a} spectral {b}");
+        let back = both(&spectral, "back", &g);
+        let want = both(&rgb, "back", &g);
+        for k in 0..3 {
+            assert!((back[k] - want[k]).abs() < 0.05, "{back:?} vs {want:?}");
+        }
+    }
+}
+
+#[test]
+fn textured_materials_agree_on_random_points() {
+    let dir = temp_dir("materials");
+    ramp_png(&dir);
+    checker_png(&dir);
+    let src = r#"
+        material painted = lambert(kd: texture("ramp.png", (u * 3, v * 2), wrap: "mirror"));
+        material bumpy = bump(texture_float("checker.png", (u, v)), 0.1, painted);
+        material holes = mix(texture_float("ramp.png", channel: 3), glass, painted);
+    "#;
+    for model in [ColorModel::Rgb, ColorModel::Spectral { samples: 8 }] {
+        let p = compile(&dir, src, model).unwrap();
+        let mut rng = Rng(11);
+        for name in ["painted", "bumpy", "holes"] {
+            let m = p.material(name).unwrap();
+            let light = p.rgb(1.0, 1.0, 1.0);
+            for _ in 0..300 {
+                let mut g = common::shading_point(&mut rng);
+                g.u = rng.range(-1.0, 2.0);
+                g.v = rng.range(-1.0, 2.0);
+                let (wi, wo) = (rng.unit(), rng.unit());
+                let f = p.function(&format!("{name}.reflection")).unwrap();
+                let mut args: Vec<u32> = wi.iter().map(|x| x.to_bits()).collect();
+                args.extend(light.lanes().iter().map(|x| x.to_bits()));
+                args.extend(wo.iter().map(|x| x.to_bits()));
+                let (mut a, mut b) = (vec![0u32; model.lanes()], vec![0u32; model.lanes()]);
+                f.call_words(Backend::Jit, &g, &args, &mut a).unwrap();
+                f.call_words(Backend::Interpreter, &g, &args, &mut b).unwrap();
+                assert_eq!(a, b, "{name} at {g:?}");
+                let _ = m.reflection(&g, wi, &light, wo);
+            }
+        }
+    }
+}
+
+fn check_errors(dir: &Path, src: &str) -> String {
+    let file = dir.join("bad.tsl");
+    std::fs::write(&file, src).unwrap();
+    let checked = tsl::check_file(&file, &tsl::LoadOptions::default());
+    assert!(!checked.is_ok(), "expected errors for {src}");
+    checked.render_diagnostics()
+}
+
+#[test]
+fn bad_images_and_options_are_located_errors() {
+    let dir = temp_dir("errors");
+    ramp_png(&dir);
+    std::fs::write(dir.join("corrupt.png"), b"\x89PNG\r\n\x1a\n garbage").unwrap();
+    let text = check_errors(&dir, "float f() { return texture_float(\"missing.png\"); }\n");
+    assert!(text.contains("cannot find the image `missing.png`") && text.contains("bad.tsl:1:34"), "{text}");
+    let text = check_errors(&dir, "color f() { return texture(\"corrupt.png\"); }\n");
+    assert!(text.contains("cannot read the image") && text.contains("bad.tsl:1:28"), "{text}");
+    let text = check_errors(&dir, "color f() { return texture(\"ramp.png\", wrap: \"mirrored\"); }\n");
+    assert!(text.contains("unknown wrap `mirrored`") && text.contains("did you mean `mirror`"), "{text}");
+    let text = check_errors(&dir, "color f() { return texture(\"ramp.png\", filter: \"cubic\"); }\n");
+    assert!(text.contains("unknown filter `cubic`") && text.contains("the choices are"), "{text}");
+    let text = check_errors(&dir, "const color C = texture(\"ramp.png\");\n");
+    assert!(text.contains("cannot be used in a constant"), "{text}");
+    let text = check_errors(&dir, "float f() { return texture_float(\"ramp.png\", channel: 0.5); }\n");
+    assert!(text.contains("expected `int`"), "{text}");
+    let text = check_errors(&dir, "float f() { return texture_float(\"ramp.png\", colorspace: \"srgb\"); }\n");
+    assert!(text.contains("colorspace"), "{text}");
+}
