@@ -419,10 +419,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
             words.extend(v.to_array().iter().chain(lanes).map(|x| x.to_bits()));
         };
         for light in &scene.lights {
-            let delta_light = light.object().is_none();
-            // Delta lights have nothing to sample: they take no numbers.
-            let (u, u3) = if delta_light { ([0.0; 2], 0.0) } else { (sampler.next_2d(), sampler.next_1d()) };
+            let u = sampler.next_2d();
+            let u3 = sampler.next_1d();
             let sample = light.sample(&scene.geometry, sh.surface.p, u, u3);
+            let delta_light = light.object().is_none();
             if summed.is_some() && delta_light {
                 let mut li = Spectrum::ZERO;
                 let mut dir = sh.surface.n;
