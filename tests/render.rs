@@ -576,3 +576,29 @@ fn room_matches_its_reference_images() {
     check_against_reference("room", 8);
     check_against_reference_in("room", 8, ColorModel::Spectral { samples: 16 });
 }
+
+#[test]
+fn environment_images_are_looked_up_bilinearly_and_wrap_across() {
+    use tsl::render::scene::{Background, EnvironmentMap};
+    // 4 x 2 texels, one lane: 0 1 2 3 on the top row, 10 11 12 13 below.
+    let texels = vec![0.0, 1.0, 2.0, 3.0, 10.0, 11.0, 12.0, 13.0];
+    let env = Background::Environment(Box::new(EnvironmentMap { width: 4, height: 2, lanes: 1, texels }));
+    let at = |u: f32, v: f32| {
+        // The direction whose lat-long coordinates are (u, v).
+        let (phi, theta) = ((u - 0.5) * std::f32::consts::TAU, v * std::f32::consts::PI);
+        let d = tsl::render::Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
+        let mut out = [0.0f32];
+        env.radiance(d, &mut out);
+        out[0]
+    };
+    // Texel centres.
+    assert!((at(0.375, 0.25) - 1.0).abs() < 1e-4);
+    assert!((at(0.625, 0.75) - 12.0).abs() < 1e-4);
+    // Between two centres: the mean; at the poles rows are clamped.
+    assert!((at(0.5, 0.25) - 1.5).abs() < 1e-4);
+    assert!((at(0.5, 0.5) - 6.5).abs() < 1e-4);
+    assert!((at(0.375, 0.01) - 1.0).abs() < 1e-3);
+    // Across the seam at u = 0 / 1 the image wraps: texels 3 and 0 meet.
+    assert!((at(0.0001, 0.25) - 1.5).abs() < 1e-2);
+    assert!((at(0.9999, 0.25) - 1.5).abs() < 1e-2);
+}

@@ -75,7 +75,8 @@ pub struct Overrides {
 pub enum Background {
     Color(Color),
     /// A lat-long environment image: `u = 0.5 + atan2(x, -z) / 2 pi` across,
-    /// `v = acos(y) / pi` down (+y at the top row). Texels hold the color
+    /// `v = acos(y) / pi` down (+y at the top row), looked up bilinearly
+    /// (wrapping across, clamped at the poles). Texels hold the color
     /// model's lanes.
     Environment(Box<EnvironmentMap>),
 }
@@ -98,10 +99,28 @@ impl Background {
                 let EnvironmentMap { width, height, lanes, texels } = &**env;
                 let u = 0.5 + d.x.atan2(-d.z) / std::f32::consts::TAU;
                 let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
-                let x = ((u * *width as f32) as u32).min(width - 1);
-                let y = ((v * *height as f32) as u32).min(height - 1);
-                let at = (y * width + x) as usize * lanes;
-                out[..*lanes].copy_from_slice(&texels[at..at + lanes]);
+                let (w, h) = (*width as i64, *height as i64);
+                // Texel centres at half-integers; NaN directions give texel 0.
+                let (x, y) = (u * *width as f32 - 0.5, v * *height as f32 - 0.5);
+                let (x0, y0) = (x.floor(), y.floor());
+                let (fx, fy) = (x - x0, y - y0);
+                let (fx, fy) = (if fx.is_finite() { fx } else { 0.0 }, if fy.is_finite() { fy } else { 0.0 });
+                let column = |i: i64| (i.rem_euclid(w)) as usize;
+                let row = |j: i64| j.clamp(0, h - 1) as usize;
+                let (x0, y0) = (x0 as i64, y0 as i64);
+                let corners = [
+                    (column(x0), row(y0), (1.0 - fx) * (1.0 - fy)),
+                    (column(x0 + 1), row(y0), fx * (1.0 - fy)),
+                    (column(x0), row(y0 + 1), (1.0 - fx) * fy),
+                    (column(x0 + 1), row(y0 + 1), fx * fy),
+                ];
+                out[..*lanes].fill(0.0);
+                for (cx, cy, weight) in corners {
+                    let at = (cy * *width as usize + cx) * lanes;
+                    for (o, t) in out[..*lanes].iter_mut().zip(&texels[at..at + lanes]) {
+                        *o += weight * t;
+                    }
+                }
             }
         }
     }
