@@ -4,7 +4,7 @@
 # point is spectral also with --color spectral, the room in both, and the
 # texture tree.
 #
-#   scripts/gallery.sh            # about five minutes on two cores
+#   scripts/gallery.sh            # about two minutes on two cores
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
