@@ -494,14 +494,20 @@ const XXH_P4: u32 = 0x27D4_EB2F;
 const XXH_P5: u32 = 0x1656_67B1;
 const XXH_P1: u32 = 0x9E37_79B1;
 
+/// `floor(x)` as an integer, saturating like `as`, without a libm call (the
+/// baseline x86-64 target has no rounding instruction): truncate, then
+/// step down for negative fractions.
+#[inline]
+pub(crate) fn floor_to_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if (t as f64) > x { t.saturating_sub(1) } else { t }
+}
+
 /// One 32-bit word per axis: `floor(x)` as an integer (saturating beyond
 /// ±9.2e18), its high half folded in so cells beyond ±2^31 still differ.
 #[inline]
 fn cell(x: f32) -> u32 {
-    // floor(x) as i64 without a libm call (as in `axis`): truncate, then
-    // step down for negative fractions; saturating like `as`.
-    let t = x as i64;
-    let i = if (t as f32) > x { t.saturating_sub(1) } else { t };
+    let i = floor_to_i64(f64::from(x));
     (i as u32) ^ ((i >> 32) as u32).wrapping_mul(XXH_P1)
 }
 

@@ -2,6 +2,7 @@
 //! bilinear and trilinear filtering, and the native the generated code calls.
 
 use super::mipmap::{Level, MipMap};
+use crate::runtime::floor_to_i64;
 use std::sync::Arc;
 
 /// What a lookup outside [0, 1) sees, per axis.
@@ -154,7 +155,7 @@ impl Sampler {
 
     fn nearest(&self, level: &Level, s: f32, t: f32) -> [f32; 4] {
         let (x, y) = Self::texel_coords(level, s, t);
-        self.texel(level, floor(x), floor(y))
+        self.texel(level, floor_to_i64(x), floor_to_i64(y))
     }
 
     fn bilinear(&self, level: &Level, s: f32, t: f32) -> [f32; 4] {
@@ -179,19 +180,11 @@ impl Sampler {
     }
 }
 
-/// `floor(x)` as an integer, saturating, without a libm call (the
-/// baseline x86-64 target has no rounding instruction).
-#[inline]
-fn floor(x: f64) -> i64 {
-    let t = x as i64;
-    if (t as f64) > x { t.saturating_sub(1) } else { t }
-}
-
 /// `floor(x)` and the fraction `x - floor(x)` in [0, 1]; beyond 2^52 every
 /// `f64` is an integer, so the fraction is 0 (and the floor saturates).
 #[inline]
 fn floor_fract(x: f64) -> (i64, f32) {
-    let i = floor(x);
+    let i = floor_to_i64(x);
     let f = if x.abs() < 4_503_599_627_370_496.0 { (x - i as f64) as f32 } else { 0.0 };
     (i, f)
 }
@@ -342,11 +335,11 @@ mod tests {
         }
         assert_eq!(fast_log2(2.0), 1.0);
         assert_eq!(fast_log2(1024.0), 10.0);
-        assert_eq!(floor(-0.5), -1);
-        assert_eq!(floor(2.0), 2);
-        assert_eq!(floor(-3.0), -3);
-        assert_eq!(floor(f64::MAX), i64::MAX);
-        assert_eq!(floor(f64::MIN), i64::MIN);
+        assert_eq!(floor_to_i64(-0.5), -1);
+        assert_eq!(floor_to_i64(2.0), 2);
+        assert_eq!(floor_to_i64(-3.0), -3);
+        assert_eq!(floor_to_i64(f64::MAX), i64::MAX);
+        assert_eq!(floor_to_i64(f64::MIN), i64::MIN);
     }
 
     #[test]

@@ -67,7 +67,7 @@ fn fade(b: &mut Builder, t: Value) -> Value {
     b.fmul(t3, a)
 }
 
-/// a + t (c - a).
+/// a + t (c - a): the native's form (`Builder::lerp` weighs both ends).
 fn lerp(b: &mut Builder, t: Value, a: Value, c: Value) -> Value {
     let d = b.fsub(c, a);
     let d = b.fmul(t, d);
@@ -79,23 +79,14 @@ fn minus_one(b: &mut Builder, x: Value) -> Value {
     b.fsub(x, one)
 }
 
-fn dot(b: &mut Builder, g: &[Value], d: &[Value]) -> Value {
-    let mut acc = b.fmul(g[0], d[0]);
-    for k in 1..g.len() {
-        let p = b.fmul(g[k], d[k]);
-        acc = b.fadd(acc, p);
-    }
-    acc
-}
-
 fn grad2(b: &mut Builder, h: Value, x: Value, y: Value) -> Value {
     let g = [table(b, &GRAD2_WORDS[0], h), table(b, &GRAD2_WORDS[1], h)];
-    dot(b, &g, &[x, y])
+    b.dot(&g, &[x, y])
 }
 
 fn grad3(b: &mut Builder, h: Value, d: [Value; 3]) -> Value {
     let g = [table(b, &GRAD3_WORDS[0], h), table(b, &GRAD3_WORDS[1], h), table(b, &GRAD3_WORDS[2], h)];
-    dot(b, &g, &d)
+    b.dot(&g, &d)
 }
 
 /// `noise(p)` for a float, vec2 or point (1, 2 or 3 lanes): in [-1, 1].
