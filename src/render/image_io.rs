@@ -318,9 +318,9 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
 /// A lat-long environment image as linear RGB: EXR and Radiance HDR as
 /// stored, PNG and JPEG decoded from sRGB.
 pub fn load_environment(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
-    let image = crate::texture::MipMap::load(path, crate::texture::Encoding::Srgb)
+    // The renderer filters the full-resolution image itself: no pyramid.
+    let (base, _) = crate::texture::Level::load(path, crate::texture::Encoding::Srgb)
         .map_err(|e| format!("cannot read the environment image {}: {e}", path.display()))?;
-    let base = &image.levels[0];
     Ok((base.width, base.height, base.texels.iter().map(|t| [t[0], t[1], t[2]]).collect()))
 }
 

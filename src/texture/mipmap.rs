@@ -23,6 +23,36 @@ pub struct Level {
 }
 
 impl Level {
+    /// Reads an image file at full resolution, without a pyramid, and
+    /// whether it has an alpha channel.
+    pub fn load(path: &Path, encoding: Encoding) -> Result<(Level, bool), String> {
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        let (mut base, has_alpha, linear_file) = match ext.as_str() {
+            "exr" => {
+                let (level, alpha) = read_exr(path)?;
+                (level, alpha, true)
+            }
+            "png" | "jpg" | "jpeg" | "hdr" => {
+                let (level, alpha) = read_with_image_crate(path)?;
+                (level, alpha, ext == "hdr")
+            }
+            _ => {
+                return Err(format!(
+                    "`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)",
+                    path.display()
+                ));
+            }
+        };
+        if encoding == Encoding::Srgb && !linear_file {
+            for t in &mut base.texels {
+                for c in &mut t[..3] {
+                    *c = srgb_to_linear(*c);
+                }
+            }
+        }
+        Ok((base, has_alpha))
+    }
+
     pub fn texel(&self, x: u32, y: u32) -> [f32; 4] {
         self.texels[(y * self.width + x) as usize]
     }
@@ -77,31 +107,7 @@ impl MipMap {
 
     /// Reads an image file: PNG, JPEG, Radiance HDR or OpenEXR.
     pub fn load(path: &Path, encoding: Encoding) -> Result<MipMap, String> {
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-        let (base, has_alpha, linear_file) = match ext.as_str() {
-            "exr" => {
-                let (level, alpha) = read_exr(path)?;
-                (level, alpha, true)
-            }
-            "png" | "jpg" | "jpeg" | "hdr" => {
-                let (level, alpha) = read_with_image_crate(path)?;
-                (level, alpha, ext == "hdr")
-            }
-            _ => {
-                return Err(format!(
-                    "`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)",
-                    path.display()
-                ));
-            }
-        };
-        let mut base = base;
-        if encoding == Encoding::Srgb && !linear_file {
-            for t in &mut base.texels {
-                for c in &mut t[..3] {
-                    *c = srgb_to_linear(*c);
-                }
-            }
-        }
+        let (base, has_alpha) = Level::load(path, encoding)?;
         Ok(MipMap::new(path.display().to_string(), base, has_alpha))
     }
 }
