@@ -124,7 +124,7 @@ pub fn lower_material_exprs(
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
             let args = lw.method_args(&mut b, &params);
             let ctx = lw.root_ctx();
-            let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
+            let mat = Mat::of_root(expr);
             let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
             lw.write_results(&mut b, &im.ret, &result);
             module.functions.push(b.finish());
@@ -161,7 +161,7 @@ pub fn lower_reflection_sums(
         params.push(("wo".into(), Ty::Vector));
         let args = lw.method_args(&mut b, &params);
         let ctx = lw.root_ctx();
-        let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
+        let mat = Mat::of_root(expr);
         let wo = args[2 * lights].clone();
         let mut sum: Option<Vec<Value>> = None;
         for k in 0..lights {
@@ -206,7 +206,7 @@ pub fn lower_delta_lobes(
         let args = lw.method_args(&mut b, &params);
         let (wo, eta) = (args[0].clone(), args[1].clone());
         let ctx = lw.root_ctx();
-        let mat = Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false };
+        let mat = Mat::of_root(expr);
         let one = b.f(1.0);
         let ones = vec![one; lw.lanes];
         let dr = lw.mat_method(&mut b, &mat, reflection_dir, std::slice::from_ref(&wo), &ctx);
@@ -264,6 +264,14 @@ struct Mat<'p> {
     env: Rc<HashMap<String, Val<'p>>>,
     /// The item whose code the expression is in (prelude or user).
     in_prelude: bool,
+}
+
+impl<'p> Mat<'p> {
+    /// A material expression of the root program (a scene object's
+    /// material): user code, no template bindings.
+    fn of_root(expr: &'p Expr) -> Mat<'p> {
+        Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false }
+    }
 }
 
 /// A material instance: a definition with its parameters bound.

@@ -180,6 +180,14 @@ impl Shape {
         Ray::new(self.to_object.transform_point3a(ray.origin), self.to_object.transform_vector3a(ray.dir))
     }
 
+    /// The ray in the shape's own frame: `ray` itself when the shape is
+    /// untransformed (reading back a fresh copy stalls on store
+    /// forwarding), else its transform, kept in `slot`.
+    #[inline]
+    fn in_frame<'a>(&self, ray: &'a Ray, slot: &'a mut Option<Ray>) -> &'a Ray {
+        if self.identity { ray } else { slot.insert(self.local_ray(ray)) }
+    }
+
     /// The world bounding box; `None` for the infinite plane.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let (lo, hi) = match self.kind {
@@ -220,15 +228,8 @@ impl Shape {
 
     /// The nearest `t` in `(t_min, t_max)` where the ray meets the shape.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
-        // Untransformed shapes use `ray` itself: reading back a fresh copy
-        // of it stalls on store forwarding.
-        let local;
-        let r = if self.identity {
-            ray
-        } else {
-            local = self.local_ray(ray);
-            &local
-        };
+        let mut slot = None;
+        let r = self.in_frame(ray, &mut slot);
         let ok = |t: f32| t > t_min && t < t_max;
         match self.kind {
             ShapeKind::Sphere { center, radius } => {
@@ -306,15 +307,8 @@ impl Shape {
     /// shape's tangents may be left out (zero): they cost trigonometry and
     /// divisions that a material reading none of them need not pay.
     pub fn surface_at(&self, ray: &Ray, t: f32, uv: bool) -> SurfaceHit {
-        // Untransformed shapes use `ray` itself: reading back a fresh copy
-        // of it stalls on store forwarding.
-        let local;
-        let r = if self.identity {
-            ray
-        } else {
-            local = self.local_ray(ray);
-            &local
-        };
+        let mut slot = None;
+        let r = self.in_frame(ray, &mut slot);
         let p = r.at(t);
         let (pl, n, u, v, dpdu, dpdv, face) = match self.kind {
             ShapeKind::Sphere { center, .. } if !uv => {
