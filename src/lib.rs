@@ -30,6 +30,8 @@ pub mod load;
 pub mod render;
 pub mod runtime;
 pub mod syntax;
+#[cfg(test)]
+mod test_support;
 pub mod texture;
 
 pub use api::{Backend, Color, Compiler, Error, Function, Material, Program};

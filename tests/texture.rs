@@ -8,14 +8,7 @@ use tsl::texture::srgb_to_linear;
 use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
 
 mod common;
-use common::Rng;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tsl-texture-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::{Rng, temp_dir};
 
 /// A 4 x 4 PNG: red ramps left to right (0, 85, 170, 255), green is 255 on
 /// the top row only, blue is 0, alpha 255 except the bottom-left texel (0).

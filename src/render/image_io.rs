@@ -370,13 +370,7 @@ pub fn parse_crop(spec: &str, full_width: u32, full_height: u32) -> Result<(u32,
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn temp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("tsl-image-io-{}-{name}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
-    }
+    use crate::test_support::temp_dir;
 
     fn image(full: (u32, u32), window: (u32, u32, u32, u32), aov: bool, seed: f32) -> RenderedImage {
         let (x0, y0, w, h) = window;

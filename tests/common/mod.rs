@@ -6,6 +6,14 @@
 
 use tsl::ShadingGlobals;
 
+/// A fresh, empty directory for one test, unique to this process.
+pub fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("tsl-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
 /// A small deterministic generator (xorshift), so failures reproduce.
 pub struct Rng(pub u64);
 
