@@ -5,6 +5,7 @@
 //! typing rule rather than one signature.
 
 use super::ty::Ty;
+use crate::syntax::ast::Expr;
 
 /// A builtin's parameters; a trailing `?` marks an optional one.
 pub struct Builtin {
@@ -12,6 +13,15 @@ pub struct Builtin {
     pub params: &'static [&'static str],
     /// Shown in "expected" messages.
     pub synopsis: &'static str,
+}
+
+impl Builtin {
+    /// The argument bound to parameter `param`, with `bound` in the order
+    /// of [`Builtin::params`]: call sites name parameters, not positions.
+    pub fn arg<'e>(&self, bound: &[Option<&'e Expr>], param: &str) -> Option<&'e Expr> {
+        let k = self.params.iter().position(|p| p.trim_end_matches('?') == param)?;
+        bound.get(k).copied().flatten()
+    }
 }
 
 const fn b(name: &'static str, params: &'static [&'static str], synopsis: &'static str) -> Builtin {

@@ -1260,7 +1260,7 @@ impl<'a> Checker<'a> {
                     self.check_spectrum(samples);
                 }
             }
-            "texture" | "texture_float" => self.check_texture(b.name, &bound, span),
+            "texture" | "texture_float" => self.check_texture(b, &bound, span),
             _ => {}
         }
         result
@@ -1269,9 +1269,9 @@ impl<'a> Checker<'a> {
     /// A `texture` call: the file and the options are string literals
     /// naming things that exist; the call is recorded for loading and
     /// lowering. It depends on the shading point (its footprint).
-    fn check_texture(&mut self, name: &str, bound: &[Option<&Expr>], span: Span) {
-        let color = name == "texture";
-        let (filter_at, wrap_at, colorspace_at) = if color { (2, 3, Some(6)) } else { (3, 4, None) };
+    fn check_texture(&mut self, b: &Builtin, bound: &[Option<&Expr>], span: Span) {
+        let (name, color) = (b.name, b.name == "texture");
+        let arg = |param: &str| b.arg(bound, param);
         if !self.body.globals_allowed {
             self.error(
                 Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
@@ -1282,19 +1282,17 @@ impl<'a> Checker<'a> {
         if let Some(node) = &self.body.node {
             self.reads_globals.entry(node.clone()).or_insert(span);
         }
-        let filter = self.option_literal(bound[filter_at], "filter", Filter::NAMES, Filter::from_name);
-        let wrap = self.option_literal(bound[wrap_at], "wrap", Wrap::NAMES, Wrap::from_name);
-        let swrap = self.option_literal(bound[wrap_at + 1], "swrap", Wrap::NAMES, Wrap::from_name);
-        let twrap = self.option_literal(bound[wrap_at + 2], "twrap", Wrap::NAMES, Wrap::from_name);
-        let encoding = match colorspace_at {
-            Some(k) => self.option_literal(bound[k], "colorspace", &["srgb", "linear"], |n| match n {
-                "srgb" => Some(Encoding::Srgb),
-                "linear" => Some(Encoding::Raw),
-                _ => None,
-            }),
-            None => Some(None),
-        };
-        let Some(file) = bound[0] else { return };
+        let filter = self.option_literal(arg("filter"), "filter", Filter::NAMES, Filter::from_name);
+        let wrap = self.option_literal(arg("wrap"), "wrap", Wrap::NAMES, Wrap::from_name);
+        let swrap = self.option_literal(arg("swrap"), "swrap", Wrap::NAMES, Wrap::from_name);
+        let twrap = self.option_literal(arg("twrap"), "twrap", Wrap::NAMES, Wrap::from_name);
+        // texture_float has no colorspace parameter: it reads stored values.
+        let encoding = self.option_literal(arg("colorspace"), "colorspace", &["srgb", "linear"], |n| match n {
+            "srgb" => Some(Encoding::Srgb),
+            "linear" => Some(Encoding::Raw),
+            _ => None,
+        });
+        let Some(file) = arg("file") else { return };
         let ExprKind::Str(path) = &file.kind else {
             self.error(
                 Diagnostic::error(file.span, "the image must be a string literal naming a file")

@@ -2100,7 +2100,7 @@ impl<'p> Lowerer<'p> {
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
         let bound = bind_args(&params, args);
         if matches!(name, "texture" | "texture_float") {
-            return self.texture(b, fr, ctx, name == "texture", &bound, e);
+            return self.texture(b, fr, ctx, spec, &bound, e);
         }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
         for a in &bound {
@@ -2476,18 +2476,19 @@ impl<'p> Lowerer<'p> {
         b: &mut Builder,
         fr: &mut Frame<'p>,
         ctx: &Ctx,
-        color: bool,
+        spec: &crate::check::Builtin,
         bound: &[Option<&'p Expr>],
         e: &'p Expr,
     ) -> Val<'p> {
+        let color = spec.name == "texture";
         let width = if color { self.lanes } else { 1 };
+        let st_arg = spec.arg(bound, "st");
         let Some(sampler) = self.sampler(e.span) else {
             self.error(e.span, "internal error: this texture call has no loaded image");
             return Val::Lanes(b.zeros(width));
         };
-        let (dx_at, dy_at) = (7, 8);
         let eval_st = |me: &mut Self, b: &mut Builder, fr: &mut Frame<'p>, c: &Ctx| -> Vec<Value> {
-            match bound[1] {
+            match st_arg {
                 Some(st) => {
                     let v = me.expr_as(b, fr, c, st, &Ty::Vec2);
                     me.lanes(b, v, &Ty::Vec2)
@@ -2506,13 +2507,13 @@ impl<'p> Lowerer<'p> {
             vec![du[0], dv[0]]
         };
         let mut derivs = Vec::new();
-        for (at, axis) in [(dx_at, "x"), (dy_at, "y")] {
-            let d = match bound[at] {
+        for (param, axis) in [("dx", "x"), ("dy", "y")] {
+            let d = match spec.arg(bound, param) {
                 Some(d) => {
                     let v = self.expr_as(b, fr, ctx, d, &Ty::Vec2);
                     self.lanes(b, v, &Ty::Vec2)
                 }
-                None if bound[1].is_none() => uv_footprint(self, b, axis),
+                None if st_arg.is_none() => uv_footprint(self, b, axis),
                 None => {
                     let shifted = self.pixel_neighbour(b, ctx, axis);
                     let moved = eval_st(self, b, fr, &shifted);
@@ -2526,7 +2527,7 @@ impl<'p> Lowerer<'p> {
         if color {
             return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
         }
-        let channel = match bound[2] {
+        let channel = match spec.arg(bound, "channel") {
             Some(c) => {
                 let v = self.expr(b, fr, ctx, c);
                 self.scalar(b, v)
