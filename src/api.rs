@@ -636,6 +636,35 @@ impl fmt::Debug for Material {
 /// The most argument words a method takes: `refraction(wi, light, eta, wo)`.
 const MAX_ARG_WORDS: usize = 3 + 2 * MAX_SAMPLES + 3;
 
+/// The most result words a method gives: a `bsdf_sample` (`wi`, `weight`,
+/// `pdf`, `delta`).
+const SAMPLE_WORDS: usize = 5 + MAX_SAMPLES;
+
+/// A direction drawn by [`Material::sample`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BsdfSample {
+    /// The incident direction, unit, pointing away from the surface; the
+    /// zero vector when the material drew nothing (the path ends).
+    pub wi: [f32; 3],
+    /// `f · cos / pdf` for a smooth lobe; for a delta lobe, the response to
+    /// unit light along `wi` over the probability of choosing that lobe.
+    pub weight: Color,
+    /// The solid-angle density of `wi` (0 for a delta lobe).
+    pub pdf: f32,
+    /// Whether `wi` is a perfect (delta) direction: no light sample can
+    /// find it, so multiple importance sampling gives it weight 1.
+    pub delta: bool,
+}
+
+/// The direction part of a sample from [`Material::sample_into`], whose
+/// weight goes to a lane slice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampledDir {
+    pub wi: [f32; 3],
+    pub pdf: f32,
+    pub delta: bool,
+}
+
 /// Argument words for a method call, filled front to back.
 struct Args {
     words: [std::mem::MaybeUninit<u32>; MAX_ARG_WORDS],
@@ -690,7 +719,7 @@ impl Material {
         // SAFETY: `args` holds exactly the words method `k` of the material
         // interface takes (the wrappers below build them from the
         // interface signature, checked in debug builds), all initialised;
-        // `out` has room for its results (at most MAX_SAMPLES words); the
+        // `out` has room for its results (at most SAMPLE_WORDS words); the
         // code lives as long as the method's part.
         unsafe { (f.native)((g as *const ShadingGlobals).cast(), args.words.as_ptr().cast(), out) }
     }
@@ -884,5 +913,75 @@ impl Material {
         let mut word = 0u32;
         self.call_into(10, g, &Args::new(), &mut word);
         word != 0
+    }
+
+    /// Draws an incident direction for light leaving toward `wo`, from the
+    /// uniform random numbers `uc` (which lobe) and `u` (where in it); `eta`
+    /// is the relative index of refraction, as for [`Material::refraction`].
+    ///
+    /// ```
+    /// # use tsl::{Compiler, ShadingGlobals};
+    /// let program = Compiler::new().source("m.tsl", "material m = lambert(kd: gray(0.5));").compile()?;
+    /// let m = program.material("m")?;
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+    /// let s = m.sample(&g, [0.0, 0.0, 1.0], &program.rgb(1.0, 1.0, 1.0), 0.5, [0.3, 0.7]);
+    /// assert!(s.wi[2] > 0.0 && !s.delta);
+    /// // Cosine sampling of a Lambertian surface: weight = albedo, pdf = cos / pi.
+    /// assert!((s.weight.lanes()[0] - 0.5).abs() < 1e-5);
+    /// assert!((s.pdf - s.wi[2] / std::f32::consts::PI).abs() < 1e-5);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn sample(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color, uc: f32, u: [f32; 2]) -> BsdfSample {
+        let mut weight = Color::black(self.program.color_model());
+        let d = self.sample_into(g, wo, eta.lanes(), uc, u, &mut weight.lanes);
+        BsdfSample { wi: d.wi, weight, pdf: d.pdf, delta: d.delta }
+    }
+
+    /// [`Material::sample`] on lane slices: `eta` and `weight` hold the
+    /// color model's lanes.
+    ///
+    /// # Panics
+    /// When `eta` or `weight` is shorter than the color model's lane count.
+    pub fn sample_into(
+        &self,
+        g: &ShadingGlobals,
+        wo: [f32; 3],
+        eta: &[f32],
+        uc: f32,
+        u: [f32; 2],
+        weight: &mut [f32],
+    ) -> SampledDir {
+        let lanes = self.program.color_model().lanes();
+        assert!(eta.len() >= lanes && weight.len() >= lanes, "eta and weight need {lanes} lanes");
+        let mut args = Args::new();
+        args.v(wo);
+        args.extend(&eta[..lanes]);
+        args.f(uc);
+        args.extend(&u);
+        let mut out = [0u32; SAMPLE_WORDS];
+        self.call_into(11, g, &args, out.as_mut_ptr());
+        let word = |k: usize| f32::from_bits(out[k]);
+        for (k, w) in weight[..lanes].iter_mut().enumerate() {
+            *w = word(3 + k);
+        }
+        SampledDir { wi: [word(0), word(1), word(2)], pdf: word(3 + lanes), delta: word(4 + lanes) > 0.0 }
+    }
+
+    /// The solid-angle density with which [`Material::sample`] draws `wi`
+    /// for `wo` (0 for directions only a delta lobe gives).
+    pub fn pdf(&self, g: &ShadingGlobals, wi: [f32; 3], wo: [f32; 3], eta: &Color) -> f32 {
+        self.pdf_lanes(g, wi, wo, eta.lanes())
+    }
+
+    /// [`Material::pdf`] with `eta` as a lane slice.
+    pub fn pdf_lanes(&self, g: &ShadingGlobals, wi: [f32; 3], wo: [f32; 3], eta: &[f32]) -> f32 {
+        let lanes = self.program.color_model().lanes();
+        assert!(eta.len() >= lanes, "eta needs {lanes} lanes");
+        let mut args = Args::new();
+        args.v(wi).v(wo);
+        args.extend(&eta[..lanes]);
+        let mut word = 0u32;
+        self.call_into(12, g, &args, &mut word);
+        f32::from_bits(word)
     }
 }

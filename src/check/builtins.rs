@@ -34,16 +34,22 @@ const UNARY_MATH: &[&str] = &[
     "atan", "radians", "degrees",
 ];
 
+/// The unary math that also applies to a color, lane by lane (each
+/// wavelength sample, or each RGB channel): a lane-wise function never
+/// names a lane, so the representation stays hidden. `min`, `max` and
+/// `clamp` of colors are lane-wise too.
+const COLOR_MATH: &[&str] = &["abs", "sqrt", "exp", "log"];
+
 pub const BUILTINS: &[Builtin] = &[
-    b("abs", &["x"], "abs(T x) -> T"),
+    b("abs", &["x"], "abs(T x) -> T, T a float, vec2, triple or color"),
     b("sign", &["x"], "sign(T x) -> T"),
     b("floor", &["x"], "floor(T x) -> T"),
     b("ceil", &["x"], "ceil(T x) -> T"),
     b("fract", &["x"], "fract(T x) -> T"),
     b("round", &["x"], "round(T x) -> T"),
-    b("sqrt", &["x"], "sqrt(T x) -> T"),
-    b("exp", &["x"], "exp(T x) -> T"),
-    b("log", &["x"], "log(T x) -> T"),
+    b("sqrt", &["x"], "sqrt(T x) -> T, T a float, vec2, triple or color"),
+    b("exp", &["x"], "exp(T x) -> T, T a float, vec2, triple or color"),
+    b("log", &["x"], "log(T x) -> T, T a float, vec2, triple or color"),
     b("sin", &["x"], "sin(T x) -> T"),
     b("cos", &["x"], "cos(T x) -> T"),
     b("tan", &["x"], "tan(T x) -> T"),
@@ -54,10 +60,14 @@ pub const BUILTINS: &[Builtin] = &[
     b("degrees", &["radians"], "degrees(T radians) -> T"),
     b("atan2", &["y", "x"], "atan2(float y, float x) -> float"),
     b("pow", &["x", "e"], "pow(float x, float e) -> float | pow(color c, float e) -> color"),
-    b("min", &["a", "b"], "min(T a, T|float b) -> T"),
-    b("max", &["a", "b"], "max(T a, T|float b) -> T"),
+    b("min", &["a", "b"], "min(T a, T|float b) -> T | min(color a, color b) -> color"),
+    b("max", &["a", "b"], "max(T a, T|float b) -> T | max(color a, color b) -> color"),
     b("mod", &["a", "b"], "mod(T a, T|float b) -> T"),
-    b("clamp", &["x", "lo", "hi"], "clamp(T x, T|float lo, T|float hi) -> T"),
+    b(
+        "clamp",
+        &["x", "lo", "hi"],
+        "clamp(T x, T|float lo, T|float hi) -> T | clamp(color x, color lo, color hi) -> color",
+    ),
     b("step", &["edge", "x"], "step(T|float edge, T x) -> T"),
     b("smoothstep", &["e0", "e1", "x"], "smoothstep(T|float e0, T|float e1, T x) -> T"),
     b("dot", &["a", "b"], "dot(vector a, vector b) -> float"),
@@ -80,6 +90,8 @@ pub const BUILTINS: &[Builtin] = &[
     b("brightness", &["c"], "brightness(color c) -> float"),
     b("to_rgb", &["c"], "to_rgb(color c) -> vector"),
     b("to_xyz", &["c"], "to_xyz(color c) -> vector"),
+    b("delta_sample", &["wi", "weight"], "delta_sample(vector wi, color weight) -> bsdf_sample"),
+    b("no_sample", &[], "no_sample() -> bsdf_sample"),
     b("translate", &["offset"], "translate(vector offset) -> matrix"),
     b("rotate", &["degrees", "axis"], "rotate(float degrees, vector axis) -> matrix"),
     b("inverse", &["m"], "inverse(matrix m) -> matrix"),
@@ -199,6 +211,7 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         })
     };
     match name {
+        n if COLOR_MATH.contains(&n) && a0 == Ty::Color => Ok(Ty::Color),
         n if UNARY_MATH.contains(&n) => unary("a float, vec2 or vector"),
         "atan2" => {
             expect(args, 0, &Ty::Float)?;
@@ -208,6 +221,12 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         "pow" => {
             expect(args, 1, &Ty::Float)?;
             if a0 == Ty::Color { Ok(Ty::Color) } else { unary("a float, vec2, vector or color") }
+        }
+        "min" | "max" | "clamp" if a0 == Ty::Color => {
+            for i in 1..args.len() {
+                expect(args, i, &Ty::Color)?;
+            }
+            Ok(Ty::Color)
         }
         "min" | "max" | "mod" | "clamp" => {
             let t = unary("a float, vec2 or vector")?;
@@ -301,6 +320,12 @@ pub fn type_builtin(name: &str, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             expect(args, 0, &Ty::Color)?;
             Ok(if name == "brightness" { Ty::Float } else { Ty::Vector })
         }
+        "delta_sample" => {
+            expect(args, 0, &Ty::Vector)?;
+            expect(args, 1, &Ty::Color)?;
+            Ok(Ty::BsdfSample)
+        }
+        "no_sample" => Ok(Ty::BsdfSample),
         "translate" => {
             expect(args, 0, &Ty::Vector)?;
             Ok(Ty::Matrix)
@@ -438,7 +463,10 @@ mod tests {
         assert_eq!(ty("abs", &[Ty::Int]).unwrap(), Ty::Float);
         assert_eq!(ty("floor", &[Ty::Point]).unwrap(), Ty::Point);
         assert_eq!(ty("pow", &[Ty::Color, Ty::Float]).unwrap(), Ty::Color);
-        assert!(ty("abs", &[Ty::Color]).unwrap_err().help.is_some());
+        assert!(ty("sin", &[Ty::Color]).unwrap_err().help.is_some());
+        assert_eq!(ty("sqrt", &[Ty::Color]).unwrap(), Ty::Color);
+        assert_eq!(ty("max", &[Ty::Color, Ty::Color]).unwrap(), Ty::Color);
+        assert!(ty("max", &[Ty::Color, Ty::Float]).is_err(), "a number is not a color");
         assert_eq!(ty("mix", &[Ty::Float, Ty::Material, Ty::Material]).unwrap(), Ty::Material);
         assert_eq!(ty("mix", &[Ty::Float, Ty::Int, Ty::Float]).unwrap(), Ty::Float);
         assert!(ty("mix", &[Ty::Float, Ty::Color, Ty::Float]).is_err());

@@ -13,7 +13,9 @@ pub struct InterfaceMethod {
     pub default: &'static str,
 }
 
-/// The interface, in the order of the paper's Figure 3.
+/// The interface: the paper's eleven methods in the order of its Figure 3,
+/// then the two that let a material importance-sample itself (pbrt's
+/// `Sample_f` and `PDF`, Mitsuba's `sample` and `pdf`).
 pub const INTERFACE: &[InterfaceMethod] = &[
     InterfaceMethod {
         name: "reflection",
@@ -51,6 +53,18 @@ pub const INTERFACE: &[InterfaceMethod] = &[
     InterfaceMethod { name: "normal", ret: Ty::Normal, params: &[], default: "N" },
     InterfaceMethod { name: "diffuse", ret: Ty::Color, params: &[], default: "black()" },
     InterfaceMethod { name: "opaque", ret: Ty::Bool, params: &[], default: "true" },
+    InterfaceMethod {
+        name: "sample",
+        ret: Ty::BsdfSample,
+        params: &[("wo", Ty::Vector), ("eta", Ty::Color), ("uc", Ty::Float), ("u", Ty::Vec2)],
+        default: "a cosine-distributed direction about normal(), or a delta direction of reflection_dir/refraction_dir, chosen by their weights",
+    },
+    InterfaceMethod {
+        name: "pdf",
+        ret: Ty::Float,
+        params: &[("wi", Ty::Vector), ("wo", Ty::Vector), ("eta", Ty::Color)],
+        default: "the solid-angle density of the default sample",
+    },
 ];
 
 pub fn interface_method(name: &str) -> Option<&'static InterfaceMethod> {
@@ -99,6 +113,10 @@ mod tests {
             interface_method("reflection").unwrap().signature(),
             "color reflection(vector wi, color light, vector wo)"
         );
-        assert_eq!(INTERFACE.len(), 11, "the paper's eleven methods");
+        assert_eq!(INTERFACE.len(), 13, "the paper's eleven methods, sample and pdf");
+        assert_eq!(
+            interface_method("sample").unwrap().signature(),
+            "bsdf_sample sample(vector wo, color eta, float uc, vec2 u)"
+        );
     }
 }

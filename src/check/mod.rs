@@ -16,7 +16,7 @@ mod ty;
 
 pub use builtins::{BUILTINS, Builtin};
 pub use interface::{GLOBALS, INTERFACE, InterfaceMethod, interface_method};
-pub use ty::Ty;
+pub use ty::{SAMPLE_FIELDS, Ty};
 
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
@@ -867,14 +867,8 @@ impl<'a> Checker<'a> {
                         }
                     }
                     (UnaryOp::Not, Ty::Bool) => Ty::Bool,
-                    (UnaryOp::Neg, Ty::Color) => {
-                        self.error(
-                            Diagnostic::error(e.span, "a color cannot be negated").with_help(
-                                "the generic color interface has no negative light; scale by a factor instead",
-                            ),
-                        );
-                        Ty::Error
-                    }
+                    // Lane-wise, like `c1 - c2`: see `color_arith`.
+                    (UnaryOp::Neg, Ty::Color) => Ty::Color,
                     (op, t) => {
                         let sym = if *op == UnaryOp::Neg { "-" } else { "!" };
                         self.error(Diagnostic::error(e.span, format!("cannot apply unary `{sym}` to `{t}`")));
@@ -1427,6 +1421,9 @@ impl<'a> Checker<'a> {
             }
         }
         let tys: Vec<Ty> = args.iter().map(|a| self.expr(&a.value, None)).collect();
+        if ty == BaseType::BsdfSample {
+            return self.construct_sample(args, &tys, span);
+        }
         let result = Ty::from_base(ty);
         let (counts, elem): (&[usize], Ty) = match ty {
             BaseType::Color => {
@@ -1472,12 +1469,44 @@ impl<'a> Checker<'a> {
         result
     }
 
+    /// `bsdf_sample(vector wi, color weight, float pdf)`: a direction drawn
+    /// from a density (see `delta_sample` for delta lobes).
+    fn construct_sample(&mut self, args: &[Arg], tys: &[Ty], span: Span) -> Ty {
+        const SIGNATURE: &str = "bsdf_sample(vector wi, color weight, float pdf)";
+        if tys.len() != 3 {
+            self.error(
+                Diagnostic::error(span, format!("`bsdf_sample(...)` takes 3 arguments, found {}", tys.len()))
+                    .with_note(format!("expected {SIGNATURE}"))
+                    .with_help("a delta lobe's sample is delta_sample(wi, weight); no sample at all is no_sample()"),
+            );
+            return Ty::Error;
+        }
+        for (k, want) in [Ty::Vector, Ty::Color, Ty::Float].iter().enumerate() {
+            if !tys[k].converts_to(want) {
+                let mut d = Diagnostic::error(args[k].value.span, format!("expected `{want}`, found `{}`", tys[k]))
+                    .with_note(format!("expected {SIGNATURE}"));
+                if *want == Ty::Color && tys[k].is_numeric() {
+                    d = d.with_help("a number is not a color: write gray(x) for a uniform color");
+                }
+                self.error(d);
+                return Ty::Error;
+            }
+        }
+        Ty::BsdfSample
+    }
+
     fn member(&mut self, base: &Expr, field: &Ident) -> Ty {
         let t = self.expr(base, None);
         let fields: &[&str] = match &t {
             Ty::Error => return Ty::Error,
             t if t.is_triple() => &["x", "y", "z"],
             Ty::Vec2 => &["x", "y"],
+            Ty::BsdfSample => {
+                if let Some((_, ty)) = SAMPLE_FIELDS.iter().find(|(n, _)| *n == field.name) {
+                    return ty.clone();
+                }
+                &["wi", "weight", "pdf", "delta"]
+            }
             Ty::Color => {
                 self.error(
                     Diagnostic::error(field.span, format!("cannot read component `{}` of a color", field.name))
@@ -1832,13 +1861,14 @@ fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
     }
 }
 
-/// The generic color interface: `+` and `*` between colors, `*` and `/` by a
-/// float, `/` between colors. Nothing else.
+/// The generic color interface: `+`, `-`, `*` and `/` between colors (lane
+/// by lane, so no component is ever named), `*` and `/` by a float. A
+/// number is never a color: `c + 1` is an error (write `gray(1)`).
 fn color_arith(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<String>)> {
     use BinaryOp::*;
     let (lc, rc) = (*l == Ty::Color, *r == Ty::Color);
     let ok = match op {
-        Add => lc && rc,
+        Add | Sub => lc && rc,
         Mul => (lc && (rc || r.is_numeric())) || (l.is_numeric() && rc),
         Div => lc && (rc || r.is_numeric()),
         _ => false,
@@ -1848,10 +1878,13 @@ fn color_arith(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
     }
     let sym = op.symbol();
     let help = match op {
-        Sub => "colors have no subtraction in the generic color interface (it offers +, *, scaling, / and pow); to attenuate, scale: c * (1 - w)".to_string(),
-        Add if l.is_numeric() || r.is_numeric() => "a number is not a color: write gray(x) for a uniform color".to_string(),
-        Div if l.is_numeric() => "a number cannot be divided by a color; divide two colors, or scale by 1 / x".to_string(),
-        _ => "colors support `+` and `*` with colors, `*` and `/` by a float, and `/` between colors".to_string(),
+        Add | Sub if l.is_numeric() || r.is_numeric() => {
+            "a number is not a color: write gray(x) for a uniform color".to_string()
+        }
+        Div if l.is_numeric() => {
+            "a number cannot be divided by a color; divide two colors, or scale by 1 / x".to_string()
+        }
+        _ => "colors support `+`, `-`, `*` and `/` with colors, and `*` and `/` by a float".to_string(),
     };
     Err((format!("cannot apply `{sym}` to `{l}` and `{r}`"), Some(help)))
 }

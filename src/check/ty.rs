@@ -16,6 +16,9 @@ pub enum Ty {
     Normal,
     Vec2,
     Matrix,
+    /// A direction sampled by a material: `wi`, its `weight` (a color),
+    /// its solid-angle `pdf`, and whether it is a `delta` lobe.
+    BsdfSample,
     String,
     /// A material expression (texture tree).
     Material,
@@ -25,6 +28,10 @@ pub enum Ty {
     /// converts to everything so one mistake is reported once.
     Error,
 }
+
+/// The fields of a [`Ty::BsdfSample`], in the order of its words.
+pub const SAMPLE_FIELDS: &[(&str, Ty)] =
+    &[("wi", Ty::Vector), ("weight", Ty::Color), ("pdf", Ty::Float), ("delta", Ty::Bool)];
 
 impl Ty {
     pub fn from_base(b: BaseType) -> Ty {
@@ -38,6 +45,7 @@ impl Ty {
             BaseType::Normal => Ty::Normal,
             BaseType::Vec2 => Ty::Vec2,
             BaseType::Matrix => Ty::Matrix,
+            BaseType::BsdfSample => Ty::BsdfSample,
             BaseType::String => Ty::String,
             BaseType::Material => Ty::Material,
             BaseType::Void => Ty::Void,
@@ -99,6 +107,7 @@ impl fmt::Display for Ty {
             Ty::Normal => "normal",
             Ty::Vec2 => "vec2",
             Ty::Matrix => "matrix",
+            Ty::BsdfSample => "bsdf_sample",
             Ty::String => "string",
             Ty::Material => "material",
             Ty::Void => "void",

@@ -8,6 +8,7 @@
 //! context reuses the first result (the second paper's caching).
 
 mod noise;
+mod sampling;
 
 use super::*;
 use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
@@ -233,6 +234,10 @@ struct Lowerer<'p> {
     next_id: u32,
     /// One sampler per image, filter and address modes.
     samplers: HashMap<TextureCall, Arc<Sampler>>,
+    /// Set while a mixture samples one of its children: the outermost
+    /// mixture computes the weight at the direction drawn, so nested ones
+    /// only choose (see `sampling::sample_mixture`).
+    direction_only: bool,
 }
 
 // ---------------------------------------------------------------- values
@@ -934,7 +939,15 @@ impl Builder {
 
 impl<'p> Lowerer<'p> {
     fn new(program: &'p Program, model: ColorModel) -> Lowerer<'p> {
-        Lowerer { program, model, lanes: model.lanes(), diags: Vec::new(), next_id: 0, samplers: HashMap::default() }
+        Lowerer {
+            program,
+            model,
+            lanes: model.lanes(),
+            diags: Vec::new(),
+            next_id: 0,
+            samplers: HashMap::default(),
+            direction_only: false,
+        }
     }
 
     fn item(&self, sym: Symbol) -> &'p Item {
@@ -962,8 +975,35 @@ impl<'p> Lowerer<'p> {
             Ty::Vector | Ty::Point | Ty::Normal => 3,
             Ty::Color => self.lanes,
             Ty::Matrix => 12,
+            // wi, weight, pdf, and delta as 0 or 1.
+            Ty::BsdfSample => 5 + self.lanes,
             _ => 0,
         }
+    }
+
+    /// Which lanes of a value of type `ty` member `field` is.
+    fn field_lanes(&self, ty: &Ty, field: &str) -> std::ops::Range<usize> {
+        if *ty == Ty::BsdfSample {
+            let mut start = 0;
+            for (name, t) in crate::check::SAMPLE_FIELDS {
+                let n = self.lanes_of(t);
+                if *name == field {
+                    return start..start + n;
+                }
+                start += n;
+            }
+        }
+        let k = match field {
+            "x" => 0,
+            "y" => 1,
+            _ => 2,
+        };
+        k..k + 1
+    }
+
+    /// `s.delta` is stored as a float lane, 1 for true.
+    fn is_flag_field(ty: &Ty, field: &str) -> bool {
+        *ty == Ty::BsdfSample && field == "delta"
     }
 
     fn scalar_of(t: &Ty) -> Scalar {
@@ -1470,17 +1510,19 @@ impl<'p> Lowerer<'p> {
                 }
             }
             ExprKind::Member { base, field } => {
-                let k = match field.name.as_str() {
-                    "x" => 0,
-                    "y" => 1,
-                    _ => 2,
-                };
+                let base_ty = self.ty_of(base);
+                let range = self.field_lanes(&base_ty, &field.name);
+                let mut lanes = lanes;
+                if Self::is_flag_field(&base_ty, &field.name) && !lanes.is_empty() {
+                    let (one, zero) = (b.f(1.0), b.f(0.0));
+                    lanes = vec![b.select(lanes[0], one, zero)];
+                }
                 let old = self.expr(b, fr, ctx, base);
                 if let Val::Lanes(mut l) = old
-                    && k < l.len()
-                    && !lanes.is_empty()
+                    && range.end <= l.len()
+                    && lanes.len() == range.len()
                 {
-                    l[k] = lanes[0];
+                    l[range].copy_from_slice(&lanes);
                     self.store(b, fr, ctx, base, l);
                 }
             }
@@ -1634,15 +1676,16 @@ impl<'p> Lowerer<'p> {
             ExprKind::Call { callee, args } => self.call(b, fr, ctx, callee, args, e),
             ExprKind::Construct { ty: base, args, .. } => self.construct(b, fr, ctx, *base, args, e),
             ExprKind::Member { base, field } => {
+                let base_ty = self.ty_of(base);
+                let range = self.field_lanes(&base_ty, &field.name);
                 let v = self.expr(b, fr, ctx, base);
-                let k = match field.name.as_str() {
-                    "x" => 0,
-                    "y" => 1,
-                    _ => 2,
-                };
                 match v {
-                    Val::Lanes(l) if k < l.len() => Val::Lanes(vec![l[k]]),
-                    _ => Val::Lanes(vec![b.f(0.0)]),
+                    Val::Lanes(l) if Self::is_flag_field(&base_ty, &field.name) && range.end <= l.len() => {
+                        let zero = b.f(0.0);
+                        Val::Lanes(vec![b.flt(zero, l[range.start])])
+                    }
+                    Val::Lanes(l) if range.end <= l.len() => Val::Lanes(l[range].to_vec()),
+                    _ => self.zero_value(b, &ty),
                 }
             }
             ExprKind::Index { base, index } => {
@@ -2067,6 +2110,16 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(self.float_lanes(b, v, &t, 1))
             }
             B::Matrix if vals.is_empty() => Val::Lanes(identity(b)),
+            B::BsdfSample => {
+                // bsdf_sample(wi, weight, pdf): not a delta lobe.
+                let mut lanes = Vec::new();
+                for ((v, t), want) in vals.into_iter().zip([Ty::Vector, Ty::Color, Ty::Float]) {
+                    let n = self.lanes_of(&want);
+                    lanes.extend(self.float_lanes(b, v, &t, n));
+                }
+                lanes.push(b.f(0.0));
+                Val::Lanes(lanes)
+            }
             B::Matrix if vals.len() == 1 => {
                 let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
                 let s = self.float_lanes(b, v, &t, 1)[0];
@@ -2353,6 +2406,15 @@ impl<'p> Lowerer<'p> {
             }
             "black" => Val::Lanes(b.zeros(self.lanes)),
             "spectrum" => self.spectrum(b, &mut vals, &bound),
+            "delta_sample" => {
+                // A delta lobe: pdf 0 (no density), the flag set.
+                let mut lanes = arg(self, b, 0, 3);
+                lanes.extend(arg(self, b, 1, self.lanes));
+                lanes.push(b.f(0.0));
+                lanes.push(b.f(1.0));
+                Val::Lanes(lanes)
+            }
+            "no_sample" => Val::Lanes(b.zeros(n)),
             "brightness" => {
                 let c = arg(self, b, 0, self.lanes);
                 let w = color::luminance_weights(self.model);
@@ -2995,6 +3057,8 @@ impl<'p> Lowerer<'p> {
             "absorption" => args[0].clone(),
             "normal" => self.global(b, ctx, "N").unwrap_or_default(),
             "opaque" => vec![b.b(true)],
+            "sample" => self.default_sample(b, inst, args, ctx),
+            "pdf" => self.default_pdf(b, inst, args, ctx),
             _ => b.zeros(self.lanes_of(&im.ret)),
         }
     }
@@ -3225,7 +3289,8 @@ impl<'p> Lowerer<'p> {
             "absorption" => args[0].clone(),
             "normal" => self.global(b, ctx, "N").unwrap_or_default(),
             "opaque" => vec![b.b(true)],
-            "ambient" => return None,
+            // These read the material's other methods.
+            "ambient" | "sample" | "pdf" => return None,
             _ => b.zeros(self.lanes_of(&im.ret)),
         })
     }
@@ -3279,12 +3344,26 @@ impl<'p> Lowerer<'p> {
         match node {
             "mix" => {
                 let (Some(a), Some(c)) = (child(1), child(2)) else { return b.zeros(tys.len()) };
-                if let Some(ExprKind::Str(only)) = bound.get(3).copied().flatten().map(|e| &e.kind)
-                    && only != im.name
-                {
-                    return self.mat_method(b, &a, im, args, ctx);
+                if let Some(ExprKind::Str(only)) = bound.get(3).copied().flatten().map(|e| &e.kind) {
+                    // A partial blend samples as its first child.
+                    if im.name == "sample" {
+                        return self.sample_as_first(b, mat, &a, args, ctx);
+                    }
+                    if im.name == "pdf" || only != im.name {
+                        return self.mat_method(b, &a, im, args, ctx);
+                    }
                 }
                 let t = scalar(self, b, 0, ctx);
+                if matches!(im.name, "sample" | "pdf") {
+                    let one = b.f(1.0);
+                    let weights = [b.fsub(one, t), t];
+                    let items = [a, c];
+                    return if im.name == "sample" {
+                        self.sample_mixture(b, mat, &weights, &items, args, ctx)
+                    } else {
+                        self.pdf_mixture(b, &weights, &items, args, ctx)
+                    };
+                }
                 self.mix_children(b, t, &a, &c, im, args, ctx)
             }
             "blend" => {
@@ -3299,7 +3378,11 @@ impl<'p> Lowerer<'p> {
                 };
                 let items = self.material_items(bound.get(1).copied().flatten(), mat);
                 let w = blend_weights(b, t, spline, items.len());
-                self.weighted_children(b, &w, &items, im, args, ctx)
+                match im.name {
+                    "sample" => self.sample_mixture(b, mat, &w, &items, args, ctx),
+                    "pdf" => self.pdf_mixture(b, &w, &items, args, ctx),
+                    _ => self.weighted_children(b, &w, &items, im, args, ctx),
+                }
             }
             "select" => {
                 let i = match bound.first().copied().flatten() {
@@ -3327,7 +3410,7 @@ impl<'p> Lowerer<'p> {
             "scale" => {
                 let Some(m) = child(1) else { return b.zeros(tys.len()) };
                 let inner = self.mat_method(b, &m, im, args, ctx);
-                if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse") {
+                if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse" | "sample") {
                     return inner;
                 }
                 let c = match bound.first().copied().flatten() {
@@ -3338,6 +3421,9 @@ impl<'p> Lowerer<'p> {
                     }
                     None => return inner,
                 };
+                if im.name == "sample" {
+                    return self.scale_sample(b, &inner, &c);
+                }
                 b.map2(BinOp::FMul, &inner, &c)
             }
             "transform" => {

@@ -60,6 +60,8 @@ pub enum BaseType {
     Normal,
     Vec2,
     Matrix,
+    /// A sampled direction of a material (`sample` in the interface).
+    BsdfSample,
     String,
     Material,
     Void,
@@ -77,6 +79,7 @@ impl BaseType {
             BaseType::Normal => "normal",
             BaseType::Vec2 => "vec2",
             BaseType::Matrix => "matrix",
+            BaseType::BsdfSample => "bsdf_sample",
             BaseType::String => "string",
             BaseType::Material => "material",
             BaseType::Void => "void",

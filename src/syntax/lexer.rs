@@ -136,6 +136,8 @@ pub enum Tok {
     KwUv,
     #[token("matrix")]
     KwMatrix,
+    #[token("bsdf_sample")]
+    KwBsdfSample,
     #[token("string")]
     KwString,
     #[token("void")]
@@ -251,6 +253,7 @@ impl Tok {
             Tok::KwVec2 => "vec2",
             Tok::KwUv => "uv",
             Tok::KwMatrix => "matrix",
+            Tok::KwBsdfSample => "bsdf_sample",
             Tok::KwString => "string",
             Tok::KwVoid => "void",
             Tok::LParen => "(",
