@@ -383,3 +383,21 @@ fn delta_lobes_agree_with_the_four_methods() {
     // The four methods share the tree's texture.
     assert_eq!(noise3_evaluations(lobes[4].ir()), 1, "{}", lobes[4].ir());
 }
+
+#[test]
+fn string_options_compile_only_the_chosen_branch() {
+    let p = compile(
+        "float pick(string axis = \"u\") { if axis == \"v\" { return v; } return u; }
+        float picked_v() { return pick(\"v\"); }
+        float picked_u() { return pick(); }",
+    );
+    for (name, global) in [("picked_v", "v"), ("picked_u", "u")] {
+        let f = ir(&p, name);
+        let word = tsl::globals::word_of(global).unwrap().0;
+        let globals: Vec<Op> = all_ops(&f).into_iter().filter(|op| matches!(op, Op::Global(_))).collect();
+        assert_eq!(globals, [Op::Global(word)], "one branch, reading only `{global}`:\n{f}");
+    }
+    let g = ShadingGlobals { u: 0.25, v: 0.75, ..Default::default() };
+    assert_eq!(float_at(&p, "picked_v", &g), 0.75);
+    assert_eq!(float_at(&p, "picked_u", &g), 0.25);
+}

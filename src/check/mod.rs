@@ -124,8 +124,11 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         body: Body::default(),
         images: Vec::new(),
         texture_calls: HashMap::new(),
+        string_options: HashMap::new(),
+        string_args: Vec::new(),
     };
     checker.check_items();
+    checker.report_string_options();
     checker.report_recursion();
     checker.report_varying_constants();
     let expr_types = std::mem::take(&mut checker.expr_types);
@@ -274,6 +277,22 @@ struct Checker<'a> {
     body: Body,
     images: Vec<ImageUse>,
     texture_calls: HashMap<Span, TextureCall>,
+    /// The literals each `string` parameter is compared with in its item's
+    /// body (`distribution == "ggx"`): the options it accepts.
+    string_options: HashMap<(ItemId, String), Vec<String>>,
+    /// String literals passed for `string` parameters, checked against
+    /// their options once every body has been seen.
+    string_args: Vec<StringArg>,
+}
+
+/// A string literal given for a `string` parameter of an item.
+struct StringArg {
+    callee: ItemId,
+    callee_name: String,
+    param: String,
+    literal: String,
+    default: Option<String>,
+    span: Span,
 }
 
 /// A callee's parameter, for binding arguments.
@@ -879,6 +898,23 @@ impl<'a> Checker<'a> {
             ExprKind::Binary { op, lhs, rhs } => {
                 let l = self.expr(lhs, None);
                 let r = self.expr(rhs, None);
+                if l == Ty::String && r == Ty::String {
+                    for side in [lhs, rhs] {
+                        let known = match &side.kind {
+                            ExprKind::Str(_) => true,
+                            ExprKind::Name(n) => self.lookup_local(n).is_some_and(|l| l.kind == LocalKind::Param),
+                            _ => false,
+                        };
+                        if !known {
+                            self.error(
+                                Diagnostic::error(side.span, "only string literals and `string` parameters can be compared")
+                                    .with_help("a string is an option chosen when the shader is compiled: compare a parameter with a literal, `mode == \"ggx\"`"),
+                            );
+                            return Ty::Error;
+                        }
+                    }
+                    self.record_string_option(lhs, rhs);
+                }
                 match binary_type(*op, &l, &r) {
                     Ok(t) => t,
                     Err((message, help)) => {
@@ -898,6 +934,13 @@ impl<'a> Checker<'a> {
                 let a = self.expr(then_expr, expected);
                 let b = self.expr(else_expr, expected);
                 match unify(&a, &b) {
+                    Some(Ty::String) => {
+                        self.error(
+                            Diagnostic::error(e.span, "a string cannot be chosen while shading")
+                                .with_help("strings are file names and options fixed when the shader is compiled; choose between the values they select instead"),
+                        );
+                        Ty::Error
+                    }
                     Some(t) => t,
                     None => {
                         self.error(
@@ -1171,6 +1214,7 @@ impl<'a> Checker<'a> {
                 .map(|p| ParamInfo { name: &p.name.name, ty: Some(Ty::from_ast(&p.ty)), required: p.default.is_none() })
                 .collect();
             self.typed_args(name, &infos, args, span);
+            self.note_string_args(sym, name, params, args);
             return if ret == Ty::Material { self.material_value(span) } else { ret };
         }
         // 4. A builtin.
@@ -1180,6 +1224,69 @@ impl<'a> Checker<'a> {
         self.unknown(name, callee.span, "function");
         self.untyped_args(args);
         Ty::Error
+    }
+
+    /// `p == "literal"` (either way round) where `p` is a `string`
+    /// parameter of the item being checked: "literal" is one of p's options.
+    fn record_string_option(&mut self, lhs: &Expr, rhs: &Expr) {
+        let (name, literal) = match (&lhs.kind, &rhs.kind) {
+            (ExprKind::Name(n), ExprKind::Str(s)) | (ExprKind::Str(s), ExprKind::Name(n)) => (n, s),
+            _ => return,
+        };
+        if self.lookup_local(name).is_some_and(|l| l.kind == LocalKind::Param) {
+            let options = self.string_options.entry((self.current, name.clone())).or_default();
+            if !options.contains(literal) {
+                options.push(literal.clone());
+            }
+        }
+    }
+
+    /// Remembers the string literals of a call for [`Self::report_string_options`].
+    fn note_string_args(&mut self, sym: Symbol, callee: &str, params: &[Param], args: &[Arg]) {
+        let infos: Vec<(&str, Ty)> = params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
+        for (k, a) in args.iter().enumerate() {
+            let slot = match &a.name {
+                Some(n) => infos.iter().position(|(p, _)| *p == n.name),
+                None => Some(k),
+            };
+            let (Some(slot), ExprKind::Str(literal)) = (slot, &a.value.kind) else { continue };
+            let Some(p) = params.get(slot).filter(|p| Ty::from_ast(&p.ty) == Ty::String) else { continue };
+            let default = match p.default.as_ref().map(|d| &d.kind) {
+                Some(ExprKind::Str(d)) => Some(d.clone()),
+                _ => None,
+            };
+            self.string_args.push(StringArg {
+                callee: (sym.module, sym.item),
+                callee_name: callee.to_string(),
+                param: p.name.name.clone(),
+                literal: literal.clone(),
+                default,
+                span: a.value.span,
+            });
+        }
+    }
+
+    /// A `string` option must be one its item tells apart: a literal its
+    /// body compares the parameter with, or its default.
+    fn report_string_options(&mut self) {
+        for arg in std::mem::take(&mut self.string_args) {
+            let Some(options) = self.string_options.get(&(arg.callee, arg.param.clone())) else { continue };
+            let mut known: Vec<&str> = arg.default.iter().map(String::as_str).collect();
+            known.extend(options.iter().map(String::as_str).filter(|o| Some(*o) != arg.default.as_deref()));
+            if known.contains(&arg.literal.as_str()) {
+                continue;
+            }
+            let list: Vec<String> = known.iter().map(|o| format!("\"{o}\"")).collect();
+            let mut d = Diagnostic::error(
+                arg.span,
+                format!("`{}` of `{}` has no option \"{}\"", arg.param, arg.callee_name, arg.literal),
+            )
+            .with_note(format!("the options are {}", list.join(", ")));
+            if let Some(s) = did_you_mean(&arg.literal, known.iter().copied()) {
+                d = d.with_help(format!("did you mean \"{s}\"?"));
+            }
+            self.error(d);
+        }
     }
 
     fn untyped_args(&mut self, args: &[Arg]) {
@@ -1823,6 +1930,10 @@ fn binary_type(op: BinaryOp, l: &Ty, r: &Ty) -> Result<Ty, (String, Option<Strin
         }
         Eq | Ne => {
             if (l.is_numeric() && r.is_numeric()) || (*l == Ty::Bool && *r == Ty::Bool) {
+                Ok(Ty::Bool)
+            } else if *l == Ty::String && *r == Ty::String {
+                // Both are literals or string parameters, known when the
+                // item is compiled: the comparison folds to a constant.
                 Ok(Ty::Bool)
             } else if *l == Ty::Color || *r == Ty::Color {
                 Err((

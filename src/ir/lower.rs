@@ -250,8 +250,9 @@ enum Val<'p> {
     Lanes(Vec<Value>),
     /// An array: either known element values or IR arrays (one per lane).
     Array(ArrayVal),
-    /// A string: only literals exist, used by nodes at compile time.
-    Str,
+    /// A string: only literals exist, used by nodes and options at
+    /// compile time.
+    Str(Rc<str>),
     Material(Mat<'p>),
     Unit,
 }
@@ -1434,7 +1435,7 @@ impl<'p> Lowerer<'p> {
                 let z = self.zero_lanes(b, e, lanes);
                 Val::Array(ArrayVal::Elems(vec![z; *n as usize]))
             }
-            Ty::String => Val::Str,
+            Ty::String => Val::Str(Rc::from("")),
             t => {
                 let n = self.lanes_of(t);
                 Val::Lanes(self.zero_lanes(b, t, n))
@@ -1671,7 +1672,7 @@ impl<'p> Lowerer<'p> {
             ExprKind::Int(i) => Val::Lanes(vec![b.i(*i)]),
             ExprKind::Float(x) => Val::Lanes(vec![b.f(*x as f32)]),
             ExprKind::Bool(x) => Val::Lanes(vec![b.b(*x)]),
-            ExprKind::Str(_) => Val::Str,
+            ExprKind::Str(s) => Val::Str(Rc::from(s.as_str())),
             ExprKind::Name(n) => self.name(b, fr, ctx, n, e),
             ExprKind::Call { callee, args } => self.call(b, fr, ctx, callee, args, e),
             ExprKind::Construct { ty: base, args, .. } => self.construct(b, fr, ctx, *base, args, e),
@@ -1944,7 +1945,10 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(vec![b.bin(bop, x, y)])
             }
             Eq | Ne => {
-                let eq = if *lt == Ty::Bool {
+                let eq = if let (Val::Str(x), Val::Str(y)) = (&l, &r) {
+                    // Options are known when the item is compiled.
+                    b.b(x == y)
+                } else if *lt == Ty::Bool {
                     let (x, y) = (self.scalar(b, l), self.scalar(b, r));
                     b.bin(BinOp::BEq, x, y)
                 } else if *lt == Ty::Int && *rt == Ty::Int {

@@ -19,6 +19,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod chi2;
 pub mod geometry;
 pub mod heightfield;
 pub mod image_io;

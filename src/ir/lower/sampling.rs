@@ -264,8 +264,7 @@ impl<'p> Lowerer<'p> {
                     ok = b.and(ok, outside);
                 }
             }
-            let ones = me.ones(b);
-            let f = me.instance_method(b, inst, method("reflection"), &[wi.clone(), ones, wo.clone()], ctx);
+            let f = me.eval_instance(b, inst, &wi, wo, eta, ctx);
             let weight: Vec<Value> = f.iter().map(|x| b.safe_div(*x, pdf)).collect();
             let zero = b.f(0.0);
             let sample = Sample { wi, weight, pdf, delta: zero }.lanes();
@@ -334,11 +333,7 @@ impl<'p> Lowerer<'p> {
         ctx: &Ctx,
     ) -> Vec<Value> {
         let ones = self.ones(b);
-        let ng = self.global(b, ctx, "Ng").unwrap_or_else(|| b.zeros(3));
-        let (ci, co) = (b.dot(wi, &ng), b.dot(wo, &ng));
-        let side = b.fmul(ci, co);
-        let zero = b.f(0.0);
-        let same = b.flt(zero, side);
+        let same = self.same_side(b, wi, wo, ctx);
         let reflection = method("reflection");
         if self.uses_default(mat, method("refraction"), 0) {
             let f = self.mat_method(b, mat, reflection, &[wi.to_vec(), ones, wo.to_vec()], ctx);
@@ -356,6 +351,37 @@ impl<'p> Lowerer<'p> {
                 me.mat_method(b, mat, method("refraction"), &args, ctx)
             },
         )
+    }
+
+    /// [`Self::eval_at`] for one material instance.
+    fn eval_instance(
+        &mut self,
+        b: &mut Builder,
+        inst: &Rc<Instance<'p>>,
+        wi: &[Value],
+        wo: &[Value],
+        eta: &[Value],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let ones = self.ones(b);
+        let same = self.same_side(b, wi, wo, ctx);
+        let f = self.instance_method(b, inst, method("reflection"), &[wi.to_vec(), ones.clone(), wo.to_vec()], ctx);
+        if !inst.def.methods.iter().any(|m| m.name.name == "refraction") {
+            let zeros = b.zeros(self.lanes);
+            return b.select_lanes(same, &f, &zeros);
+        }
+        let t =
+            self.instance_method(b, inst, method("refraction"), &[wi.to_vec(), ones, eta.to_vec(), wo.to_vec()], ctx);
+        b.select_lanes(same, &f, &t)
+    }
+
+    /// Whether `wi` and `wo` are on the same side of the geometric normal.
+    fn same_side(&mut self, b: &mut Builder, wi: &[Value], wo: &[Value], ctx: &Ctx) -> Value {
+        let ng = self.global(b, ctx, "Ng").unwrap_or_else(|| b.zeros(3));
+        let (ci, co) = (b.dot(wi, &ng), b.dot(wo, &ng));
+        let side = b.fmul(ci, co);
+        let zero = b.f(0.0);
+        b.flt(zero, side)
     }
 
     /// The probability of choosing each child of a weighted node:
