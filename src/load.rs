@@ -13,7 +13,10 @@ use std::path::{Path, PathBuf};
 /// The standard library, compiled into every program as its prelude.
 pub const PRELUDE: &[(&str, &str)] = &[
     ("stdlib/math.tsl", include_str!("../stdlib/math.tsl")),
+    ("stdlib/sampling.tsl", include_str!("../stdlib/sampling.tsl")),
+    ("stdlib/metals.tsl", include_str!("../stdlib/metals.tsl")),
     ("stdlib/materials.tsl", include_str!("../stdlib/materials.tsl")),
+    ("stdlib/physical.tsl", include_str!("../stdlib/physical.tsl")),
     ("stdlib/generators.tsl", include_str!("../stdlib/generators.tsl")),
     ("stdlib/texturing.tsl", include_str!("../stdlib/texturing.tsl")),
 ];

@@ -36,6 +36,16 @@ fn surface() -> ShadingGlobals {
     }
 }
 
+/// The surface of a dielectric seen from +z: from outside (the normal +z)
+/// when the index beyond it is above 1, else from inside (the normal -z).
+fn facing(eta: f32) -> ShadingGlobals {
+    let mut g = surface();
+    if eta < 1.0 {
+        (g.n, g.ng) = ([0.0, 0.0, -1.0], [0.0, 0.0, -1.0]);
+    }
+    g
+}
+
 /// A unit `wo` at `theta` degrees from the normal, in the xz plane tilted
 /// toward +y by `phi` degrees.
 fn direction(theta: f32, phi: f32) -> [f32; 3] {
@@ -66,10 +76,13 @@ struct Report {
 fn test_sampling(p: &Program, name: &str, g: &ShadingGlobals, wo: [f32; 3], eta: f32, seed: u64) -> Report {
     let m = p.material(name).unwrap_or_else(|e| panic!("{e}"));
     let eta = p.rgb(eta, eta, eta);
+    // Delta lobes answer `reflection` near their direction: not the smooth part.
+    let deltas = [m.reflection_dir(g, wo), m.refraction_dir(g, wo, &eta)];
+    let in_delta_cone = |wi: [f32; 3]| deltas.iter().any(|d| wi[0] * d[0] + wi[1] * d[1] + wi[2] * d[2] >= 0.9999);
     let mut rng = Rng(seed);
     let mut weight_error = 0.0f32;
     let mut pdf_error = 0.0f32;
-    let chi2 = DirectionTest::new(16, 32).run(
+    let chi2 = DirectionTest { theta_bins: 20, phi_bins: 40, subdivisions: 10 }.run(
         SAMPLES,
         || {
             let (uc, u) = (rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
@@ -79,6 +92,9 @@ fn test_sampling(p: &Program, name: &str, g: &ShadingGlobals, wo: [f32; 3], eta:
             }
             let pdf = m.pdf(g, s.wi, wo, &eta);
             pdf_error = pdf_error.max((pdf - s.pdf).abs() / s.pdf.max(pdf));
+            if in_delta_cone(s.wi) {
+                return Some(s.wi);
+            }
             let f = eval(&m, g, s.wi, wo, &eta);
             for (w, f) in s.weight.lanes().iter().zip(f.lanes()) {
                 let want = f / s.pdf;
@@ -162,5 +178,256 @@ fn the_pdf_of_a_mix_is_the_weighted_sum_of_its_childrens() {
         let want = 0.7 * a.pdf(&g, wi, wo, &eta) + 0.3 * b.pdf(&g, wi, wo, &eta);
         let got = m.pdf(&g, wi, wo, &eta);
         assert!((got - want).abs() <= 1e-5 * want.max(1.0), "{got} != {want} at wi {wi:?}, wo {wo:?}");
+    }
+}
+
+/// Every stdlib material that samples itself, with parameters that make
+/// its lobes distinct: glossy and rough, isotropic and anisotropic.
+const STDLIB: &str = "
+    material t_lambert = lambert(kd: rgb(0.8, 0.5, 0.2));
+    material t_phong = phong(kd: gray(0.3), ks: gray(0.6), ns: 30);
+    material t_phong_sharp = phong(kd: gray(0.05), ks: gray(0.9), ns: 150);
+    material t_blinn = blinn_phong(kd: gray(0.4), ks: gray(0.5), ns: 80);
+    material t_cook = cook_torrance(kd: gray(0.2), roughness: 0.3);
+    material t_cook_sharp = cook_torrance(kd: gray(0.1), roughness: 0.12);
+    material t_ward = ward(kd: gray(0.2), ks: gray(0.7), alpha_x: 0.15, alpha_y: 0.4);
+    material t_emitter = emitter(kd: gray(0.5));
+    material t_beckmann = rough_conductor(alpha: 0.3);
+    material t_beckmann_sharp = rough_conductor(alpha: 0.08, eta: AU_ETA, k: AU_K);
+    material t_ggx = rough_conductor(alpha: 0.3, distribution: \"ggx\");
+    material t_ggx_aniso = rough_conductor(alpha_u: 0.1, alpha_v: 0.5, distribution: \"ggx\", eta: CU_ETA, k: CU_K);
+    material t_beckmann_aniso = rough_conductor(alpha_u: 0.4, alpha_v: 0.1);
+    material t_dielectric = rough_dielectric(alpha: 0.25);
+    material t_dielectric_ggx = rough_dielectric(alpha: 0.15, distribution: \"ggx\");
+    material t_plastic = plastic(diffuse_reflectance: rgb(0.7, 0.2, 0.1));
+    material t_rough_plastic = rough_plastic(alpha: 0.2, distribution: \"ggx\");
+    material t_glass = glass;
+    material t_mirror = mirror;
+    material t_conductor = conductor(eta: AG_ETA, k: AG_K);
+";
+
+#[test]
+fn every_stdlib_material_samples_its_pdf() {
+    let p = compile(STDLIB);
+    let names = [
+        "t_lambert",
+        "t_phong",
+        "t_phong_sharp",
+        "t_blinn",
+        "t_cook",
+        "t_cook_sharp",
+        "t_ward",
+        "t_emitter",
+        "t_beckmann",
+        "t_beckmann_sharp",
+        "t_ggx",
+        "t_ggx_aniso",
+        "t_beckmann_aniso",
+        "t_plastic",
+        "t_rough_plastic",
+    ];
+    let mut seed = 1000;
+    for name in names {
+        for (t, ph) in VIEWS {
+            seed += 1;
+            assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
+        }
+    }
+}
+
+#[test]
+fn rough_dielectrics_sample_reflection_and_refraction() {
+    let p = compile(STDLIB);
+    let mut seed = 2000;
+    for name in ["t_dielectric", "t_dielectric_ggx"] {
+        // From outside (index 1.5 beyond the surface) and from inside (1 / 1.5).
+        for eta in [1.5, 1.0 / 1.5] {
+            for (t, ph) in VIEWS {
+                seed += 1;
+                let r = assert_sampling(&p, name, &facing(eta), direction(t, ph), eta, seed);
+                assert!(r.chi2.pdf_integral > 0.9, "`{name}` reflects or refracts nearly everything: {:?}", r.chi2);
+            }
+        }
+    }
+}
+
+#[test]
+fn delta_materials_draw_their_perfect_directions() {
+    let p = compile(STDLIB);
+    let g = surface();
+    let wo = direction(35.0, 20.0);
+    let mirror_dir = [-wo[0], -wo[1], wo[2]];
+    for (name, pure) in [("t_mirror", true), ("t_conductor", true), ("t_glass", true), ("t_plastic", false)] {
+        let m = p.material(name).unwrap();
+        let eta = p.rgb(1.5, 1.5, 1.5);
+        let mut rng = Rng(7);
+        let mut deltas = 0;
+        for _ in 0..1000 {
+            let s = m.sample(&g, wo, &eta, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+            if !s.delta {
+                continue;
+            }
+            deltas += 1;
+            assert_eq!(s.pdf, 0.0, "`{name}`: a delta lobe has no density");
+            let reflected = s.wi.iter().zip(mirror_dir).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max) < 1e-5;
+            let refracted = m.refraction_dir(&g, wo, &eta);
+            let through = s.wi.iter().zip(refracted).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max) < 1e-5;
+            assert!(reflected || through, "`{name}`: {:?} is neither delta direction", s.wi);
+            assert!(s.weight.lanes().iter().all(|w| w.is_finite() && *w >= 0.0), "`{name}`: {:?}", s.weight);
+        }
+        assert!(deltas > 0, "`{name}` never drew its delta lobe");
+        if pure {
+            assert_eq!(m.pdf(&g, mirror_dir, wo, &eta), 0.0, "`{name}`: no density at the mirror direction");
+        }
+    }
+}
+
+/// `∫ f cos dωi` toward `wo`, as the mean weight of `n` samples (importance
+/// sampling with the material's own pdf), and `e²` times the transmitted
+/// part of it (radiance is scaled by 1 / e² when it crosses into a medium
+/// of relative index e, so that part times e² is the energy).
+fn albedo(m: &Material, g: &ShadingGlobals, wo: [f32; 3], eta: &Color, n: usize) -> (f64, f64) {
+    let mut rng = Rng(99);
+    let e = f64::from(eta.brightness());
+    let (mut reflected, mut transmitted) = (0.0, 0.0);
+    for _ in 0..n {
+        let s = m.sample(g, wo, eta, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+        let w = f64::from(s.weight.brightness());
+        if s.wi[2] > 0.0 {
+            reflected += w;
+        } else {
+            transmitted += w * e * e;
+        }
+    }
+    (reflected / n as f64, transmitted / n as f64)
+}
+
+/// The directional albedo at normal incidence of a microfacet reflector
+/// with Fresnel 1 (D, separable Smith G), by quadrature over the facet
+/// angle in f64: an oracle written from the textbook formulas.
+fn microfacet_albedo_at_normal(alpha: f64, ggx: bool) -> f64 {
+    use std::f64::consts::PI;
+    let tan2 = |c: f64| (1.0 - c * c) / (c * c);
+    let d = |c: f64| {
+        let t2 = tan2(c);
+        if ggx {
+            1.0 / (PI * alpha * alpha * c.powi(4) * (1.0 + t2 / (alpha * alpha)).powi(2))
+        } else {
+            (-t2 / (alpha * alpha)).exp() / (PI * alpha * alpha * c.powi(4))
+        }
+    };
+    let g1 = |c: f64| {
+        let t2 = tan2(c);
+        if ggx {
+            return 2.0 / (1.0 + (1.0 + alpha * alpha * t2).sqrt());
+        }
+        let a = 1.0 / (alpha * t2.sqrt());
+        if a >= 1.6 { 1.0 } else { (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a) }
+    };
+    // wo is the normal; the facet at angle m reflects it to 2m, with
+    // dωi = 4 cos(m) dωm, and f cos = D G1(wi) G1(wo) / 4.
+    let n = 100_000;
+    let step = PI / 4.0 / n as f64;
+    (0..n)
+        .map(|k| {
+            let m = (k as f64 + 0.5) * step;
+            d(m.cos()) * g1((2.0 * m).cos()) / 4.0 * 4.0 * m.cos() * m.sin() * step * 2.0 * PI
+        })
+        .sum()
+}
+
+#[test]
+fn a_rough_conductor_with_fresnel_one_conserves_energy() {
+    let p = compile(
+        "material smooth_beckmann = rough_conductor(alpha: 0.02);
+        material smooth_ggx = rough_conductor(alpha: 0.02, distribution: \"ggx\");
+        material rough_beckmann = rough_conductor(alpha: 0.5);
+        material rough_ggx = rough_conductor(alpha: 0.5, distribution: \"ggx\");",
+    );
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (t, ph) in VIEWS {
+        let wo = direction(t, ph);
+        for name in ["smooth_beckmann", "smooth_ggx", "rough_beckmann", "rough_ggx"] {
+            let (a, _) = albedo(&p.material(name).unwrap(), &surface(), wo, &one, 40_000);
+            assert!(a <= 1.005, "`{name}` at {t} degrees reflects {a} of the light: more than it receives");
+            if name.starts_with("smooth") {
+                assert!(a >= 0.98, "`{name}` at {t} degrees reflects only {a}");
+            }
+            if t == 0.0 {
+                // Single scattering loses what bounces between the facets
+                // (31% for GGX at alpha 0.5): the quadrature says how much.
+                let alpha = if name.starts_with("smooth") { 0.02 } else { 0.5 };
+                let want = microfacet_albedo_at_normal(alpha, name.ends_with("ggx"));
+                assert!((a - want).abs() < 0.01, "`{name}` at the normal reflects {a}, the formula says {want}");
+            }
+        }
+    }
+}
+
+#[test]
+fn dielectrics_conserve_energy() {
+    let p = compile(
+        "material frosted = rough_dielectric(alpha: 0.05, int_ior: 1.5, ext_ior: 1);
+        material frosted_ggx = rough_dielectric(alpha: 0.3, distribution: \"ggx\", int_ior: 1.5, ext_ior: 1);
+        material glossy_plastic = rough_plastic(alpha: 0.1, diffuse_reflectance: gray(1));
+        material coat = plastic(diffuse_reflectance: gray(1));",
+    );
+    for (t, ph) in VIEWS {
+        let wo = direction(t, ph);
+        for eta in [1.5f32, 1.0 / 1.5] {
+            for name in ["frosted", "frosted_ggx"] {
+                let eta_c = p.rgb(eta, eta, eta);
+                let (r, tr) = albedo(&p.material(name).unwrap(), &facing(eta), wo, &eta_c, 20_000);
+                assert!(r + tr <= 1.01, "`{name}` (eta {eta}) at {t} degrees: {r} + {tr} > 1");
+                // What single scattering loses: little when nearly smooth.
+                // (a quarter at grazing angles for GGX at alpha 0.3).
+                let floor = if name == "frosted" { 0.95 } else { 0.7 };
+                assert!(r + tr >= floor, "`{name}` (eta {eta}) at {t} degrees keeps only {r} + {tr}");
+            }
+        }
+        // A white base under a clear coat: what the coat does not reflect
+        // the base returns, up to the light the coat traps.
+        for name in ["glossy_plastic", "coat"] {
+            let (r, _) = albedo(&p.material(name).unwrap(), &surface(), wo, &p.rgb(1.0, 1.0, 1.0), 20_000);
+            assert!(r <= 1.01 && r >= 0.8, "`{name}` at {t} degrees reflects {r}");
+        }
+    }
+}
+
+#[test]
+fn conductor_fresnel_matches_the_exact_formula() {
+    // fresnel_conductor against the textbook form with complex arithmetic.
+    let p = compile(
+        "color f(float cos_i) { return fresnel_conductor(cos_i, rgb(0.2, 0.9, 1.1), rgb(3.9, 2.4, 2.1)); }
+        color none(float cos_i) { return fresnel_conductor(cos_i, gray(0), gray(1)); }",
+    );
+    let exact = |cos_i: f64, eta: f64, k: f64| {
+        // r_s and r_p of n = eta + i k from vacuum.
+        let sin2 = 1.0 - cos_i * cos_i;
+        let (n2r, n2i) = (eta * eta - k * k, 2.0 * eta * k);
+        // cos_t n = sqrt(n^2 - sin^2): complex square root.
+        let (ar, ai) = (n2r - sin2, n2i);
+        let m = (ar * ar + ai * ai).sqrt();
+        let (sr, si) = (((m + ar) / 2.0).sqrt(), ((m - ar) / 2.0).sqrt().copysign(ai));
+        let abs2 = |re: f64, im: f64| re * re + im * im;
+        let rs = abs2(cos_i - sr, -si) / abs2(cos_i + sr, si);
+        // r_p = (n^2 cos_i - s) / (n^2 cos_i + s), s = sqrt(n^2 - sin^2).
+        let (pr, pi) = (n2r * cos_i, n2i * cos_i);
+        let rp = abs2(pr - sr, pi - si) / abs2(pr + sr, pi + si);
+        (rs + rp) / 2.0
+    };
+    let f = p.function("f").unwrap();
+    let none = p.function("none").unwrap();
+    for k in 0..=20 {
+        let c = k as f32 / 20.0;
+        let mut out = [0u32; 3];
+        f.call_words(tsl::Backend::Jit, &ShadingGlobals::default(), &[c.to_bits()], &mut out).unwrap();
+        for (lane, (eta, kk)) in [(0.2, 3.9), (0.9, 2.4), (1.1, 2.1)].into_iter().enumerate() {
+            let got = f64::from(f32::from_bits(out[lane]));
+            let want = exact(f64::from(c), eta, kk);
+            assert!((got - want).abs() < 2e-4, "cos {c}, eta {eta} + {kk} i: {got} != {want}");
+        }
+        none.call_words(tsl::Backend::Jit, &ShadingGlobals::default(), &[c.to_bits()], &mut out).unwrap();
+        assert!(out.iter().all(|w| f32::from_bits(*w) == 1.0), "eta 0, k 1 reflects exactly everything at cos {c}");
     }
 }

@@ -56,7 +56,7 @@ pub const INTERFACE: &[InterfaceMethod] = &[
     InterfaceMethod {
         name: "sample",
         ret: Ty::BsdfSample,
-        params: &[("wo", Ty::Vector), ("eta", Ty::Color), ("uc", Ty::Float), ("u", Ty::Vec2)],
+        params: &[("wo", Ty::Vector), ("eta", Ty::Color), ("u1", Ty::Float), ("u2", Ty::Vec2)],
         default: "a cosine-distributed direction about normal(), or a delta direction of reflection_dir/refraction_dir, chosen by their weights",
     },
     InterfaceMethod {
@@ -116,7 +116,7 @@ mod tests {
         assert_eq!(INTERFACE.len(), 13, "the paper's eleven methods, sample and pdf");
         assert_eq!(
             interface_method("sample").unwrap().signature(),
-            "bsdf_sample sample(vector wo, color eta, float uc, vec2 u)"
+            "bsdf_sample sample(vector wo, color eta, float u1, vec2 u2)"
         );
     }
 }

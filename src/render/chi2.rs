@@ -32,8 +32,9 @@
 
 use std::f64::consts::{PI, TAU};
 
-/// Bins of the sphere: `theta` bands equal in `cos θ` (so equal in solid
-/// angle) times `phi` sectors, about the z axis.
+/// Bins of the sphere: `theta` bands of equal angle (fine at the poles,
+/// where glossy lobes about the normal and refracted lobes lie; Mitsuba's
+/// choice) times `phi` sectors, about the z axis.
 #[derive(Debug, Clone, Copy)]
 pub struct DirectionTest {
     pub theta_bins: usize,
@@ -68,7 +69,8 @@ impl DirectionTest {
         if !(len > 0.5 && len < 1.5) {
             return None;
         }
-        let t = ((1.0 - z / len) / 2.0 * self.theta_bins as f64).clamp(0.0, self.theta_bins as f64 - 1.0) as usize;
+        let theta = (z / len).clamp(-1.0, 1.0).acos();
+        let t = (theta / PI * self.theta_bins as f64).clamp(0.0, self.theta_bins as f64 - 1.0) as usize;
         let phi = y.atan2(x).rem_euclid(TAU);
         let p = (phi / TAU * self.phi_bins as f64).clamp(0.0, self.phi_bins as f64 - 1.0) as usize;
         Some(t * self.phi_bins + p)
@@ -92,23 +94,23 @@ impl DirectionTest {
             }
         }
         let sub = self.subdivisions;
-        let cell = 4.0 * PI / bins as f64 / (sub * sub) as f64;
+        let (dt, dp) = (PI / (self.theta_bins * sub) as f64, TAU / (self.phi_bins * sub) as f64);
         let mut expected = vec![0.0; bins];
         let mut integral = 0.0;
         for t in 0..self.theta_bins {
             for p in 0..self.phi_bins {
-                let mut sum = 0.0;
+                // The midpoint rule in (θ, φ), with the area element sin θ.
+                let mut mass = 0.0;
                 for i in 0..sub {
+                    let theta = (t * sub + i) as f64 * dt + dt / 2.0;
+                    let (sin_t, cos_t) = theta.sin_cos();
                     for j in 0..sub {
-                        let z = 1.0 - 2.0 * (t as f64 + (i as f64 + 0.5) / sub as f64) / self.theta_bins as f64;
-                        let phi = TAU * (p as f64 + (j as f64 + 0.5) / sub as f64) / self.phi_bins as f64;
-                        let r = (1.0 - z * z).max(0.0).sqrt();
-                        let d = [(r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32];
+                        let phi = (p * sub + j) as f64 * dp + dp / 2.0;
+                        let d = [(sin_t * phi.cos()) as f32, (sin_t * phi.sin()) as f32, cos_t as f32];
                         let v = pdf(d);
-                        sum += if v.is_finite() { v } else { 0.0 };
+                        mass += if v.is_finite() { v * sin_t * dt * dp } else { 0.0 };
                     }
                 }
-                let mass = sum * cell;
                 integral += mass;
                 expected[t * self.phi_bins + p] = mass * n as f64;
             }
