@@ -389,7 +389,7 @@ fn dielectrics_conserve_energy() {
         // the base returns, up to the light the coat traps.
         for name in ["glossy_plastic", "coat"] {
             let (r, _) = albedo(&p.material(name).unwrap(), &surface(), wo, &p.rgb(1.0, 1.0, 1.0), 20_000);
-            assert!(r <= 1.01 && r >= 0.8, "`{name}` at {t} degrees reflects {r}");
+            assert!((0.8..=1.01).contains(&r), "`{name}` at {t} degrees reflects {r}");
         }
     }
 }
