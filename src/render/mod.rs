@@ -19,6 +19,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod environment;
 pub mod geometry;
 pub mod heightfield;
 pub mod image_io;
@@ -37,7 +38,7 @@ pub use glam::Mat4;
 pub type Vec3 = glam::Vec3A;
 pub use image_io::RenderedImage;
 pub use integrator::Counters;
-pub use scene::{IntegratorKind, Overrides, Scene, Settings};
+pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 
 use integrator::{Aov, Tracer};
 use rayon::prelude::*;
