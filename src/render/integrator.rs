@@ -2,8 +2,9 @@
 //! interface: [`Tracer::whitted`] (the second paper's renderer: emission,
 //! direct light through `reflection`, perfect reflection and refraction
 //! followed recursively, absorption inside media) and [`Tracer::path`] (a
-//! unidirectional path tracer with next-event estimation, multiple
-//! importance sampling of area lights, and Russian roulette).
+//! unidirectional path tracer with next-event estimation of one light
+//! chosen by power or of every light, multiple importance sampling of area
+//! lights and the environment, and Russian roulette).
 //!
 //! Materials have no sampling method, so the path tracer samples what the
 //! interface exposes: the delta directions `reflection_dir` and
