@@ -257,7 +257,12 @@ impl LightSampler {
     /// The light that `u` picks, its probability, and `u` remapped to a
     /// fresh uniform number (with one light, `u` itself).
     pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
-        let (k, pmf, rest) = self.distribution.as_ref()?.sample_remapped(u);
+        let distribution = self.distribution.as_ref()?;
+        // One light is the common case: no search, the same numbers.
+        if distribution.len() == 1 {
+            return Some((0, 1.0, u));
+        }
+        let (k, pmf, rest) = distribution.sample_remapped(u);
         (pmf > 0.0).then_some((k, pmf, rest))
     }
 
