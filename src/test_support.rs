@@ -107,12 +107,7 @@ pub fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
 /// from `seed`) against the density `pdf`: bins in (cos theta, phi) about
 /// +z, each compared with the pdf integrated over it (midpoint rule on a
 /// finer grid).
-pub fn direction_chi2(
-    sample: impl Fn([f32; 2]) -> Vec3,
-    pdf: impl Fn(Vec3) -> f32,
-    seed: u64,
-    samples: usize,
-) -> f64 {
+pub fn direction_chi2(sample: impl Fn([f32; 2]) -> Vec3, pdf: impl Fn(Vec3) -> f32, seed: u64, samples: usize) -> f64 {
     const NT: usize = 20;
     const NP: usize = 40;
     let mut observed = vec![0.0; NT * NP];

@@ -142,11 +142,7 @@ fn floor_radiance(env: &Environment, kd: f64) -> f64 {
         let theta = std::f64::consts::PI * (j as f64 + 0.5) / nv as f64;
         for i in 0..nu {
             let phi = std::f64::consts::TAU * ((i as f64 + 0.5) / nu as f64 - 0.5);
-            let d = Vec3::new(
-                (theta.sin() * phi.sin()) as f32,
-                theta.cos() as f32,
-                (-theta.sin() * phi.cos()) as f32,
-            );
+            let d = Vec3::new((theta.sin() * phi.sin()) as f32, theta.cos() as f32, (-theta.sin() * phi.cos()) as f32);
             env.radiance(d, &mut out);
             sum += f64::from(out[1]) * theta.cos() * theta.sin();
         }
@@ -204,9 +200,7 @@ fn many_lights(n: usize, sampling: &str, spp: u32) -> (RenderedImage, RenderStat
     for k in 0..n {
         let (x, z) = ((k % 40) as f32 * 0.25 - 5.0, (k / 40) as f32 * 0.25 - 3.0);
         let radiance = 20.0 + 30.0 * (k % 7) as f32;
-        lights.push_str(&format!(
-            "light sphere {{ center ({x}, 2, {z}); radius 0.03; radiance gray({radiance}); }}\n"
-        ));
+        lights.push_str(&format!("light sphere {{ center ({x}, 2, {z}); radius 0.03; radiance gray({radiance}); }}\n"));
     }
     let src = format!(
         r#"scene {{
@@ -260,7 +254,10 @@ fn background_and_environment_blocks_are_the_same_light() {
     };
     let background = bits(&scene(&format!(r#"background "{file}";"#)));
     assert_eq!(background, bits(&scene(&format!(r#"light environment {{ file "{file}"; }}"#))));
-    assert_eq!(background, bits(&scene(&format!(r#"light environment {{ file "{file}"; scale 1; rotate (0, 0, 0); }}"#))));
+    assert_eq!(
+        background,
+        bits(&scene(&format!(r#"light environment {{ file "{file}"; scale 1; rotate (0, 0, 0); }}"#)))
+    );
     let constant = bits(&scene("background rgb(0.2, 0.3, 0.4);"));
     assert_eq!(constant, bits(&scene("light environment { radiance rgb(0.2, 0.3, 0.4); }")));
     // Seen directly, scale 2 doubles every sample exactly.

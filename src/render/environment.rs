@@ -395,7 +395,11 @@ mod tests {
                 f64::from(mean_lane(&out))
             });
             // Texel sums against the bilinear lookup: close, not equal.
-            assert!((numeric - f64::from(env.integral)).abs() < 0.03 * numeric, "{name}: {numeric} vs {}", env.integral);
+            assert!(
+                (numeric - f64::from(env.integral)).abs() < 0.03 * numeric,
+                "{name}: {numeric} vs {}",
+                env.integral
+            );
             assert!((env.power(2.0) - 4.0 * PI * env.integral).abs() < 1e-3 * env.power(2.0));
         }
     }

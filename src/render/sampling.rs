@@ -584,12 +584,9 @@ mod tests {
 
     #[test]
     fn degenerate_2d_distributions_are_uniform_and_finite() {
-        for (weights, w, h) in [
-            (vec![0.0; 12], 4, 3),
-            (vec![f32::NAN, -1.0, f32::INFINITY, 0.0], 2, 2),
-            (vec![], 3, 3),
-            (vec![], 0, 0),
-        ] {
+        for (weights, w, h) in
+            [(vec![0.0; 12], 4, 3), (vec![f32::NAN, -1.0, f32::INFINITY, 0.0], 2, 2), (vec![], 3, 3), (vec![], 0, 0)]
+        {
             let d = Distribution2D::new(&weights, w, h);
             for u in [[0.0, 0.0], [0.5, 0.25], [ONE_MINUS_EPSILON, ONE_MINUS_EPSILON], [f32::NAN, 0.5]] {
                 let (p, pdf) = d.sample(u);

@@ -431,7 +431,9 @@ impl<'a> Builder<'a> {
                 Diagnostic::error(second, "a scene has one environment").with_label(first, "the first is here"),
             ));
         }
-        let black = || Environment::new(EnvironmentSource::Constant(Color::black(self.model).lanes().to_vec()), 1.0, Vec3::ZERO);
+        let black = || {
+            Environment::new(EnvironmentSource::Constant(Color::black(self.model).lanes().to_vec()), 1.0, Vec3::ZERO)
+        };
         match found.first() {
             None => Ok(black()),
             Some((_, _, Some(p))) => Ok(Environment::new(self.environment_source(p)?, 1.0, Vec3::ZERO)),
@@ -444,10 +446,9 @@ impl<'a> Builder<'a> {
                     Some(p) => {
                         let x = self.float(p)?;
                         if x < 0.0 {
-                            return Err(self.error(
-                                self.expr(p)?.span,
-                                format!("`scale` must not be negative, found {x}"),
-                            ));
+                            return Err(
+                                self.error(self.expr(p)?.span, format!("`scale` must not be negative, found {x}"))
+                            );
                         }
                         x
                     }
