@@ -414,51 +414,57 @@ impl<'a> Builder<'a> {
     /// top-level `background`, scale 1 and unturned (the checker allows
     /// one of them; a second is an error here too). Black without either.
     fn environment(&self) -> Result<Environment, Error> {
-        let mut found: Vec<(Span, Option<&'a SceneBlock>, Option<&'a SceneProp>)> = Vec::new();
+        // Where each is named, and its block (none for `background`).
+        let mut found: Vec<(Span, Option<&'a SceneBlock>)> = Vec::new();
+        let mut background = None;
         for entry in &self.scene.entries {
             match entry {
-                SceneEntry::Prop(p) if p.name.name == "background" => found.push((p.name.span, None, Some(p))),
+                SceneEntry::Prop(p) if p.name.name == "background" => {
+                    found.push((p.name.span, None));
+                    background = Some(p);
+                }
                 SceneEntry::Block(b)
                     if b.keyword.name == "light" && b.kind.as_ref().is_some_and(|k| k.name == "environment") =>
                 {
-                    found.push((b.keyword.span, Some(b), None));
+                    found.push((b.keyword.span, Some(b)));
                 }
                 _ => {}
             }
         }
-        if let [(first, ..), (second, ..), ..] = found[..] {
-            return Err(self.program.error(
-                Diagnostic::error(second, "a scene has one environment").with_label(first, "the first is here"),
-            ));
-        }
-        let black = || {
-            Environment::new(EnvironmentSource::Constant(Color::black(self.model).lanes().to_vec()), 1.0, Vec3::ZERO)
-        };
-        match found.first() {
-            None => Ok(black()),
-            Some((_, _, Some(p))) => Ok(Environment::new(self.environment_source(p)?, 1.0, Vec3::ZERO)),
-            Some((_, Some(b), _)) => {
-                let source = match (find(&b.props, "file"), find(&b.props, "radiance")) {
-                    (Some(p), _) | (None, Some(p)) => self.environment_source(p)?,
-                    (None, None) => return Err(self.error(b.span, "an environment needs `file` or `radiance`")),
-                };
-                let scale = match find(&b.props, "scale") {
-                    Some(p) => {
-                        let x = self.float(p)?;
-                        if x < 0.0 {
-                            return Err(
-                                self.error(self.expr(p)?.span, format!("`scale` must not be negative, found {x}"))
-                            );
-                        }
-                        x
-                    }
-                    None => 1.0,
-                };
-                let rotate = find(&b.props, "rotate").map(|p| self.vec3(p)).transpose()?.unwrap_or(Vec3::ZERO);
-                Ok(Environment::new(source, scale, rotate))
+        match found[..] {
+            [] => {
+                let black = Color::black(self.model).lanes().to_vec();
+                Ok(Environment::new(EnvironmentSource::Constant(black), 1.0, Vec3::ZERO))
             }
-            Some(_) => Ok(black()),
+            [(_, None)] => match background {
+                Some(p) => Ok(Environment::new(self.environment_source(p)?, 1.0, Vec3::ZERO)),
+                None => Err(self.error(self.scene.span, "internal error: a background without its property")),
+            },
+            [(_, Some(b))] => self.environment_block(b),
+            [(first, _), (second, _), ..] => Err(self.program.error(
+                Diagnostic::error(second, "a scene has one environment").with_label(first, "the first is here"),
+            )),
         }
+    }
+
+    /// A `light environment { }` block.
+    fn environment_block(&self, b: &'a SceneBlock) -> Result<Environment, Error> {
+        let source = match (find(&b.props, "file"), find(&b.props, "radiance")) {
+            (Some(p), _) | (None, Some(p)) => self.environment_source(p)?,
+            (None, None) => return Err(self.error(b.span, "an environment needs `file` or `radiance`")),
+        };
+        let scale = match find(&b.props, "scale") {
+            Some(p) => {
+                let x = self.float(p)?;
+                if x < 0.0 {
+                    return Err(self.error(self.expr(p)?.span, format!("`scale` must not be negative, found {x}")));
+                }
+                x
+            }
+            None => 1.0,
+        };
+        let rotate = find(&b.props, "rotate").map(|p| self.vec3(p)).transpose()?.unwrap_or(Vec3::ZERO);
+        Ok(Environment::new(source, scale, rotate))
     }
 
     /// A color, or a string naming a lat-long image (loaded here, so a
@@ -789,26 +795,9 @@ fn light_sampler(lights: &[Light], objects: &[Object], geometry: &Geometry, lane
         .iter()
         .enumerate()
         .map(|(k, light)| {
-            let Some(object) = light.object() else { return light.power(radius, 0.0) };
-            let object = &objects[object as usize];
-            let mut sum = 0.0f64;
-            let mut out = vec![0.0f32; lanes];
-            for probe in 0..EMISSION_PROBES {
-                let mut u = super::sampling::Sampler::new(0x11c4, probe, k as u32, 0);
-                let (uv, u3) = (u.next_2d(), u.next_1d());
-                let Some((surface, _)) = light.area_point(geometry, uv, u3) else { continue };
-                let g = super::integrator::globals_of(&surface, 0.0);
-                out.fill(0.0);
-                object.material.emission_into(&g, surface.n.to_array(), &mut out);
-                let scale = object.emission_scale.as_ref().map_or(&[][..], |c| c.lanes());
-                let mean = (0..lanes)
-                    .map(|c| out[c] * scale.get(c).copied().unwrap_or(1.0))
-                    .map(|x| if x.is_finite() && x > 0.0 { f64::from(x) } else { 0.0 })
-                    .sum::<f64>()
-                    / lanes.max(1) as f64;
-                sum += mean;
-            }
-            light.power(radius, (sum / f64::from(EMISSION_PROBES)) as f32)
+            let radiance =
+                light.object().map_or(0.0, |o| mean_emission(light, k, &objects[o as usize], geometry, lanes));
+            light.power(radius, radiance)
         })
         .collect();
     let strongest = powers.iter().copied().fold(0.0f32, f32::max);
@@ -818,4 +807,27 @@ fn light_sampler(lights: &[Light], objects: &[Object], geometry: &Geometry, lane
         }
     }
     LightSampler::new(&powers)
+}
+
+/// The mean radiance (over probes and lanes) area light `light`, number
+/// `k`, emits along the normal of its surface, `object`'s.
+fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, lanes: usize) -> f32 {
+    let scale = object.emission_scale.as_ref().map_or(&[][..], |c| c.lanes());
+    let mut out = vec![0.0f32; lanes];
+    let mut sum = 0.0f64;
+    for probe in 0..EMISSION_PROBES {
+        // Fixed numbers, so the powers (and the image) are reproducible.
+        let mut u = super::sampling::Sampler::new(0x11c4, probe, k as u32, 0);
+        let (uv, u3) = (u.next_2d(), u.next_1d());
+        let Some((surface, _)) = light.area_point(geometry, uv, u3) else { continue };
+        out.fill(0.0);
+        object.material.emission_into(&super::integrator::globals_of(&surface, 0.0), surface.n.to_array(), &mut out);
+        for (c, x) in out.iter().enumerate() {
+            let x = x * scale.get(c).copied().unwrap_or(1.0);
+            if x.is_finite() && x > 0.0 {
+                sum += f64::from(x);
+            }
+        }
+    }
+    (sum / f64::from(EMISSION_PROBES) / lanes.max(1) as f64) as f32
 }
