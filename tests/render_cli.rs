@@ -87,6 +87,33 @@ fn tiles_merge_into_the_same_bits_as_one_render() {
 }
 
 #[test]
+fn light_sampling_is_chosen_on_the_command_line() {
+    // Cornell has one light: choosing it by power is summing all lights.
+    let dir = scratch("lights");
+    let mut images = Vec::new();
+    for sampling in ["all", "power"] {
+        let out = dir.join(format!("{sampling}.exr"));
+        let o = tslc(&[
+            "render",
+            "examples/cornell.tsl",
+            "-o",
+            &s(&out),
+            "--res",
+            "16x16",
+            "--spp",
+            "2",
+            "--light-sampling",
+            sampling,
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        images.push(tsl::render::image_io::read_exr(&out).unwrap().color);
+    }
+    assert_eq!(images[0], images[1]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn bad_invocations_are_clear_errors_and_write_nothing() {
     let dir = scratch("bad");
     let out = dir.join("out.png");
@@ -103,6 +130,8 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
     assert!(!o.status.success() && stderr(&o).contains(".png or .exr"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("nodir/x.png")), "--res", "8x8", "--quiet"]);
     assert!(!o.status.success() && stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--light-sampling", "some"]);
+    assert!(o.status.code() == Some(2) && stderr(&o).contains("all or power"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0.5,0.5,0,1", "--res", "8x8"]);
     assert!(!o.status.success() && stderr(&o).contains("empty"), "{}", stderr(&o));
     // A scene with an error is reported with its location.

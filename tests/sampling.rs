@@ -82,7 +82,7 @@ fn test_sampling(p: &Program, name: &str, g: &ShadingGlobals, wo: [f32; 3], eta:
     let mut rng = Rng(seed);
     let mut weight_error = 0.0f32;
     let mut pdf_error = 0.0f32;
-    let chi2 = DirectionTest { theta_bins: 20, phi_bins: 40, subdivisions: 10 }.run(
+    let chi2 = DirectionTest { subdivisions: 10, ..DirectionTest::new(20, 40) }.run(
         SAMPLES,
         || {
             let (uc, u) = (rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);

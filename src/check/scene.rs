@@ -12,6 +12,8 @@ use std::collections::HashMap;
 enum Want {
     /// A float that must be positive when written as a literal.
     Positive,
+    /// A float that must not be negative when written as a literal.
+    NonNegative,
     Float,
     /// An int that must be positive when written as a literal.
     Count,
@@ -32,6 +34,7 @@ impl Want {
     fn describe(self) -> String {
         match self {
             Want::Positive => "a positive float".into(),
+            Want::NonNegative => "a float that is not negative".into(),
             Want::Float => "a float".into(),
             Want::Count => "a positive int".into(),
             Want::Int => "an int".into(),
@@ -94,6 +97,7 @@ const RENDER: &[Prop] = &[
     opt("max_depth", Want::Count),
     opt("seed", Want::Int),
     opt("integrator", Want::Choice(&["whitted", "path"])),
+    opt("light_sampling", Want::Choice(&["all", "power"])),
 ];
 
 const LIGHTS: &[(&str, &[Prop])] = &[
@@ -127,6 +131,15 @@ const LIGHTS: &[(&str, &[Prop])] = &[
             req("radius", Want::Positive),
             alt("radiance", Want::Color),
             alt("power", Want::Color),
+        ],
+    ),
+    (
+        "environment",
+        &[
+            alt("file", Want::String),
+            alt("radiance", Want::Color),
+            opt("scale", Want::NonNegative),
+            opt("rotate", Want::Vector),
         ],
     ),
 ];
@@ -164,9 +177,16 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     let mut cameras = Vec::new();
     let mut renders = Vec::new();
     let mut top_props: Vec<&SceneProp> = Vec::new();
+    // `light environment` blocks and `background`: at most one in all.
+    let mut environments: Vec<Span> = Vec::new();
     for entry in &scene.entries {
         match entry {
-            SceneEntry::Prop(p) => top_props.push(p),
+            SceneEntry::Prop(p) => {
+                if p.name.name == "background" {
+                    environments.push(p.name.span);
+                }
+                top_props.push(p);
+            }
             SceneEntry::Block(b) => match b.keyword.name.as_str() {
                 "camera" => {
                     no_kind(cx, b);
@@ -179,6 +199,9 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
                     check_props(cx, b.props.iter().collect(), RENDER, &[], "render settings", b);
                 }
                 "light" => {
+                    if b.kind.as_ref().is_some_and(|k| k.name == "environment") {
+                        environments.push(b.keyword.span);
+                    }
                     if let Some(props) = kind_props(cx, b, LIGHTS, "light") {
                         check_props(cx, b.props.iter().collect(), props, &[], "this light", b);
                     }
@@ -204,6 +227,13 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
         cx.error(
             Diagnostic::error(Span { end: scene.span.start + 5, ..scene.span }, "the scene has no camera")
                 .with_help("add `camera { from (0, 1, -4); to (0, 1, 0); fov 40; }`"),
+        );
+    }
+    for extra in environments.iter().skip(1) {
+        cx.error(
+            Diagnostic::error(*extra, "a scene has one environment")
+                .with_label(environments[0], "the first is here")
+                .with_help("`background` and `light environment { }` both set the environment: keep one"),
         );
     }
     for (what, blocks) in [("camera", &cameras), ("render block", &renders)] {
@@ -341,7 +371,7 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     cx.body.globals_allowed = spec.want == Want::Material;
     cx.body.materials_allowed = spec.want == Want::Material;
     let expected = match spec.want {
-        Want::Positive | Want::Float => Some(Ty::Float),
+        Want::Positive | Want::NonNegative | Want::Float => Some(Ty::Float),
         Want::Count | Want::Int => Some(Ty::Int),
         Want::Color => Some(Ty::Color),
         Want::Point => Some(Ty::Point),
@@ -372,6 +402,13 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
                 && v <= 0.0
             {
                 cx.error(Diagnostic::error(value.span, format!("`{}` must be positive, found {v}", spec.name)));
+            }
+        }
+        Want::NonNegative => {
+            if let Some(v) = literal_number(value)
+                && v < 0.0
+            {
+                cx.error(Diagnostic::error(value.span, format!("`{}` must not be negative, found {v}", spec.name)));
             }
         }
         Want::Choice(choices) => match &value.kind {

@@ -32,15 +32,25 @@
 
 use std::f64::consts::{PI, TAU};
 
-/// Bins of the sphere: `theta` bands of equal angle (fine at the poles,
-/// where glossy lobes about the normal and refracted lobes lie; Mitsuba's
-/// choice) times `phi` sectors, about the z axis.
+/// Bins of the sphere: `theta` bands times `phi` sectors, about the z axis.
 #[derive(Debug, Clone, Copy)]
 pub struct DirectionTest {
     pub theta_bins: usize,
     pub phi_bins: usize,
     /// Midpoint-rule points per bin side when integrating the pdf.
     pub subdivisions: usize,
+    pub bands: Bands,
+}
+
+/// How the `theta` bands divide the sphere.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bands {
+    /// Equal angles: fine at the poles, where glossy lobes about the normal
+    /// and refracted lobes lie (Mitsuba's choice).
+    Angle,
+    /// Equal in cos θ, so equal in solid angle: band edges fall on round
+    /// cosines, such as the edge of a cone.
+    Cosine,
 }
 
 /// What [`DirectionTest::run`] found.
@@ -60,7 +70,7 @@ pub struct Chi2Result {
 
 impl DirectionTest {
     pub fn new(theta_bins: usize, phi_bins: usize) -> DirectionTest {
-        DirectionTest { theta_bins, phi_bins, subdivisions: 8 }
+        DirectionTest { theta_bins, phi_bins, subdivisions: 8, bands: Bands::Angle }
     }
 
     fn bin(&self, d: [f32; 3]) -> Option<usize> {
@@ -69,8 +79,12 @@ impl DirectionTest {
         if !(len > 0.5 && len < 1.5) {
             return None;
         }
-        let theta = (z / len).clamp(-1.0, 1.0).acos();
-        let t = (theta / PI * self.theta_bins as f64).clamp(0.0, self.theta_bins as f64 - 1.0) as usize;
+        let cos = (z / len).clamp(-1.0, 1.0);
+        let at = match self.bands {
+            Bands::Angle => cos.acos() / PI,
+            Bands::Cosine => (1.0 - cos) / 2.0,
+        };
+        let t = (at * self.theta_bins as f64).clamp(0.0, self.theta_bins as f64 - 1.0) as usize;
         let phi = y.atan2(x).rem_euclid(TAU);
         let p = (phi / TAU * self.phi_bins as f64).clamp(0.0, self.phi_bins as f64 - 1.0) as usize;
         Some(t * self.phi_bins + p)
@@ -99,16 +113,26 @@ impl DirectionTest {
         let mut integral = 0.0;
         for t in 0..self.theta_bins {
             for p in 0..self.phi_bins {
-                // The midpoint rule in (θ, φ), with the area element sin θ.
+                // The midpoint rule in (θ, φ) with the area element sin θ dθ,
+                // or in (cos θ, φ), where it is d cos θ.
                 let mut mass = 0.0;
                 for i in 0..sub {
-                    let theta = (t * sub + i) as f64 * dt + dt / 2.0;
-                    let (sin_t, cos_t) = theta.sin_cos();
+                    let at = ((t * sub + i) as f64 + 0.5) / (self.theta_bins * sub) as f64;
+                    let (sin_t, cos_t, area) = match self.bands {
+                        Bands::Angle => {
+                            let (s, c) = (at * PI).sin_cos();
+                            (s, c, s * dt)
+                        }
+                        Bands::Cosine => {
+                            let c = 1.0 - 2.0 * at;
+                            ((1.0 - c * c).max(0.0).sqrt(), c, 2.0 / (self.theta_bins * sub) as f64)
+                        }
+                    };
                     for j in 0..sub {
                         let phi = (p * sub + j) as f64 * dp + dp / 2.0;
                         let d = [(sin_t * phi.cos()) as f32, (sin_t * phi.sin()) as f32, cos_t as f32];
                         let v = pdf(d);
-                        mass += if v.is_finite() { v * sin_t * dt * dp } else { 0.0 };
+                        mass += if v.is_finite() { v * area * dp } else { 0.0 };
                     }
                 }
                 integral += mass;
@@ -140,7 +164,7 @@ pub fn chi2_statistic(observed: &[f64], expected: &[f64]) -> (f64, i64) {
         chi2 += (o - e) * (o - e) / e;
         dof += 1;
     }
-    if pool_e > 0.0 || pool_o > 0.0 {
+    if pool_e > 0.0 {
         chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e.max(1e-9);
         dof += 1;
     }

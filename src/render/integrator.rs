@@ -2,8 +2,9 @@
 //! interface: [`Tracer::whitted`] (the second paper's renderer: emission,
 //! direct light through `reflection`, perfect reflection and refraction
 //! followed recursively, absorption inside media) and [`Tracer::path`] (a
-//! unidirectional path tracer with next-event estimation, multiple
-//! importance sampling of area lights, and Russian roulette).
+//! unidirectional path tracer with next-event estimation of one light
+//! chosen by power or of every light, multiple importance sampling of area
+//! lights and the environment, and Russian roulette).
 //!
 //! Materials have no sampling method, so the path tracer samples what the
 //! interface exposes: the delta directions `reflection_dir` and
@@ -19,9 +20,9 @@
 //! POV-Ray: the camera ray has depth 1 and shadow rays do not count.
 
 use super::geometry::Hit;
-use super::light::{LightKind, LightSample};
+use super::light::{Light, LightKind, LightSample};
 use super::sampling::{self, Sampler};
-use super::scene::{Object, Scene};
+use super::scene::{LightSampling, Object, Scene, Strategy};
 use super::shape::SurfaceHit;
 use super::spectrum::Spectrum;
 use super::{Ray, Vec3};
@@ -121,6 +122,32 @@ const DELTA_CONE: f32 = 0.9999;
 
 fn in_delta_cone(wi: Vec3, deltas: &[Option<Vec3>; 2]) -> bool {
     deltas.iter().flatten().any(|d| wi.dot(*d) >= DELTA_CONE)
+}
+
+/// The part of a material the path tracer samples by direction (all but
+/// its delta lobes): chosen with probability `p`, then cosine-distributed
+/// about `normal`.
+#[derive(Clone, Copy)]
+struct SmoothLobe {
+    p: f32,
+    normal: Vec3,
+}
+
+// Material sampling of the smooth lobe, and its density: the one place to
+// change when materials sample themselves.
+
+/// A direction drawn from `lobe` (given that it was chosen) and the
+/// density of drawing it, `p` included.
+fn sample_bsdf(lobe: &SmoothLobe, u: [f32; 2]) -> (Vec3, f32) {
+    let local = sampling::square_to_cosine_hemisphere(u);
+    let wi = sampling::Frame::new(lobe.normal).to_world(local);
+    (wi, sampling::cosine_hemisphere_pdf(local.z) * lobe.p)
+}
+
+/// The solid-angle density with which material sampling picks `wi` from
+/// `lobe` ([`sample_bsdf`]'s): what light samples are weighed against.
+fn bsdf_pdf(lobe: &SmoothLobe, wi: Vec3) -> f32 {
+    lobe.p * sampling::cosine_hemisphere_pdf(lobe.normal.dot(wi))
 }
 
 /// Traces rays in one scene with `N` radiance lanes. One per thread.
@@ -384,7 +411,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 Spectrum::from_lanes(intensity.lanes()) * scale
             }
             LightKind::Directional { irradiance, .. } => Spectrum::from_lanes(irradiance.lanes()) * scale,
-            LightKind::Area { .. } => Spectrum::ZERO,
+            LightKind::Area { .. } | LightKind::Environment(_) => Spectrum::ZERO,
         }
     }
 
@@ -398,18 +425,29 @@ impl<'s, const N: usize> Tracer<'s, N> {
         self.emission(object, &g, -wi)
     }
 
-    /// Direct light at `sh` from every light (one sample each), weighted
-    /// against material sampling when `mis` is given (the probability of
-    /// choosing the non-delta lobe).
+    /// Direct light at `sh`. Whitted (no `mis`) sums every light but the
+    /// environment, which it sees only where rays leave the scene. The
+    /// path tracer (`mis`: the lobe its material sampling draws from, to
+    /// weigh light samples against) samples every light once, or one light
+    /// chosen by power, as the settings say.
     fn direct(
         &mut self,
         sh: &Shading,
         sampler: &mut Sampler,
-        mis: Option<(f32, Vec3)>,
+        mis: Option<SmoothLobe>,
         deltas: &[Option<Vec3>; 2],
     ) -> Spectrum<N> {
-        let mut sum = Spectrum::ZERO;
         let scene = self.scene;
+        if mis.is_some() && scene.settings.light_sampling == LightSampling::Power {
+            // The same three numbers as for one light of the "all" loop,
+            // the third also choosing the light: with a single light the
+            // two ways give the same bits.
+            let u = sampler.next_2d();
+            let u3 = sampler.next_1d();
+            let Some((k, pmf, u3)) = scene.light_sampler.sample(u3) else { return Spectrum::ZERO };
+            return self.light_sample(sh, &scene.lights[k], pmf, u, u3, mis, deltas);
+        }
+        let mut sum = Spectrum::ZERO;
         // With a reflection sum, delta lights are gathered (black where
         // they cannot reach) and shaded in one call after the loop.
         let summed = sh.object.reflection_sum.as_ref();
@@ -419,14 +457,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
             words.extend(v.to_array().iter().chain(lanes).map(|x| x.to_bits()));
         };
         for light in &scene.lights {
+            if mis.is_none() && matches!(light.kind, LightKind::Environment(_)) {
+                continue;
+            }
             let u = sampler.next_2d();
             let u3 = sampler.next_1d();
-            let sample = light.sample(&scene.geometry, sh.surface.p, u, u3);
-            let delta_light = light.object().is_none();
-            if summed.is_some() && delta_light {
+            if summed.is_some() && light.is_delta() {
                 let mut li = Spectrum::ZERO;
                 let mut dir = sh.surface.n;
-                if let Some(LightSample::Delta { wi, distance, scale }) = sample {
+                if let Some(LightSample::Delta { wi, distance, scale }) =
+                    light.sample(&scene.geometry, sh.surface.p, u, u3)
+                {
                     dir = wi;
                     // Reflected light comes from the viewer's side of the surface.
                     let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
@@ -440,42 +481,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 push(&mut gathered, dir, &li.0[..self.lanes]);
                 continue;
             }
-            let Some(sample) = sample else { continue };
-            match sample {
-                LightSample::Delta { wi, distance, scale } => {
-                    let li = self.delta_light(&light.kind, scale);
-                    if li.is_black() || in_delta_cone(wi, deltas) {
-                        continue;
-                    }
-                    let f = self.reflection(sh, wi, &li);
-                    if f.is_black() {
-                        continue;
-                    }
-                    sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
-                }
-                LightSample::Surface { wi, distance, pdf, surface, .. } => {
-                    if pdf <= 0.0 || !pdf.is_finite() || in_delta_cone(wi, deltas) {
-                        continue;
-                    }
-                    let Some(object) = light.object() else { continue };
-                    let le = self.surface_emission(object, &surface, wi, distance);
-                    if le.is_black() {
-                        continue;
-                    }
-                    let f = self.reflection(sh, wi, &le);
-                    if f.is_black() {
-                        continue;
-                    }
-                    let weight = match mis {
-                        Some((p_lobe, ns)) => {
-                            let bsdf_pdf = p_lobe * sampling::cosine_hemisphere_pdf(ns.dot(wi));
-                            sampling::power_heuristic(1.0, pdf, 1.0, bsdf_pdf)
-                        }
-                        None => 1.0,
-                    };
-                    sum += f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance) * (weight / pdf);
-                }
-            }
+            sum += self.light_sample(sh, light, 1.0, u, u3, mis, deltas);
         }
         if let Some(f) = summed {
             push(&mut gathered, sh.wo, &[]);
@@ -492,6 +498,84 @@ impl<'s, const N: usize> Tracer<'s, N> {
         sum
     }
 
+    /// Light reflected at `sh` from one sample of `light`, chosen with
+    /// probability `pmf`; `u` and `u3` are the sample's random numbers.
+    #[allow(clippy::too_many_arguments)]
+    fn light_sample(
+        &mut self,
+        sh: &Shading,
+        light: &Light,
+        pmf: f32,
+        u: [f32; 2],
+        u3: f32,
+        mis: Option<SmoothLobe>,
+        deltas: &[Option<Vec3>; 2],
+    ) -> Spectrum<N> {
+        let scene = self.scene;
+        let Some(sample) = light.sample(&scene.geometry, sh.surface.p, u, u3) else { return Spectrum::ZERO };
+        // Material sampling alone finds area lights and the environment.
+        let skip_found = mis.is_some() && scene.settings.strategy == Strategy::Material;
+        let (wi, distance, pdf, le) = match sample {
+            LightSample::Delta { wi, distance, scale } => {
+                let li = self.delta_light(&light.kind, scale);
+                if li.is_black() || in_delta_cone(wi, deltas) {
+                    return Spectrum::ZERO;
+                }
+                let f = self.reflection(sh, wi, &(li / pmf));
+                if f.is_black() {
+                    return Spectrum::ZERO;
+                }
+                return f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
+            }
+            LightSample::Surface { wi, distance, pdf, surface, .. } => {
+                let Some(object) = light.object() else { return Spectrum::ZERO };
+                if skip_found || pdf <= 0.0 || !pdf.is_finite() || in_delta_cone(wi, deltas) {
+                    return Spectrum::ZERO;
+                }
+                (wi, distance, pdf, self.surface_emission(object, &surface, wi, distance))
+            }
+            LightSample::Environment { wi, pdf } => {
+                if skip_found || pdf <= 0.0 || !pdf.is_finite() || in_delta_cone(wi, deltas) {
+                    return Spectrum::ZERO;
+                }
+                (wi, f32::INFINITY, pdf, self.background(wi))
+            }
+        };
+        if le.is_black() {
+            return Spectrum::ZERO;
+        }
+        let f = self.reflection(sh, wi, &le);
+        if f.is_black() {
+            return Spectrum::ZERO;
+        }
+        let light_pdf = pmf * pdf;
+        let weight = match mis {
+            Some(lobe) if scene.settings.strategy == Strategy::Mis => {
+                sampling::power_heuristic(1.0, light_pdf, 1.0, bsdf_pdf(&lobe, wi))
+            }
+            _ => 1.0,
+        };
+        f * self.transmittance(sh.surface.p, sh.surface.ng, wi, distance) * (weight / light_pdf)
+    }
+
+    /// The weight of light that material sampling found (a path hit an
+    /// emitter or left the scene) against light sampling, which picks the
+    /// same point with solid-angle density `light_pdf`.
+    fn found_weight(&self, bsdf_pdf: f32, light_pdf: f32) -> f32 {
+        match self.scene.settings.strategy {
+            Strategy::Mis => sampling::power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf),
+            Strategy::Material => 1.0,
+            // Light sampling counts it wherever it can reach it.
+            Strategy::Light => {
+                if light_pdf > 0.0 {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+        }
+    }
+
     /// The shading normal from the material, turned toward the viewer.
     fn sampling_normal(&self, sh: &Shading) -> Vec3 {
         let n = Vec3::from(sh.object.material.normal(&sh.g)).normalize_or_zero();
@@ -499,9 +583,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if n.dot(sh.wo) < 0.0 { -n } else { n }
     }
 
+    /// The environment's radiance along `dir` (black without one).
     fn background(&self, dir: Vec3) -> Spectrum<N> {
         let mut out = Spectrum::ZERO;
-        self.scene.background.radiance(dir.normalize(), &mut out.0);
+        if let Some(env) = self.scene.environment() {
+            env.radiance(dir.normalize(), &mut out.0);
+        }
         out
     }
 
@@ -591,7 +678,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut depth = 1u32;
         loop {
             let Some(hit) = self.nearest(&ray) else {
-                l += beta * self.background(ray.dir);
+                // The environment found by following the path, weighed
+                // against having sampled the same direction as a light.
+                let le = self.background(ray.dir);
+                let weight = match (prev, self.scene.environment_light, self.scene.environment()) {
+                    (Some((_, bsdf_pdf)), Some(k), Some(env)) if !le.is_black() => {
+                        let light_pdf = self.scene.light_pmf(k) * env.pdf(ray.dir.normalize());
+                        self.found_weight(bsdf_pdf, light_pdf)
+                    }
+                    _ => 1.0,
+                };
+                l += beta * le * weight;
                 break;
             };
             let sh = self.shade(&ray, hit, distance);
@@ -606,8 +703,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if !le.is_black() {
                 let weight = match (prev, self.scene.light_of_object[hit.object as usize]) {
                     (Some((x, bsdf_pdf)), Some(k)) => {
-                        let light_pdf = self.scene.lights[k].pdf(x, &sh.surface);
-                        sampling::power_heuristic(1.0, bsdf_pdf, 1.0, light_pdf)
+                        let light_pdf = self.scene.light_pmf(k) * self.scene.lights[k].pdf(x, &sh.surface);
+                        self.found_weight(bsdf_pdf, light_pdf)
                     }
                     _ => 1.0,
                 };
@@ -642,14 +739,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let deltas = [(lobes[0].2 > 0.0).then_some(lobes[0].0), (lobes[1].2 > 0.0).then_some(lobes[1].0)];
             // The frame material sampling uses; its pdf weighs light samples.
             let ns = self.sampling_normal(&sh);
-            l += beta * self.direct(&sh, sampler, Some((p_smooth, ns)), &deltas);
+            let smooth = SmoothLobe { p: p_smooth, normal: ns };
+            l += beta * self.direct(&sh, sampler, Some(smooth), &deltas);
             let u_lobe = sampler.next_1d();
             let u_dir = sampler.next_2d();
             let (wi, weight, next_media, pdf) = if u_lobe < p_smooth {
-                let local = sampling::square_to_cosine_hemisphere(u_dir);
-                let frame = sampling::Frame::new(ns);
-                let wi = frame.to_world(local);
-                let pdf = sampling::cosine_hemisphere_pdf(local.z) * p_smooth;
+                let (wi, pdf) = sample_bsdf(&smooth, u_dir);
                 if pdf <= 0.0 || in_delta_cone(wi, &deltas) {
                     break;
                 }
@@ -695,7 +790,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
 /// The shading globals of a surface record (the footprint is filled by
 /// [`footprint`]).
-fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
+pub(super) fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
     ShadingGlobals {
         p: v3(s.p),
         pl: v3(s.pl),

@@ -1,13 +1,16 @@
 //! Light sources: point, spot and directional lights (delta lights, given
-//! by intensity or irradiance), and area lights: emissive objects of every
-//! bounded shape (spheres and cylinders only under similarity transforms).
-//! Other emissive objects (an emissive infinite plane, a stretched sphere)
-//! still glow; rays find them by chance only.
+//! by intensity or irradiance), area lights: emissive objects of every
+//! bounded shape (spheres and cylinders only under similarity transforms),
+//! and the environment. Other emissive objects (an emissive infinite plane,
+//! a stretched sphere) still glow; rays find them by chance only.
+//! [`LightSampler`] picks one light in proportion to its power.
 //!
 //! Invariant: a [`LightSample`]'s `pdf` and [`Light::pdf`] are densities per
 //! unit solid angle at the shaded point, so the path tracer can weigh
-//! light and material sampling against each other.
+//! light and material sampling against each other; the probability of
+//! choosing the light is not in them (the caller multiplies it in).
 
+use super::environment::Environment;
 use super::geometry::{Geometry, ObjectGeometry};
 use super::sampling::{self, Distribution1D};
 use super::shape::{ShapeKind, SurfaceHit};
@@ -28,6 +31,8 @@ pub enum LightKind {
     Directional { dir: Vec3, irradiance: Color },
     /// An emissive object; meshes pick triangles by area.
     Area { object: u32, sampler: AreaSampler },
+    /// The scene's environment, when it is not black.
+    Environment(Box<Environment>),
 }
 
 pub enum AreaSampler {
@@ -52,6 +57,9 @@ pub enum LightSample {
     /// the material for the emission toward `-wi`), the direction and
     /// distance to it, and the pdf per unit solid angle.
     Surface { wi: Vec3, distance: f32, pdf: f32, surface: SurfaceHit, tri: u32 },
+    /// A direction toward the environment (unit; the light comes from
+    /// infinitely far) and its pdf per unit solid angle.
+    Environment { wi: Vec3, pdf: f32 },
 }
 
 impl Light {
@@ -107,6 +115,7 @@ impl Light {
             LightKind::Directional { dir, .. } => {
                 Some(LightSample::Delta { wi: -*dir, distance: f32::INFINITY, scale: 1.0 })
             }
+            LightKind::Environment(env) => env.sample(u).map(|(wi, pdf)| LightSample::Environment { wi, pdf }),
             LightKind::Area { object, sampler } => {
                 let ObjectGeometry::Shape(shape) = &geometry.objects[*object as usize] else {
                     let ObjectGeometry::Mesh(mesh) = &geometry.objects[*object as usize] else { unreachable!() };
@@ -173,6 +182,93 @@ impl Light {
             LightKind::Area { object, .. } => Some(object),
             _ => None,
         }
+    }
+
+    /// Whether the light sits at a point or in one direction (point,
+    /// spot, directional): no ray finds it by chance.
+    pub fn is_delta(&self) -> bool {
+        matches!(self.kind, LightKind::Point { .. } | LightKind::Spot { .. } | LightKind::Directional { .. })
+    }
+
+    /// The light's power (W, mean over the color lanes), for choosing
+    /// lights in proportion to it, as pbrt-v4's `Phi`: point `4 pi I`; spot
+    /// `I` times the cone's solid angle (the smooth edge counted as half);
+    /// directional `E pi r²` and the environment `pi r² ∫ L dω`, the light
+    /// crossing the scene's cross-section (`scene_radius` r); area `L pi A`,
+    /// one side, with `area_radiance` the mean radiance `L` the caller
+    /// estimated from the material.
+    pub fn power(&self, scene_radius: f32, area_radiance: f32) -> f32 {
+        let mean = |c: &Color| c.lanes().iter().sum::<f32>() / c.lanes().len().max(1) as f32;
+        let pi = std::f32::consts::PI;
+        let power = match &self.kind {
+            LightKind::Point { intensity, .. } => 4.0 * pi * mean(intensity),
+            LightKind::Spot { intensity, cos_outer, cos_inner, .. } => {
+                mean(intensity) * std::f32::consts::TAU * (1.0 - 0.5 * (cos_inner + cos_outer))
+            }
+            LightKind::Directional { irradiance, .. } => mean(irradiance) * pi * scene_radius * scene_radius,
+            LightKind::Area { sampler, .. } => {
+                let area = match sampler {
+                    AreaSampler::Planar { area } | AreaSampler::Mesh { area, .. } => *area,
+                    AreaSampler::Sphere { radius, .. } => 4.0 * pi * radius * radius,
+                };
+                area_radiance * pi * area
+            }
+            LightKind::Environment(env) => env.power(scene_radius),
+        };
+        if power.is_finite() && power > 0.0 { power } else { 0.0 }
+    }
+
+    /// A point uniformly distributed over an area light's surface (`u3`
+    /// picks a mesh's triangle), with the triangle; `None` for other
+    /// lights. For estimating the light's emission.
+    pub fn area_point(&self, geometry: &Geometry, u: [f32; 2], u3: f32) -> Option<(SurfaceHit, u32)> {
+        let LightKind::Area { object, sampler } = &self.kind else { return None };
+        // Any ray through the point gives its surface record; this one
+        // comes from one unit away along y.
+        let ray_to = |y: Vec3| Ray::new(y + Vec3::Y, -Vec3::Y);
+        match (&geometry.objects[*object as usize], sampler) {
+            (ObjectGeometry::Mesh(mesh), AreaSampler::Mesh { triangles, .. }) => {
+                let tri = triangles.sample(u3).0 as u32;
+                let (b1, b2) = sampling::square_to_uniform_triangle(u);
+                let [v0, v1, v2] = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize]);
+                let y = v0 * (1.0 - b1 - b2) + v1 * b1 + v2 * b2;
+                Some((mesh.surface(tri, &ray_to(y), 1.0, b1, b2), tri))
+            }
+            (ObjectGeometry::Shape(shape), _) => Some((shape.surface(&ray_to(shape.sample_area(u)), 1.0), 0)),
+            _ => None,
+        }
+    }
+}
+
+/// Chooses one light for next-event estimation in proportion to its power
+/// (pbrt-v4's `PowerLightSampler`). Lights of zero power are never chosen.
+#[derive(Debug, Clone, Default)]
+pub struct LightSampler {
+    /// `None` when no light has power.
+    distribution: Option<Distribution1D>,
+}
+
+impl LightSampler {
+    /// A sampler over lights of these powers (see [`Light::power`]).
+    pub fn new(powers: &[f32]) -> LightSampler {
+        LightSampler { distribution: Distribution1D::new(powers) }
+    }
+
+    /// The light that `u` picks, its probability, and `u` remapped to a
+    /// fresh uniform number (with one light, `u` itself).
+    pub fn sample(&self, u: f32) -> Option<(usize, f32, f32)> {
+        let distribution = self.distribution.as_ref()?;
+        // One light is the common case: no search, the same numbers.
+        if distribution.len() == 1 {
+            return Some((0, 1.0, u));
+        }
+        let (k, pmf, rest) = distribution.sample_remapped(u);
+        (pmf > 0.0).then_some((k, pmf, rest))
+    }
+
+    /// The probability of choosing light `k`.
+    pub fn pmf(&self, k: usize) -> f32 {
+        self.distribution.as_ref().map_or(0.0, |d| d.pmf(k))
     }
 }
 

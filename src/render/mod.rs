@@ -20,6 +20,7 @@
 pub mod accel;
 pub mod camera;
 pub mod chi2;
+pub mod environment;
 pub mod geometry;
 pub mod heightfield;
 pub mod image_io;
@@ -38,7 +39,7 @@ pub use glam::Mat4;
 pub type Vec3 = glam::Vec3A;
 pub use image_io::RenderedImage;
 pub use integrator::Counters;
-pub use scene::{IntegratorKind, Overrides, Scene, Settings};
+pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 
 use integrator::{Aov, Tracer};
 use rayon::prelude::*;

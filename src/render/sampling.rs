@@ -179,6 +179,15 @@ pub fn power_heuristic(nf: f32, f_pdf: f32, ng: f32, g_pdf: f32) -> f32 {
     f2 / (f2 + g2)
 }
 
+/// The largest f32 below 1: where remapped and sampled points are clamped
+/// so that they stay in [0, 1).
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// `x` clamped into [0, 1); NaN becomes 0.
+fn to_unit(x: f32) -> f32 {
+    if x >= 0.0 { x.min(ONE_MINUS_EPSILON) } else { 0.0 }
+}
+
 /// A piecewise-constant distribution over indices, proportional to
 /// non-negative weights (lights by power, triangles by area).
 #[derive(Debug, Clone, PartialEq)]
@@ -204,9 +213,10 @@ impl Distribution1D {
             acc += w;
             cdf.push((acc / total) as f32);
         }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
-        }
+        // From the last entry that has weight on, the cdf is exactly 1, so
+        // no `u` below 1 can land on a zero-weight tail.
+        let last = clean.iter().rposition(|w| *w > 0.0).unwrap_or(0);
+        cdf[last..].fill(1.0);
         Some(Distribution1D { cdf, pmf: clean.iter().map(|w| (w / total) as f32).collect() })
     }
 
@@ -218,6 +228,17 @@ impl Distribution1D {
             k += 1;
         }
         (k, self.pmf[k])
+    }
+
+    /// [`Distribution1D::sample`], and `u` stretched back to [0, 1) over
+    /// the chosen entry's interval: a fresh uniform number for the next
+    /// choice (pbrt's `PiecewiseConstant1D` remap). With one entry the
+    /// number is `u` itself.
+    pub fn sample_remapped(&self, u: f32) -> (usize, f32, f32) {
+        let (k, p) = self.sample(u);
+        let below = if k == 0 { 0.0 } else { self.cdf[k - 1] };
+        let rest = if p > 0.0 { to_unit((u - below) / p) } else { 0.0 };
+        (k, p, rest)
     }
 
     pub fn pmf(&self, index: usize) -> f32 {
@@ -233,139 +254,82 @@ impl Distribution1D {
     }
 }
 
+/// A piecewise-constant density over the unit square, proportional to
+/// non-negative weights on a `width x height` grid of cells (row-major,
+/// row 0 at y = 0): a marginal distribution picks the row, that row's
+/// conditional distribution the cell, as pbrt's `PiecewiseConstant2D`.
+/// Used for environment images, weighted by their radiance.
+///
+/// Cells of weight zero are never sampled and have density zero. When all
+/// weights are zero (or the grid is empty) the density is uniform, so
+/// sampling still gives finite points and pdfs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Distribution2D {
+    width: usize,
+    height: usize,
+    /// Rows by their total weight; `None` when every weight is zero.
+    marginal: Option<Distribution1D>,
+    /// Cells within each row; `None` for rows of zero weight.
+    rows: Vec<Option<Distribution1D>>,
+}
+
+impl Distribution2D {
+    /// `weights` holds `width * height` values, row by row; missing
+    /// values count as zero and extra ones are ignored.
+    pub fn new(weights: &[f32], width: usize, height: usize) -> Distribution2D {
+        let (width, height) = (width.max(1), height.max(1));
+        let clean = |w: f32| if w.is_finite() && w > 0.0 { w } else { 0.0 };
+        let mut rows = Vec::with_capacity(height);
+        let mut totals = Vec::with_capacity(height);
+        for j in 0..height {
+            let row: Vec<f32> = (0..width).map(|i| weights.get(j * width + i).copied().map_or(0.0, clean)).collect();
+            totals.push(row.iter().map(|w| f64::from(*w)).sum::<f64>() as f32);
+            rows.push(Distribution1D::new(&row));
+        }
+        Distribution2D { width, height, marginal: Distribution1D::new(&totals), rows }
+    }
+
+    /// A point in [0, 1)^2 distributed by the density, from the uniform
+    /// `u` (`u[1]` picks the row, `u[0]` the cell in it), and its density.
+    pub fn sample(&self, u: [f32; 2]) -> ([f32; 2], f32) {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let Some(marginal) = &self.marginal else { return (u.map(to_unit), 1.0) };
+        let (j, p_row, v) = marginal.sample_remapped(u[1]);
+        // A row the marginal picks has weight, so it has a distribution.
+        let Some(row) = &self.rows[j] else { return (u.map(to_unit), 0.0) };
+        let (i, p_cell, s) = row.sample_remapped(u[0]);
+        let (x, y) = (to_unit((i as f32 + s) / w), to_unit((j as f32 + v) / h));
+        ([x, y], p_row * h * p_cell * w)
+    }
+
+    /// The density at `point` (clamped into the square).
+    pub fn pdf(&self, point: [f32; 2]) -> f32 {
+        let Some(marginal) = &self.marginal else { return 1.0 };
+        let cell = |x: f32, n: usize| {
+            let k = (x * n as f32).floor();
+            if k.is_nan() { 0 } else { (k.max(0.0) as usize).min(n - 1) }
+        };
+        let (i, j) = (cell(point[0], self.width), cell(point[1], self.height));
+        let p_cell = self.rows[j].as_ref().map_or(0.0, |r| r.pmf(i));
+        marginal.pmf(j) * self.height as f32 * p_cell * self.width as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_support::{chi2_p_value, gamma_p};
 
     fn uniform(n: usize, seed: u64) -> impl Iterator<Item = [f32; 2]> {
         (0..n as u32).map(move |k| Sampler::new(seed, k, 0, 0).next_2d())
-    }
-
-    /// The regularised lower incomplete gamma function P(a, x)
-    /// (Numerical Recipes: series below a + 1, continued fraction above).
-    fn gamma_p(a: f64, x: f64) -> f64 {
-        if x <= 0.0 {
-            return 0.0;
-        }
-        let ln_gamma_a = ln_gamma(a);
-        if x < a + 1.0 {
-            let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
-            for _ in 0..10_000 {
-                ap += 1.0;
-                term *= x / ap;
-                sum += term;
-                if term.abs() < sum.abs() * 1e-15 {
-                    break;
-                }
-            }
-            sum * (-x + a * x.ln() - ln_gamma_a).exp()
-        } else {
-            let tiny = 1e-300;
-            let mut b = x + 1.0 - a;
-            let mut c = 1.0 / tiny;
-            let mut d = 1.0 / b;
-            let mut h = d;
-            for i in 1..10_000 {
-                let an = -(i as f64) * (i as f64 - a);
-                b += 2.0;
-                d = an * d + b;
-                if d.abs() < tiny {
-                    d = tiny;
-                }
-                c = b + an / c;
-                if c.abs() < tiny {
-                    c = tiny;
-                }
-                d = 1.0 / d;
-                let delta = d * c;
-                h *= delta;
-                if (delta - 1.0).abs() < 1e-15 {
-                    break;
-                }
-            }
-            1.0 - (-x + a * x.ln() - ln_gamma_a).exp() * h
-        }
-    }
-
-    /// Lanczos approximation of ln Γ(x), x > 0.
-    fn ln_gamma(x: f64) -> f64 {
-        const G: [f64; 6] = [
-            76.18009172947146,
-            -86.50532032941677,
-            24.01409824083091,
-            -1.231739572450155,
-            0.1208650973866179e-2,
-            -0.5395239384953e-5,
-        ];
-        let mut y = x;
-        let tmp = x + 5.5;
-        let tmp = tmp - (x + 0.5) * tmp.ln();
-        let mut ser = 1.000000000190015;
-        for g in G {
-            y += 1.0;
-            ser += g / y;
-        }
-        -tmp + (2.5066282746310005 * ser / x).ln()
-    }
-
-    /// p-value of Pearson's chi² test of observed against expected counts,
-    /// pooling cells expected below 5 (as Mitsuba's chi2 test).
-    fn chi2_p_value(observed: &[f64], expected: &[f64]) -> f64 {
-        let (mut chi2, mut dof) = (0.0, 0i64);
-        let (mut pool_o, mut pool_e) = (0.0, 0.0);
-        for (o, e) in observed.iter().zip(expected) {
-            if *e < 5.0 {
-                pool_o += o;
-                pool_e += e;
-                continue;
-            }
-            chi2 += (o - e) * (o - e) / e;
-            dof += 1;
-        }
-        if pool_e > 0.0 {
-            chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e.max(1e-9);
-            dof += 1;
-        }
-        dof -= 1;
-        1.0 - gamma_p(dof as f64 / 2.0, chi2 / 2.0)
     }
 
     const SAMPLES: usize = 200_000;
     /// Bonferroni: the tests below run about ten chi² tests together.
     const ALPHA: f64 = 0.01 / 10.0;
 
-    /// Bins directions by (cos theta, phi) over the sphere and compares
-    /// with the pdf integrated over each bin (midpoint rule on a finer grid).
     fn direction_chi2(sample: impl Fn([f32; 2]) -> Vec3, pdf: impl Fn(Vec3) -> f32, seed: u64) -> f64 {
-        const NT: usize = 20;
-        const NP: usize = 40;
-        let mut observed = vec![0.0; NT * NP];
-        for u in uniform(SAMPLES, seed) {
-            let d = sample(u);
-            let t = (((1.0 - d.z) / 2.0) * NT as f32).clamp(0.0, NT as f32 - 1.0) as usize;
-            let phi = d.y.atan2(d.x).rem_euclid(TAU);
-            let p = ((phi / TAU) * NP as f32).clamp(0.0, NP as f32 - 1.0) as usize;
-            observed[t * NP + p] += 1.0;
-        }
-        let mut expected = vec![0.0; NT * NP];
-        const SUB: usize = 8;
-        for t in 0..NT {
-            for p in 0..NP {
-                let mut integral = 0.0f64;
-                for i in 0..SUB {
-                    for j in 0..SUB {
-                        let z = 1.0 - 2.0 * (t as f32 + (i as f32 + 0.5) / SUB as f32) / NT as f32;
-                        let phi = TAU * (p as f32 + (j as f32 + 0.5) / SUB as f32) / NP as f32;
-                        let r = (1.0 - z * z).max(0.0).sqrt();
-                        integral += f64::from(pdf(Vec3::new(r * phi.cos(), r * phi.sin(), z)));
-                    }
-                }
-                // The bin's solid angle is 4 pi / (NT NP).
-                expected[t * NP + p] =
-                    integral / (SUB * SUB) as f64 * (4.0 * std::f64::consts::PI) / (NT * NP) as f64 * SAMPLES as f64;
-            }
-        }
-        chi2_p_value(&observed, &expected)
+        crate::test_support::direction_chi2(sample, pdf, seed, SAMPLES)
     }
 
     #[test]
@@ -572,5 +536,89 @@ mod tests {
         let expected = [0.25 * SAMPLES as f64, 0.0, 0.75 * SAMPLES as f64, 0.0];
         assert!(chi2_p_value(&[counts[0], counts[2]], &[expected[0], expected[2]]) > ALPHA);
         assert_eq!(d.sample(0.999_999_9).0, 2);
+    }
+
+    /// 7 x 5 cells with a zero row (row 2) and scattered zero cells.
+    fn grid_weights() -> Vec<f32> {
+        (0..35)
+            .map(|k| {
+                let (i, j) = (k % 7, k / 7);
+                if j == 2 || (i + j) % 4 == 0 { 0.0 } else { 1.0 + ((i * 3 + j * 5) % 7) as f32 }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn distribution_2d_integrates_to_one_and_matches_its_samples() {
+        let weights = grid_weights();
+        let d = Distribution2D::new(&weights, 7, 5);
+        // The density integrates to 1 (midpoint rule, 4 x 4 points a cell),
+        // and is proportional to the weights.
+        let total: f32 = weights.iter().sum();
+        let mut integral = 0.0f64;
+        for y in 0..20 {
+            for x in 0..28 {
+                let p = [(x as f32 + 0.5) / 28.0, (y as f32 + 0.5) / 20.0];
+                let pdf = d.pdf(p);
+                let w = weights[(y / 4) * 7 + x / 4];
+                assert!((pdf - w / total * 35.0).abs() < 1e-4, "cell ({}, {}): {pdf}", x / 4, y / 4);
+                integral += f64::from(pdf) / (28.0 * 20.0);
+            }
+        }
+        assert!((integral - 1.0).abs() < 1e-5, "{integral}");
+        // Samples: 2 x 2 bins a cell, so the density inside a cell is
+        // checked too; zero cells are never hit; each pdf is the density.
+        let mut observed = vec![0.0; 14 * 10];
+        for u in uniform(SAMPLES, 21) {
+            let ([x, y], pdf) = d.sample(u);
+            assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y), "{x}, {y}");
+            assert!((pdf - d.pdf([x, y])).abs() <= 1e-5 * pdf, "{pdf} vs {}", d.pdf([x, y]));
+            assert!(weights[(y * 5.0) as usize * 7 + (x * 7.0) as usize] > 0.0, "a zero cell at ({x}, {y})");
+            observed[(y * 10.0) as usize * 14 + (x * 14.0) as usize] += 1.0;
+        }
+        let expected: Vec<f64> = (0..14 * 10)
+            .map(|k| f64::from(weights[(k / 14 / 2) * 7 + (k % 14) / 2] / total) / 4.0 * SAMPLES as f64)
+            .collect();
+        assert!(chi2_p_value(&observed, &expected) > ALPHA, "2D distribution");
+    }
+
+    #[test]
+    fn degenerate_2d_distributions_are_uniform_and_finite() {
+        for (weights, w, h) in
+            [(vec![0.0; 12], 4, 3), (vec![f32::NAN, -1.0, f32::INFINITY, 0.0], 2, 2), (vec![], 3, 3), (vec![], 0, 0)]
+        {
+            let d = Distribution2D::new(&weights, w, h);
+            for u in [[0.0, 0.0], [0.5, 0.25], [ONE_MINUS_EPSILON, ONE_MINUS_EPSILON], [f32::NAN, 0.5]] {
+                let (p, pdf) = d.sample(u);
+                assert!(p.iter().all(|x| (0.0..1.0).contains(x)), "{p:?}");
+                assert_eq!(pdf, 1.0);
+            }
+            assert_eq!(d.pdf([0.3, 0.9]), 1.0);
+            assert_eq!(d.pdf([f32::NAN, 2.0]), 1.0);
+        }
+        // One non-zero cell takes every sample.
+        let mut weights = vec![0.0; 12];
+        weights[7] = 2.0;
+        let d = Distribution2D::new(&weights, 4, 3);
+        for u in uniform(1000, 22) {
+            let ([x, y], pdf) = d.sample(u);
+            assert_eq!(((x * 4.0) as usize, (y * 3.0) as usize), (3, 1));
+            assert_eq!(pdf, 12.0);
+        }
+        assert_eq!(d.pdf([0.1, 0.1]), 0.0);
+        assert!(d.pdf([f32::NAN, f32::INFINITY]).is_finite());
+    }
+
+    #[test]
+    fn remapped_samples_are_uniform_again() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]).unwrap();
+        assert_eq!(Distribution1D::new(&[5.0]).unwrap().sample_remapped(0.375), (0, 1.0, 0.375));
+        let (k, p, rest) = d.sample_remapped(0.25 + 0.75 * 0.5);
+        assert_eq!((k, p), (2, 0.75));
+        assert!((rest - 0.5).abs() < 1e-6);
+        // Zero-weight tails are never picked, however close to 1 u is.
+        let tail = Distribution1D::new(&[1.0, 2.0, 0.0, 0.0]).unwrap();
+        assert_eq!(tail.sample(ONE_MINUS_EPSILON).0, 1);
+        assert!(tail.sample_remapped(ONE_MINUS_EPSILON).2 < 1.0);
     }
 }

@@ -1,15 +1,17 @@
 //! Building a renderable [`Scene`] from a compiled program's `scene { ... }`
 //! block: property values are evaluated (they are constants: the checker
 //! keeps shading globals out of them), shapes and meshes are made, every
-//! object's material is compiled, lights are gathered and the BVH is built.
+//! object's material is compiled, lights (the environment among them) are
+//! gathered and weighed by power, and the BVH is built.
 //!
 //! Every failure here (a missing mesh, a degenerate camera, a zero-size
 //! image) is an [`Error`] pointing at the property that caused it.
 
 use super::camera::Camera;
+use super::environment::{Environment, EnvironmentMap, EnvironmentSource};
 use super::geometry::{Geometry, ObjectGeometry};
 use super::image_io;
-use super::light::{Light, LightKind};
+use super::light::{Light, LightKind, LightSampler};
 use super::mesh::Mesh;
 use super::shape::{Shape, ShapeKind};
 use super::{Mat4, Vec3};
@@ -40,6 +42,44 @@ impl IntegratorKind {
     }
 }
 
+/// How the path tracer chooses lights for next-event estimation. (Whitted
+/// always sums every light.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LightSampling {
+    /// Every light, one sample each, at every vertex: exact summation, cost
+    /// growing with the number of lights.
+    All,
+    /// One light per vertex, chosen in proportion to its power
+    /// ([`Light::power`]): the cost of one light however many there are.
+    Power,
+}
+
+impl LightSampling {
+    pub fn parse(name: &str) -> Option<LightSampling> {
+        match name {
+            "all" => Some(LightSampling::All),
+            "power" => Some(LightSampling::Power),
+            _ => None,
+        }
+    }
+}
+
+/// Which ways of finding the light of area lights and the environment the
+/// path tracer combines. Each alone is unbiased, so all three agree in
+/// expectation; tests compare them. Not part of the scene language.
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Strategy {
+    /// Light sampling and material sampling, weighted by the power
+    /// heuristic.
+    Mis,
+    /// Material sampling only: light is found when a path hits it.
+    Material,
+    /// Light sampling only: paths that hit a light after a non-delta
+    /// bounce count only where light sampling cannot reach.
+    Light,
+}
+
 /// Render settings: the scene's `render { }` block, then overrides.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -51,11 +91,23 @@ pub struct Settings {
     pub max_depth: u32,
     pub seed: u64,
     pub integrator: IntegratorKind,
+    pub light_sampling: LightSampling,
+    #[doc(hidden)]
+    pub strategy: Strategy,
 }
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { width: 640, height: 480, spp: 16, max_depth: 8, seed: 0, integrator: IntegratorKind::Path }
+        Settings {
+            width: 640,
+            height: 480,
+            spp: 16,
+            max_depth: 8,
+            seed: 0,
+            integrator: IntegratorKind::Path,
+            light_sampling: LightSampling::Power,
+            strategy: Strategy::Mis,
+        }
     }
 }
 
@@ -67,63 +119,7 @@ pub struct Overrides {
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
     pub integrator: Option<IntegratorKind>,
-}
-
-/// What rays that leave the scene see.
-#[derive(Debug, Clone)]
-#[allow(clippy::large_enum_variant)] // one per scene
-pub enum Background {
-    Color(Color),
-    /// A lat-long environment image: `u = 0.5 + atan2(x, -z) / 2 pi` across,
-    /// `v = acos(y) / pi` down (+y at the top row), looked up bilinearly
-    /// (wrapping across, clamped at the poles). Texels hold the color
-    /// model's lanes.
-    Environment(Box<EnvironmentMap>),
-}
-
-/// A lat-long image (see [`Background::Environment`]).
-#[derive(Debug, Clone)]
-pub struct EnvironmentMap {
-    pub width: u32,
-    pub height: u32,
-    pub lanes: usize,
-    pub texels: Vec<f32>,
-}
-
-impl Background {
-    /// The radiance seen along unit direction `d`, into `out`.
-    pub fn radiance(&self, d: Vec3, out: &mut [f32]) {
-        match self {
-            Background::Color(c) => out[..c.lanes().len()].copy_from_slice(c.lanes()),
-            Background::Environment(env) => {
-                let EnvironmentMap { width, height, lanes, texels } = &**env;
-                let u = 0.5 + d.x.atan2(-d.z) / std::f32::consts::TAU;
-                let v = d.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
-                let (w, h) = (*width as i64, *height as i64);
-                // Texel centres at half-integers; NaN directions give texel 0.
-                let (x, y) = (u * *width as f32 - 0.5, v * *height as f32 - 0.5);
-                let (x0, y0) = (x.floor(), y.floor());
-                let (fx, fy) = (x - x0, y - y0);
-                let (fx, fy) = (if fx.is_finite() { fx } else { 0.0 }, if fy.is_finite() { fy } else { 0.0 });
-                let column = |i: i64| (i.rem_euclid(w)) as usize;
-                let row = |j: i64| j.clamp(0, h - 1) as usize;
-                let (x0, y0) = (x0 as i64, y0 as i64);
-                let corners = [
-                    (column(x0), row(y0), (1.0 - fx) * (1.0 - fy)),
-                    (column(x0 + 1), row(y0), fx * (1.0 - fy)),
-                    (column(x0), row(y0 + 1), (1.0 - fx) * fy),
-                    (column(x0 + 1), row(y0 + 1), fx * fy),
-                ];
-                out[..*lanes].fill(0.0);
-                for (cx, cy, weight) in corners {
-                    let at = (cy * *width as usize + cx) * lanes;
-                    for (o, t) in out[..*lanes].iter_mut().zip(&texels[at..at + lanes]) {
-                        *o += weight * t;
-                    }
-                }
-            }
-        }
-    }
+    pub light_sampling: Option<LightSampling>,
 }
 
 /// Scenes with more delta lights than this shade them one call each.
@@ -167,18 +163,41 @@ pub struct Object {
 pub struct Scene {
     pub camera: Camera,
     pub settings: Settings,
-    pub background: Background,
     pub objects: Vec<Object>,
     pub geometry: Geometry,
+    /// Delta lights in scene order, then area lights, then the
+    /// environment (when it is not black).
     pub lights: Vec<Light>,
     /// The area light of each object, if it is one.
     pub light_of_object: Vec<Option<usize>>,
+    /// The light that is the environment; without one, rays that leave
+    /// the scene see black.
+    pub environment_light: Option<usize>,
+    /// Chooses lights by power (for [`LightSampling::Power`]).
+    pub light_sampler: LightSampler,
     pub model: ColorModel,
     /// Seconds spent loading meshes and building the BVH.
     pub build_seconds: f64,
 }
 
 impl Scene {
+    /// The environment, when it is not black.
+    pub fn environment(&self) -> Option<&Environment> {
+        match &self.lights.get(self.environment_light?)?.kind {
+            LightKind::Environment(env) => Some(env),
+            _ => None,
+        }
+    }
+
+    /// The probability that next-event estimation picks light `k`: 1 when
+    /// every light is sampled.
+    pub fn light_pmf(&self, k: usize) -> f32 {
+        match self.settings.light_sampling {
+            LightSampling::All => 1.0,
+            LightSampling::Power => self.light_sampler.pmf(k),
+        }
+    }
+
     /// Builds the scene of a compiled program. Relative file names (meshes,
     /// environment images) are resolved against the directory of the file
     /// that holds the scene.
@@ -341,6 +360,12 @@ impl<'a> Builder<'a> {
                             self.error(p.span, format!("unknown integrator \"{name}\": use \"whitted\" or \"path\""))
                         })?;
                     }
+                    "light_sampling" => {
+                        let name = self.string(p)?;
+                        s.light_sampling = LightSampling::parse(name).ok_or_else(|| {
+                            self.error(p.span, format!("unknown light_sampling \"{name}\": use \"all\" or \"power\""))
+                        })?;
+                    }
                     _ => {}
                 }
             }
@@ -352,6 +377,7 @@ impl<'a> Builder<'a> {
         s.max_depth = overrides.max_depth.unwrap_or(s.max_depth);
         s.seed = overrides.seed.unwrap_or(s.seed);
         s.integrator = overrides.integrator.unwrap_or(s.integrator);
+        s.light_sampling = overrides.light_sampling.unwrap_or(s.light_sampling);
         if s.width == 0 || s.height == 0 {
             return Err(Error::plain(format!("the image size must be positive, found {}x{}", s.width, s.height)));
         }
@@ -384,25 +410,78 @@ impl<'a> Builder<'a> {
             .map_err(|m| self.error(block.span, m))
     }
 
-    fn background(&self) -> Result<Background, Error> {
-        let Some(p) = self.scene.entries.iter().find_map(|e| match e {
-            SceneEntry::Prop(p) if p.name.name == "background" => Some(p),
-            _ => None,
-        }) else {
-            return Ok(Background::Color(Color::black(self.model)));
-        };
-        let e = self.expr(p)?;
-        if matches!(e.kind, ExprKind::Str(_)) {
-            let path = self.path(p)?;
-            let (width, height, rgb) = image_io::load_environment(&path).map_err(|m| self.error(e.span, m))?;
-            let lanes = self.model.lanes();
-            let mut texels = Vec::with_capacity(rgb.len() * lanes);
-            for t in rgb {
-                texels.extend(crate::color::rgb_to_lanes(self.model, t));
+    /// The scene's environment: the `light environment { }` block or the
+    /// top-level `background`, scale 1 and unturned (the checker allows
+    /// one of them; a second is an error here too). Black without either.
+    fn environment(&self) -> Result<Environment, Error> {
+        // Where each is named, and its block (none for `background`).
+        let mut found: Vec<(Span, Option<&'a SceneBlock>)> = Vec::new();
+        let mut background = None;
+        for entry in &self.scene.entries {
+            match entry {
+                SceneEntry::Prop(p) if p.name.name == "background" => {
+                    found.push((p.name.span, None));
+                    background = Some(p);
+                }
+                SceneEntry::Block(b)
+                    if b.keyword.name == "light" && b.kind.as_ref().is_some_and(|k| k.name == "environment") =>
+                {
+                    found.push((b.keyword.span, Some(b)));
+                }
+                _ => {}
             }
-            return Ok(Background::Environment(Box::new(EnvironmentMap { width, height, lanes, texels })));
         }
-        Ok(Background::Color(self.color(p)?))
+        match found[..] {
+            [] => {
+                let black = Color::black(self.model).lanes().to_vec();
+                Ok(Environment::new(EnvironmentSource::Constant(black), 1.0, Vec3::ZERO))
+            }
+            [(_, None)] => match background {
+                Some(p) => Ok(Environment::new(self.environment_source(p)?, 1.0, Vec3::ZERO)),
+                None => Err(self.error(self.scene.span, "internal error: a background without its property")),
+            },
+            [(_, Some(b))] => self.environment_block(b),
+            [(first, _), (second, _), ..] => Err(self.program.error(
+                Diagnostic::error(second, "a scene has one environment").with_label(first, "the first is here"),
+            )),
+        }
+    }
+
+    /// A `light environment { }` block.
+    fn environment_block(&self, b: &'a SceneBlock) -> Result<Environment, Error> {
+        let source = match (find(&b.props, "file"), find(&b.props, "radiance")) {
+            (Some(p), _) | (None, Some(p)) => self.environment_source(p)?,
+            (None, None) => return Err(self.error(b.span, "an environment needs `file` or `radiance`")),
+        };
+        let scale = match find(&b.props, "scale") {
+            Some(p) => {
+                let x = self.float(p)?;
+                if x < 0.0 {
+                    return Err(self.error(self.expr(p)?.span, format!("`scale` must not be negative, found {x}")));
+                }
+                x
+            }
+            None => 1.0,
+        };
+        let rotate = find(&b.props, "rotate").map(|p| self.vec3(p)).transpose()?.unwrap_or(Vec3::ZERO);
+        Ok(Environment::new(source, scale, rotate))
+    }
+
+    /// A color, or a string naming a lat-long image (loaded here, so a
+    /// missing or unreadable file is an error at its literal).
+    fn environment_source(&self, p: &'a SceneProp) -> Result<EnvironmentSource, Error> {
+        let e = self.expr(p)?;
+        if !matches!(e.kind, ExprKind::Str(_)) {
+            return Ok(EnvironmentSource::Constant(self.color(p)?.lanes().to_vec()));
+        }
+        let path = self.path(p)?;
+        let (width, height, rgb) = image_io::load_environment(&path).map_err(|m| self.error(e.span, m))?;
+        let lanes = self.model.lanes();
+        let mut texels = Vec::with_capacity(rgb.len() * lanes);
+        for t in rgb {
+            texels.extend(crate::color::rgb_to_lanes(self.model, t));
+        }
+        Ok(EnvironmentSource::Image(EnvironmentMap { width, height, lanes, texels }))
     }
 
     /// The shape of an `object KIND { }` or area `light KIND { }` block.
@@ -445,7 +524,7 @@ impl<'a> Builder<'a> {
     fn build(&self, overrides: &Overrides) -> Result<Scene, Error> {
         let settings = self.settings(overrides)?;
         let camera = self.camera(&settings)?;
-        let background = self.background()?;
+        let environment = self.environment()?;
         let mut geometry = Vec::new();
         let mut objects = Vec::new();
         let mut lights = Vec::new();
@@ -588,7 +667,10 @@ impl<'a> Builder<'a> {
             })
             .collect();
         let mut objects = objects;
-        self.reflection_sums(&mut objects, &material_exprs, &lights)?;
+        // Summed delta lights serve the integrators that sample every light.
+        if settings.integrator == IntegratorKind::Whitted || settings.light_sampling == LightSampling::All {
+            self.reflection_sums(&mut objects, &material_exprs, &lights)?;
+        }
         self.delta_lobes(&mut objects, &material_exprs)?;
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
@@ -598,20 +680,27 @@ impl<'a> Builder<'a> {
                 lights.push(light);
             }
         }
+        let mut environment_light = None;
+        if !environment.is_black() {
+            environment_light = Some(lights.len());
+            lights.push(Light { kind: LightKind::Environment(Box::new(environment)) });
+        }
         let mut light_of_object = vec![None; objects.len()];
         for (k, light) in lights.iter().enumerate() {
             if let Some(o) = light.object() {
                 light_of_object[o as usize] = Some(k);
             }
         }
+        let light_sampler = light_sampler(&lights, &objects, &geometry, self.model.lanes());
         Ok(Scene {
             camera,
             settings,
-            background,
             objects,
             geometry,
             lights,
             light_of_object,
+            environment_light,
+            light_sampler,
             model: self.model,
             build_seconds: 0.0,
         })
@@ -626,7 +715,7 @@ impl<'a> Builder<'a> {
         exprs: &[Option<&'a Expr>],
         lights: &[Light],
     ) -> Result<(), Error> {
-        let count = lights.iter().filter(|l| l.object().is_none()).count();
+        let count = lights.iter().filter(|l| l.is_delta()).count();
         if !(2..=MAX_SUMMED_LIGHTS).contains(&count) {
             return Ok(());
         }
@@ -689,4 +778,56 @@ impl<'a> Builder<'a> {
 
 fn scale_color(c: &Color, s: f32) -> Color {
     c.scaled(s)
+}
+
+/// Area lights' radiance is estimated from this many points on each.
+const EMISSION_PROBES: u32 = 64;
+
+/// The sampler choosing lights by power. Area lights' radiance comes from
+/// their materials, estimated at points spread over the surface; since a
+/// textured emitter could be dark at every probe, an area light gets at
+/// least a thousandth of the strongest light's power, so it stays
+/// sampled (material sampling alone would still find it, unbiased, but
+/// noisily).
+fn light_sampler(lights: &[Light], objects: &[Object], geometry: &Geometry, lanes: usize) -> LightSampler {
+    let radius = geometry.bounding_sphere().1;
+    let mut powers: Vec<f32> = lights
+        .iter()
+        .enumerate()
+        .map(|(k, light)| {
+            let radiance =
+                light.object().map_or(0.0, |o| mean_emission(light, k, &objects[o as usize], geometry, lanes));
+            light.power(radius, radiance)
+        })
+        .collect();
+    let strongest = powers.iter().copied().fold(0.0f32, f32::max);
+    for (p, light) in powers.iter_mut().zip(lights) {
+        if light.object().is_some() {
+            *p = p.max(1e-3 * strongest);
+        }
+    }
+    LightSampler::new(&powers)
+}
+
+/// The mean radiance (over probes and lanes) area light `light`, number
+/// `k`, emits along the normal of its surface, `object`'s.
+fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, lanes: usize) -> f32 {
+    let scale = object.emission_scale.as_ref().map_or(&[][..], |c| c.lanes());
+    let mut out = vec![0.0f32; lanes];
+    let mut sum = 0.0f64;
+    for probe in 0..EMISSION_PROBES {
+        // Fixed numbers, so the powers (and the image) are reproducible.
+        let mut u = super::sampling::Sampler::new(0x11c4, probe, k as u32, 0);
+        let (uv, u3) = (u.next_2d(), u.next_1d());
+        let Some((surface, _)) = light.area_point(geometry, uv, u3) else { continue };
+        out.fill(0.0);
+        object.material.emission_into(&super::integrator::globals_of(&surface, 0.0), surface.n.to_array(), &mut out);
+        for (c, x) in out.iter().enumerate() {
+            let x = x * scale.get(c).copied().unwrap_or(1.0);
+            if x.is_finite() && x > 0.0 {
+                sum += f64::from(x);
+            }
+        }
+    }
+    (sum / f64::from(EMISSION_PROBES) / lanes.max(1) as f64) as f32
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
-use tsl::render::{self, IntegratorKind, Overrides, RenderOptions, Scene, image_io};
+use tsl::render::{self, IntegratorKind, LightSampling, Overrides, RenderOptions, Scene, image_io};
 
 #[derive(clap::Args)]
 pub struct RenderArgs {
@@ -28,6 +28,11 @@ pub struct RenderArgs {
     /// The integrator (overrides the scene's `integrator`).
     #[arg(long, value_parser = parse_integrator)]
     integrator: Option<IntegratorKind>,
+    /// How the path tracer picks lights at each vertex: `all` samples
+    /// every light, `power` one chosen by power (overrides the scene's
+    /// `light_sampling`).
+    #[arg(long, value_name = "all|power", value_parser = parse_light_sampling)]
+    light_sampling: Option<LightSampling>,
     /// The color model: `rgb`, or `spectral` (16 samples) or `spectralN`.
     #[arg(long, default_value = "rgb", value_parser = parse_color)]
     color: tsl::ColorModel,
@@ -91,6 +96,10 @@ fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     IntegratorKind::parse(s).ok_or_else(|| format!("`{s}` is not an integrator: use whitted or path"))
 }
 
+fn parse_light_sampling(s: &str) -> Result<LightSampling, String> {
+    LightSampling::parse(s).ok_or_else(|| format!("`{s}` is not a light sampling: use all or power"))
+}
+
 fn parse_color(s: &str) -> Result<tsl::ColorModel, String> {
     if s == "spectral" {
         return Ok(tsl::ColorModel::Spectral { samples: 16 });
@@ -134,6 +143,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         max_depth: args.max_depth,
         seed: args.seed,
         integrator: args.integrator,
+        light_sampling: args.light_sampling,
     };
     let scene = match Scene::build(&program, &overrides) {
         Ok(s) => s,
