@@ -364,6 +364,22 @@ impl Program {
         self.compile_reflection_sums(&self.material_tree_bodies(names)?, lights)
     }
 
+    /// Compiles, for each material expression of the root program, the
+    /// entry `NAME.eval_pdf`: `f · cos` and `pdf` of a light direction in
+    /// one call (see `ir::lower::lower_eval_pdf`).
+    pub(crate) fn compile_eval_pdf(
+        &self,
+        materials: &[(String, &crate::syntax::ast::Expr)],
+    ) -> Result<Vec<Function>, Error> {
+        self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, materials))
+    }
+
+    /// [`Program::compile_eval_pdf`] for named materials of the program,
+    /// for hosts and tests.
+    pub fn eval_pdf(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
+        self.compile_eval_pdf(&self.material_tree_bodies(names)?)
+    }
+
     /// [`Program::compile_delta_lobes`] for named materials of the program,
     /// for hosts and tests.
     pub fn delta_lobes(&self, names: &[&str]) -> Result<Vec<Function>, Error> {

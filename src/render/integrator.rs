@@ -124,30 +124,11 @@ fn in_delta_cone(wi: Vec3, deltas: &[Option<Vec3>; 2]) -> bool {
     deltas.iter().flatten().any(|d| wi.dot(*d) >= DELTA_CONE)
 }
 
-/// The part of a material the path tracer samples by direction (all but
-/// its delta lobes): chosen with probability `p`, then cosine-distributed
-/// about `normal`.
-#[derive(Clone, Copy)]
-struct SmoothLobe {
-    p: f32,
-    normal: Vec3,
-}
-
-// Material sampling of the smooth lobe, and its density: the one place to
-// change when materials sample themselves.
-
-/// A direction drawn from `lobe` (given that it was chosen) and the
-/// density of drawing it, `p` included.
-fn sample_bsdf(lobe: &SmoothLobe, u: [f32; 2]) -> (Vec3, f32) {
-    let local = sampling::square_to_cosine_hemisphere(u);
-    let wi = sampling::Frame::new(lobe.normal).to_world(local);
-    (wi, sampling::cosine_hemisphere_pdf(local.z) * lobe.p)
-}
-
-/// The solid-angle density with which material sampling picks `wi` from
-/// `lobe` ([`sample_bsdf`]'s): what light samples are weighed against.
-fn bsdf_pdf(lobe: &SmoothLobe, wi: Vec3) -> f32 {
-    lobe.p * sampling::cosine_hemisphere_pdf(lobe.normal.dot(wi))
+/// What next-event estimation at a path vertex needs to weigh a light
+/// sample against the material's own sampling: the relative index of
+/// refraction its `pdf` (and refraction) take.
+struct PathVertex<'e, const N: usize> {
+    eta: &'e Spectrum<N>,
 }
 
 /// Traces rays in one scene with `N` radiance lanes. One per thread.
@@ -162,7 +143,8 @@ pub struct Tracer<'s, const N: usize> {
     /// Argument words of a reflection sum (`wi, light` per delta light,
     /// then `wo`), kept to reuse its allocation.
     gathered: Vec<u32>,
-    /// Argument and result words of `delta_lobes` calls, kept likewise.
+    /// Argument and result words of `delta_lobes` and `eval_pdf` calls,
+    /// kept likewise.
     lobe_args: Vec<u32>,
     lobe_out: Vec<u32>,
     /// The globals where the current camera sample's rays entered media.
@@ -346,12 +328,18 @@ impl<'s, const N: usize> Tracer<'s, N> {
         out
     }
 
-    /// The perfect directions of the material at `sh` (reached through
-    /// `media`) with their weights, from one `delta_lobes` call.
-    fn lobes(&mut self, sh: &Shading, media: &Media) -> Lobes<N> {
+    /// The relative index of refraction at `sh` (reached through `media`)
+    /// and whether crossing the surface enters the object; 1 and false for
+    /// materials light cannot cross.
+    fn crossing(&self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
+        if sh.object.transmits { self.eta(sh, media) } else { (self.ones, false) }
+    }
+
+    /// The perfect directions of the material at `sh` with their weights,
+    /// from one `delta_lobes` call; `eta` and `entering` from [`Self::crossing`].
+    fn lobes(&mut self, sh: &Shading, eta: &Spectrum<N>, entering: bool) -> Lobes<N> {
         let mut lobes = Lobes { reflect: None, refract: None };
         let Some(f) = &sh.object.delta_lobes else { return lobes };
-        let (eta, entering) = if sh.object.refracts { self.eta(sh, media) } else { (self.ones, false) };
         self.lobe_args.clear();
         self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
         if f.call_words(crate::Backend::Jit, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
@@ -369,6 +357,27 @@ impl<'s, const N: usize> Tracer<'s, N> {
             lobes.refract = Some(Refraction { dir: Vec3::from(dt), weight: weight(6 + lanes), entering });
         }
         lobes
+    }
+
+    /// `f · cos` toward the viewer for unit light from `wi`, and the
+    /// material's pdf of drawing `wi`, from one `eval_pdf` call.
+    fn eval_pdf(&mut self, sh: &Shading, wi: Vec3, eta: &Spectrum<N>) -> (Spectrum<N>, f32) {
+        let lanes = self.lanes;
+        let Some(f) = &sh.object.eval_pdf else {
+            // An emitter of `light rect`/`light sphere`: the interface itself.
+            let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
+            let f = if same_side { self.reflection(sh, wi, &self.ones) } else { Spectrum::ZERO };
+            return (f, sh.object.material.pdf_lanes(&sh.g, v3(wi), v3(sh.wo), &eta.0));
+        };
+        self.lobe_args.clear();
+        let words = v3(wi).into_iter().chain(v3(sh.wo)).chain(eta.0[..lanes].iter().copied());
+        self.lobe_args.extend(words.map(f32::to_bits));
+        if f.call_words(crate::Backend::Jit, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let out = &self.lobe_out;
+        let f = Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[k]) } else { 0.0 }));
+        (f, f32::from_bits(out[lanes]))
     }
 
     // ------------------------------------------------------------ visibility
@@ -427,14 +436,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     /// Direct light at `sh`. Whitted (no `mis`) sums every light but the
     /// environment, which it sees only where rays leave the scene. The
-    /// path tracer (`mis`: the lobe its material sampling draws from, to
-    /// weigh light samples against) samples every light once, or one light
+    /// path tracer (`mis`: what the material's own pdf needs, to weigh
+    /// light samples against) samples every light once, or one light
     /// chosen by power, as the settings say.
     fn direct(
         &mut self,
         sh: &Shading,
         sampler: &mut Sampler,
-        mis: Option<SmoothLobe>,
+        mis: Option<&PathVertex<N>>,
         deltas: &[Option<Vec3>; 2],
     ) -> Spectrum<N> {
         let scene = self.scene;
@@ -508,7 +517,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         pmf: f32,
         u: [f32; 2],
         u3: f32,
-        mis: Option<SmoothLobe>,
+        mis: Option<&PathVertex<N>>,
         deltas: &[Option<Vec3>; 2],
     ) -> Spectrum<N> {
         let scene = self.scene;
@@ -521,7 +530,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 if li.is_black() || in_delta_cone(wi, deltas) {
                     return Spectrum::ZERO;
                 }
-                let f = self.reflection(sh, wi, &(li / pmf));
+                let f = match mis {
+                    Some(v) => self.eval_pdf(sh, wi, v.eta).0 * (li / pmf),
+                    None => self.reflection(sh, wi, &(li / pmf)),
+                };
                 if f.is_black() {
                     return Spectrum::ZERO;
                 }
@@ -544,14 +556,20 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if le.is_black() {
             return Spectrum::ZERO;
         }
-        let f = self.reflection(sh, wi, &le);
+        let (f, bsdf_pdf) = match mis {
+            Some(v) => {
+                let (f, pdf) = self.eval_pdf(sh, wi, v.eta);
+                (f * le, pdf)
+            }
+            None => (self.reflection(sh, wi, &le), 0.0),
+        };
         if f.is_black() {
             return Spectrum::ZERO;
         }
         let light_pdf = pmf * pdf;
         let weight = match mis {
-            Some(lobe) if scene.settings.strategy == Strategy::Mis => {
-                sampling::power_heuristic(1.0, light_pdf, 1.0, bsdf_pdf(&lobe, wi))
+            Some(_) if scene.settings.strategy == Strategy::Mis => {
+                sampling::power_heuristic(1.0, light_pdf, 1.0, bsdf_pdf)
             }
             _ => 1.0,
         };
@@ -627,7 +645,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
             *aov = self.aov(&sh);
         }
         let here = distance + sh.g.t;
-        let lobes = self.lobes(&sh, media);
+        let (eta, entering) = self.crossing(&sh, media);
+        let lobes = self.lobes(&sh, &eta, entering);
         let deltas = [lobes.reflect.map(|r| r.0), lobes.refract.as_ref().map(|r| r.dir)];
         let mut l = self.emission(sh.object, &sh.g, sh.wo);
         l += self.direct(&sh, sampler, None, &deltas);
@@ -713,65 +732,36 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if depth >= max_depth {
                 break;
             }
-            // Choose how the path goes on: a delta direction, or a
-            // cosine-distributed one (the non-delta part).
-            let m = &sh.object.material;
-            let mut lobes: [(Vec3, Spectrum<N>, f32); 2] = [(Vec3::ZERO, Spectrum::ZERO, 0.0); 2];
-            let mut refracted = None;
-            let found = self.lobes(&sh, &media);
-            if let Some((dr, w)) = found.reflect {
-                lobes[0] = (dr, w, w.mean(self.lanes).max(0.0));
-            }
-            if let Some(t) = found.refract {
-                lobes[1] = (t.dir, t.weight, t.weight.mean(self.lanes).max(0.0));
-                refracted = Some(t.entering);
-            }
-            let delta_weight = lobes[0].2 + lobes[1].2;
-            let p_smooth = if delta_weight > 0.0 {
-                let mut hint = Spectrum::<N>::ZERO;
-                m.diffuse_into(&sh.g, &mut hint.0);
-                let h = hint.mean(self.lanes).clamp(0.05, 1.0);
-                h / (h + delta_weight)
+            let (eta, entering) = self.crossing(&sh, &media);
+            // Light samples near a perfect direction are not the smooth part.
+            let deltas = if sh.object.delta_lobes.is_some() {
+                let lobes = self.lobes(&sh, &eta, entering);
+                [lobes.reflect.map(|r| r.0), lobes.refract.map(|r| r.dir)]
             } else {
-                1.0
+                [None, None]
             };
             // Next-event estimation: one more segment, to a light.
-            let deltas = [(lobes[0].2 > 0.0).then_some(lobes[0].0), (lobes[1].2 > 0.0).then_some(lobes[1].0)];
-            // The frame material sampling uses; its pdf weighs light samples.
-            let ns = self.sampling_normal(&sh);
-            let smooth = SmoothLobe { p: p_smooth, normal: ns };
-            l += beta * self.direct(&sh, sampler, Some(smooth), &deltas);
-            let u_lobe = sampler.next_1d();
-            let u_dir = sampler.next_2d();
-            let (wi, weight, next_media, pdf) = if u_lobe < p_smooth {
-                let (wi, pdf) = sample_bsdf(&smooth, u_dir);
-                if pdf <= 0.0 || in_delta_cone(wi, &deltas) {
-                    break;
-                }
-                let f = self.reflection(&sh, wi, &self.ones);
-                (wi, f / pdf, None, Some(pdf))
-            } else {
-                let u = (u_lobe - p_smooth) / (1.0 - p_smooth) * delta_weight;
-                let k = if u < lobes[0].2 { 0 } else { 1 };
-                let (wi, w, p) = lobes[k];
-                let p = p / delta_weight * (1.0 - p_smooth);
-                let next = match (k, refracted) {
-                    (1, Some(entering)) => {
-                        let straight = wi.dot(-sh.wo) >= DELTA_CONE;
-                        Some(self.crossed(&sh, &media, entering, straight))
-                    }
-                    _ => None,
-                };
-                (wi, w / p, next, None)
-            };
-            if weight.is_black() || !weight.is_finite() {
+            l += beta * self.direct(&sh, sampler, Some(&PathVertex { eta: &eta }), &deltas);
+            // The material chooses how the path goes on.
+            let u1 = sampler.next_1d();
+            let u2 = sampler.next_2d();
+            let mut weight = Spectrum::<N>::ZERO;
+            let s = sh.object.material.sample_into(&sh.g, v3(sh.wo), &eta.0, u1, u2, &mut weight.0);
+            let wi = Vec3::from(s.wi).normalize_or_zero();
+            if wi == Vec3::ZERO || !(s.delta || s.pdf > 0.0) || weight.is_black() || !weight.is_finite() {
                 break;
             }
-            beta *= weight;
-            if let Some(next) = next_media {
-                media = next;
+            if sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) < 0.0 {
+                if !sh.object.transmits {
+                    break;
+                }
+                let straight = wi.dot(-sh.wo) >= DELTA_CONE;
+                media = self.crossed(&sh, &media, entering, straight);
             }
-            prev = pdf.map(|p| (sh.surface.p, p));
+            beta *= weight;
+            // Emission found along a delta lobe (or where light sampling
+            // does not look) counts in full.
+            prev = (!s.delta && !in_delta_cone(wi, &deltas)).then_some((sh.surface.p, s.pdf));
             // Russian roulette, as Mitsuba: from the fifth vertex on.
             if depth >= 5 {
                 let q = beta.max_lane().min(0.95);

@@ -135,6 +135,10 @@ pub struct Object {
     /// For an object that reflects or refracts: both perfect directions
     /// and their weights in one call (`ir::lower::lower_delta_lobes`).
     pub delta_lobes: Option<crate::Function>,
+    /// For the path tracer: `f · cos` and `pdf` of a light direction in one
+    /// call (`ir::lower::lower_eval_pdf`); absent for area lights given as
+    /// `light rect` or `light sphere`, whose emitter reflects nothing.
+    pub eval_pdf: Option<crate::Function>,
     /// Multiplies the material's emission (area lights given as `light rect`
     /// or `light sphere` use the stdlib `emitter` scaled to their radiance,
     /// as pbrt's area lights take a `scale`).
@@ -146,6 +150,9 @@ pub struct Object {
     /// `reflection_dir` / `refraction_dir` are not the default zero.
     pub reflects: bool,
     pub refracts: bool,
+    /// Light may cross the surface: it refracts, or is not always opaque
+    /// (a rough dielectric has no perfect direction but lets paths through).
+    pub transmits: bool,
     /// Some method reads the pixel footprint (dPdx, ..., dvdy).
     pub reads_footprint: bool,
     /// `absorption` is the identity: nothing to call along rays inside.
@@ -652,11 +659,13 @@ impl<'a> Builder<'a> {
                 Some(Object {
                     reflection_sum: None,
                     delta_lobes: None,
+                    eval_pdf: None,
                     emission_scale: scale,
                     emissive,
                     always_opaque: material.always_opaque(),
                     reflects: material.may_reflect_dir(),
                     refracts: material.may_refract(),
+                    transmits: material.may_refract() || !material.always_opaque(),
                     reads_footprint: material.globals_read() & footprint_words != 0,
                     reads_uv: material.globals_read() & uv_words != 0,
                     clear: material.clear(),
@@ -672,6 +681,9 @@ impl<'a> Builder<'a> {
             self.reflection_sums(&mut objects, &material_exprs, &lights)?;
         }
         self.delta_lobes(&mut objects, &material_exprs)?;
+        if settings.integrator == IntegratorKind::Path {
+            self.eval_pdfs(&mut objects, &material_exprs)?;
+        }
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
             if o.emissive
@@ -753,6 +765,22 @@ impl<'a> Builder<'a> {
         let functions = self.program.compile_delta_lobes(&items)?;
         for ((k, _), f) in wanted.iter().zip(functions) {
             objects[*k].delta_lobes = Some(f);
+        }
+        Ok(())
+    }
+
+    /// Compiles for each object with a material expression `f · cos` and
+    /// `pdf` of a light direction as one function.
+    fn eval_pdfs(&self, objects: &mut [Object], exprs: &[Option<&'a Expr>]) -> Result<(), Error> {
+        let wanted: Vec<(usize, (String, &Expr))> =
+            exprs.iter().enumerate().filter_map(|(k, e)| Some((k, (format!("@object{k}"), (*e)?)))).collect();
+        if wanted.is_empty() {
+            return Ok(());
+        }
+        let items: Vec<(String, &Expr)> = wanted.iter().map(|(_, item)| item.clone()).collect();
+        let functions = self.program.compile_eval_pdf(&items)?;
+        for ((k, _), f) in wanted.iter().zip(functions) {
+            objects[*k].eval_pdf = Some(f);
         }
         Ok(())
     }
