@@ -1,9 +1,12 @@
 //! Data-driven checker tests.
 //!
 //! - every `tests/check/ok/**/*.tsl`, `stdlib/*.tsl` and `examples/*.tsl`
-//!   checks clean (no errors, no warnings);
+//!   checks clean (no errors, no warnings), except the examples still
+//!   waiting for issue 10's materials (`common::PENDING_EXAMPLES`);
 //! - every `tests/check/err/*.tsl` has its expected diagnostics beside it in
 //!   a `.stderr` file. Bless changes with `UPDATE_EXPECT=1 cargo test --test check`.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use tsl::LoadOptions;
@@ -16,7 +19,7 @@ fn tsl_files(dir: &str) -> Vec<PathBuf> {
             let path = entry.unwrap().path();
             if path.is_dir() {
                 dirs.push(path);
-            } else if path.extension().is_some_and(|e| e == "tsl") {
+            } else if path.extension().is_some_and(|e| e == "tsl") && !common::is_pending_example(&path) {
                 out.push(path);
             }
         }
@@ -51,6 +54,21 @@ fn stdlib_checks_clean() {
 #[test]
 fn examples_check_clean() {
     assert_clean("examples");
+}
+
+#[test]
+fn pending_examples_do_not_check_yet() {
+    // FIXME(issue 10): today these name materials that do not exist yet.
+    for name in common::PENDING_EXAMPLES {
+        let path = Path::new("examples").join(name);
+        assert!(path.exists(), "{} is missing", path.display());
+        let checked = tsl::check_file(&path, &LoadOptions::default());
+        assert!(
+            !checked.diagnostics.is_empty(),
+            "{} checks clean now: remove it from PENDING_EXAMPLES in tests/common/mod.rs",
+            path.display()
+        );
+    }
 }
 
 #[test]

@@ -19,7 +19,9 @@ between TSL's rows is sampled at twice the rate and interpolated linearly
 again. With SCENE.xml (default envlight.xml beside this script), the check
 loads that scene with envmap=MITSUBA.exr, evaluates its emitter in 4,000
 directions (half of them near the brightest texel) and compares them with
-TSL's lookup; it exits 1 if any differs by more than 1e-4 relative.
+TSL's lookup; it exits 1 if any differs by more than 1e-4 relative plus
+3e-5 of the largest texel blended there (float32 directions and blends
+beside the sun).
 """
 import os
 import sys
@@ -45,7 +47,8 @@ def to_mitsuba(tsl):
 
 
 def tsl_lookup(tsl, d):
-    """TSL's Background::radiance for unit direction d (numpy port)."""
+    """TSL's Background::radiance for unit direction d (numpy port), and the
+    largest of the four texels it blends."""
     h, w, _ = tsl.shape
     u = 0.5 + np.arctan2(d[0], -d[2]) / (2 * np.pi)
     v = np.arccos(np.clip(d[1], -1, 1)) / np.pi
@@ -54,12 +57,9 @@ def tsl_lookup(tsl, d):
     fx, fy = x - x0, y - y0
     col = lambda i: int(i) % w
     row = lambda j: min(max(int(j), 0), h - 1)
-    return (
-        (1 - fx) * (1 - fy) * tsl[row(y0), col(x0)]
-        + fx * (1 - fy) * tsl[row(y0), col(x0 + 1)]
-        + (1 - fx) * fy * tsl[row(y0 + 1), col(x0)]
-        + fx * fy * tsl[row(y0 + 1), col(x0 + 1)]
-    )
+    corners = [tsl[row(y0), col(x0)], tsl[row(y0), col(x0 + 1)], tsl[row(y0 + 1), col(x0)], tsl[row(y0 + 1), col(x0 + 1)]]
+    weights = [(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy]
+    return sum(w * c for w, c in zip(weights, corners)), np.max(corners, axis=0)
 
 
 def directions(tsl, n, rng):
@@ -83,14 +83,18 @@ def directions(tsl, n, rng):
 def check(tsl, scene_path, mitsuba_path):
     scene = mi.load_file(scene_path, envmap=os.path.abspath(mitsuba_path), spp=1)
     emitter = [e for e in scene.emitters() if e.is_environment()][0]
-    worst = 0.0
+    worst, worst_rel = 0.0, 0.0
     for d in directions(tsl, 4000, np.random.default_rng(1)):
         si = mi.SurfaceInteraction3f()
         si.wi = mi.Vector3f(*(-d))
         got = np.array(emitter.eval(si), dtype=np.float64)
-        want = tsl_lookup(tsl, d)
-        worst = max(worst, float(np.max(np.abs(got - want) / np.maximum(np.abs(want), 1e-3))))
-    return worst
+        want, corner = tsl_lookup(tsl, d)
+        err = np.abs(got - want)
+        # Single precision: Mitsuba's direction and blend are float32, so
+        # beside the sun a value of 1 blends texels of thousands.
+        worst = max(worst, float(np.max(err / (1e-4 * np.abs(want) + 3e-5 * corner + 1e-6))))
+        worst_rel = max(worst_rel, float(np.max(err / np.maximum(np.abs(want), 1e-6))))
+    return worst, worst_rel
 
 
 def main(argv):
@@ -100,9 +104,13 @@ def main(argv):
     tsl = load_rgb(argv[1])
     mi.Bitmap(to_mitsuba(tsl).astype(np.float32)).write(argv[2])
     scene = argv[3] if len(argv) == 4 else os.path.join(os.path.dirname(os.path.abspath(__file__)), "envlight.xml")
-    worst = check(tsl, scene, argv[2])
-    print(f"{argv[2]}: Mitsuba's emitter and TSL's lookup agree within {worst:.2e} (relative, 4000 directions)")
-    return 0 if worst <= 1e-4 else 1
+    worst, worst_rel = check(tsl, scene, argv[2])
+    verdict = "agree" if worst <= 1 else "DISAGREE"
+    print(
+        f"{argv[2]}: Mitsuba's emitter and TSL's lookup {verdict} in 4000 directions: largest difference "
+        f"{worst_rel:.1e} relative, {worst:.2f} of the tolerance (1e-4 relative + 3e-5 of the largest texel blended)"
+    )
+    return 0 if worst <= 1 else 1
 
 
 if __name__ == "__main__":

@@ -6,6 +6,19 @@
 
 use tsl::ShadingGlobals;
 
+/// FIXME(issue 10): examples written for materials and lights that are being
+/// added in parallel (`rough_conductor`, `AU_ETA`, ..., `light environment`).
+/// They cannot check before those land, so the tests over `examples/` skip
+/// them, and `tests/check.rs` asserts that they still fail: when it fails,
+/// delete this list and its uses.
+pub const PENDING_EXAMPLES: [&str; 2] = ["glossy.tsl", "envlight.tsl"];
+
+/// Whether `path` is `examples/NAME` for a name in [`PENDING_EXAMPLES`].
+pub fn is_pending_example(path: &std::path::Path) -> bool {
+    path.parent().is_some_and(|d| d.ends_with("examples"))
+        && path.file_name().is_some_and(|n| PENDING_EXAMPLES.iter().any(|p| n == *p))
+}
+
 /// A fresh, empty directory for one test, unique to this process.
 pub fn temp_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("tsl-test-{name}-{}", std::process::id()));
