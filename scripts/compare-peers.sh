@@ -31,8 +31,10 @@
 # once and kept in target/peers/, delete it to render again); HIGH_SPP the
 # tslc high-sample render (default 1024); LADDER the equal-time rungs
 # (default "4 8 16 32 64 128 256"); THREADS the threads of both renderers
-# (default 2). Output goes to target/peers/.
+# (default 2). Output goes to target/peers/; each ladder's times are in
+# target/peers/NAME_ladder.tsv (renderer, spp, wall, render, cpu seconds, image).
 set -euo pipefail
+shopt -s inherit_errexit
 cd "$(dirname "$0")/.."
 SCENES=${SCENES:-../shared/scenes}
 REF_SPP=${REF_SPP:-4096}
@@ -60,21 +62,21 @@ timed() {
     echo "$end - $start" | bc
 }
 
-# Runs a command and prints "WALL RENDER": the seconds of the whole process
-# and of the renderer's own rendering (mitsuba_render.py's `render_seconds`
-# line, or tslc's summary), "nan" when it printed neither. Fails, showing
-# the output, when the command fails.
+# Runs a command and prints "WALL RENDER CPU": the seconds of the whole
+# process, of the renderer's own rendering (mitsuba_render.py's
+# `render_seconds` line, or tslc's summary; "nan" when it printed neither),
+# and the process's CPU time (user + system: steadier than wall time on a
+# shared machine). Fails, showing the output, when the command fails.
 run_timed() {
-    local log=$OUT/.run.log start end render
-    start=$(date +%s.%N)
-    if ! "$@" >"$log" 2>&1; then
+    local log=$OUT/.run.log times=$OUT/.run.times render wall user sys TIMEFORMAT="%R %U %S"
+    if ! { time "$@" >"$log" 2>&1; } 2>"$times"; then
         cat "$log" >&2
         return 1
     fi
-    end=$(date +%s.%N)
     render=$(sed -n -e 's/^render_seconds \([0-9.]*\)$/\1/p' \
         -e 's/.* in \([0-9.]*\) s on [0-9]* threads\{0,1\} .*/\1/p' "$log" | head -1)
-    echo "$(echo "$end - $start" | bc) ${render:-nan}"
+    read -r wall user sys <"$times"
+    echo "$wall ${render:-nan} $(echo "$user + $sys" | bc)"
 }
 
 mitsuba_render() { # scene.xml out.exr spp seed [name=value...]
@@ -88,7 +90,7 @@ reference() { # name scene.xml [name=value...]
     shift 2
     if [[ ! -f $ref ]]; then
         echo "rendering the ${REF_SPP}-spp Mitsuba reference of $name (minutes)" >&2
-        nice mitsuba_render "$xml" "$ref" "$REF_SPP" 0 "$@" >/dev/null
+        nice python3 scripts/peers/mitsuba_render.py "$xml" "$ref" "$REF_SPP" 0 "$@" >/dev/null
     fi
     echo "$ref"
 }
@@ -139,10 +141,12 @@ against_mitsuba() { # name labels [mitsuba name=value...]
     fi
     local t images=("$OUT/${name}_mitsuba64.exr") objects=()
     t=$(run_timed mitsuba_render "$xml" "$OUT/${name}_mitsuba64.exr" 64 1 "$@")
-    local times="mitsuba ${t% *}s (render ${t#* }s)"
+    read -r w r c <<<"$t"
+    local times="mitsuba ${w}s (render ${r}s, cpu ${c}s)"
     if ((tsl_ok)); then
         t=$(run_timed "$TSLC" render "$tsl" -o "$OUT/${name}_tsl64.exr" --spp 64 --seed 1 --threads "$THREADS")
-        times+=", tslc ${t% *}s (render ${t#* }s)"
+        read -r w r c <<<"$t"
+        times+=", tslc ${w}s (render ${r}s, cpu ${c}s)"
         images+=("$OUT/${name}_tsl64.exr")
         objects=(--objects "$OUT/${name}_ids.exr" --labels "$labels")
     fi

@@ -4,12 +4,14 @@
     equal_time.py REFERENCE.exr LADDER.tsv
 
 LADDER.tsv has one line per render: `renderer spp wall_seconds
-render_seconds image.exr` (wall: the whole process; render: the renderer's
-own render time, without start-up: Python, imports, compiling, loading).
+render_seconds cpu_seconds image.exr` (wall: the whole process; render: the
+renderer's own render time, without start-up: Python, imports, compiling,
+loading; cpu: user + system time of the whole process, which other work on
+a shared machine disturbs less than wall time).
 For each renderer, prints RMSE against REFERENCE at every rung, fits
 log RMSE = a + b log t by least squares (b is near -0.5 for an unbiased
 estimator; a flatter slope shows bias or a noisy reference), and then,
-with both wall and render times, compares the first renderer (tslc in
+with each of the three times, compares the first renderer (tslc in
 compare-peers.sh) with the second (Mitsuba):
 
 - RMSE ratio first / second at a common time (the geometric middle of the
@@ -47,20 +49,21 @@ def main(argv):
     for line in open(argv[2]):
         if not line.strip():
             continue
-        name, spp, wall, render, path = line.split()
+        name, spp, wall, render, cpu, path = line.split()
         rmse = stats(load(path), ref)[0]
-        ladders.setdefault(name, []).append((int(spp), float(wall), float(render), rmse))
+        ladders.setdefault(name, []).append((int(spp), float(wall), float(render), rmse, float(cpu)))
     if not 1 <= len(ladders) <= 2:
         sys.exit(f"{argv[2]}: expected one or two renderers, found {list(ladders)}")
     for name, rungs in ladders.items():
-        print(f"{name}: spp, wall s, render s, start-up s (wall - render), rmse")
-        for spp, wall, render, rmse in sorted(rungs):
-            print(f"  {spp:6d} {wall:8.3f} {render:8.3f} {wall - render:7.3f}  {rmse:.5f}")
-        startup = [w - r for _, w, r, _ in rungs]
+        print(f"{name}: spp, wall s, render s, start-up s (wall - render), cpu s, rmse")
+        for spp, wall, render, rmse, cpu in sorted(rungs):
+            print(f"  {spp:6d} {wall:8.3f} {render:8.3f} {wall - render:7.3f} {cpu:8.3f}  {rmse:.5f}")
+        startup = [r[1] - r[2] for r in rungs]
         print(f"  start-up: median {np.median(startup):.3f} s")
         per_spp = np.polyfit([r[0] for r in rungs], [r[1] for r in rungs], 1)
         print(f"  wall = {per_spp[1]:.3f} s + {1000 * per_spp[0]:.2f} ms per spp (least squares)")
-    for clock, col in (("wall (whole process)", 1), ("render only (start-up excluded)", 2)):
+    clocks = (("wall (whole process)", 1), ("render only (start-up excluded)", 2), ("cpu (whole process)", 4))
+    for clock, col in clocks:
         print(f"-- time = {clock}")
         curves = {}
         for name, rungs in ladders.items():
