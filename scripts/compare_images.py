@@ -4,8 +4,9 @@
     compare_images.py REFERENCE IMAGE [IMAGE...] [--objects AOV.exr --labels a,b,...]
 
 Prints, for each IMAGE against REFERENCE: the RMSE of linear radiance per
-channel and overall, the mean radiance of both, and their relative
-difference; with two or more images, the RMSE of the last over the first's
+channel and overall, the relative MSE (mean of (I - R)^2 / (R^2 + 0.01),
+which a few very bright pixels dominate less than the RMSE), the mean
+radiance of both, and their relative difference; with two or more images, the RMSE of the last over the first's
 (compare-peers.sh passes Mitsuba's image first, then tslc's).
 
 With --objects, also per object: AOV.exr is a `tslc render --aov` EXR whose
@@ -79,9 +80,10 @@ def main(argv):
             print(f"{path}: size {img.shape} differs from the reference {ref.shape}")
             continue
         rmse, rmse_c, m_img, m_ref, rel = stats(img, ref)
+        relmse = float(np.mean((img - ref) ** 2 / (ref**2 + 0.01)))
         print(
             f"{path}: rmse {rmse:.5f} (r {rmse_c[0]:.5f} g {rmse_c[1]:.5f} b {rmse_c[2]:.5f}), "
-            f"mean {m_img:.5f} vs {m_ref:.5f} ({100 * rel:+.2f}%)"
+            f"relmse {relmse:.5f}, mean {m_img:.5f} vs {m_ref:.5f} ({100 * rel:+.2f}%)"
         )
         images.append((path, img, rmse))
     if len(images) >= 2:
