@@ -2,20 +2,56 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|all]
+#
+# cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
+#             RMSE and mean, whole image and per object; whole-process times.
+# whitted,    tslc against POV-Ray 3.7 (10 camera rays per pixel, and 1):
+# procedural  RMSE and mean (whitted), whole-process times.
+# glossy      the Cornell box with rough-conductor spheres and floor
+#             (examples/glossy.tsl, scripts/peers/glossy.xml);
+# envlight    spheres lit only by an HDR sky (examples/envlight.tsl,
+#             scripts/peers/envlight.xml, examples/textures/sky.exr). For both:
+#             - at 64 spp, RMSE and mean of tslc and of Mitsuba against the
+#               reference, whole image and per object (masks from the `object`
+#               layer of `tslc render --aov`), and the RMSE ratio tslc/Mitsuba;
+#             - tslc and Mitsuba at HIGH_SPP: per-object means against the
+#               reference (Mitsuba's shows what an unbiased renderer reaches);
+#             - equal time: both renderers at LADDER spp, each process timed,
+#               RMSE against time fitted on log-log axes, the RMSE ratio at a
+#               common time and the time ratio at a common RMSE, with whole
+#               processes and with Mitsuba's start-up (Python, import, scene
+#               load) left out (scripts/peers/equal_time.py).
+#             Until tslc renders a scene (its materials are issue 10's), the
+#             Mitsuba figures are printed alone.
 #
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
-# Mitsuba 3 (`pip install mitsuba numpy`) for cornell and for reading EXRs.
+# Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
 # SCENES points at the scene folder (default ../shared/scenes); REF_SPP sets
-# the Mitsuba reference's samples per pixel for cornell (default 4096).
-# Output goes to target/peers/.
+# the Mitsuba references' samples per pixel (default 4096; each is rendered
+# once and kept in target/peers/, delete it to render again); HIGH_SPP the
+# tslc high-sample render (default 1024); LADDER the equal-time rungs
+# (default "4 8 16 32 64 128 256"); REPEAT how many times each rung runs, the
+# least wall time counting (default 3); THREADS the threads of both renderers
+# (default 2). Output goes to target/peers/; each ladder's times are in
+# target/peers/NAME_ladder.tsv (renderer, spp, wall, render, cpu seconds, image).
 set -euo pipefail
+shopt -s inherit_errexit
 cd "$(dirname "$0")/.."
 SCENES=${SCENES:-../shared/scenes}
 REF_SPP=${REF_SPP:-4096}
+HIGH_SPP=${HIGH_SPP:-1024}
+LADDER=${LADDER:-"4 8 16 32 64 128 256"}
+REPEAT=${REPEAT:-3}
+THREADS=${THREADS:-2}
+export MITSUBA_THREADS=$THREADS
 OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
+case $which in
+    cornell | whitted | procedural | glossy | envlight | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|all]" >&2; exit 2 ;;
+esac
 
 cargo build --release --quiet
 TSLC=$PWD/target/release/tslc
@@ -29,22 +65,61 @@ timed() {
     echo "$end - $start" | bc
 }
 
-mitsuba_render() { # scene.xml out.exr spp seed
-    python3 - "$@" <<'PY'
-import sys, mitsuba as mi
-mi.set_variant("scalar_rgb")
-scene = mi.load_file(sys.argv[1], spp=sys.argv[3], seed=sys.argv[4])
-mi.Bitmap(mi.render(scene)).write(sys.argv[2])
-PY
+# Runs a command and prints "WALL RENDER CPU": the seconds of the whole
+# process, of the renderer's own rendering (mitsuba_render.py's
+# `render_seconds` line, or tslc's summary; "nan" when it printed neither),
+# and the process's CPU time (user + system: steadier than wall time on a
+# shared machine). Fails, showing the output, when the command fails.
+run_timed() {
+    local log=$OUT/.run.log times=$OUT/.run.times render wall user sys TIMEFORMAT="%R %U %S"
+    if ! { time "$@" >"$log" 2>&1; } 2>"$times"; then
+        cat "$log" >&2
+        return 1
+    fi
+    render=$(sed -n -e 's/^render_seconds \([0-9.]*\)$/\1/p' \
+        -e 's/.* in \([0-9.]*\) s on [0-9]* threads\{0,1\} .*/\1/p' "$log" | head -1)
+    read -r wall user sys <"$times"
+    echo "$wall ${render:-nan} $(echo "$user + $sys" | bc)"
+}
+
+# run_timed N times; prints the times of the run with the least wall time
+# (each, separately, is the least disturbed by other work on the machine).
+best_of() { # n command...
+    local n=$1 k t best=""
+    shift
+    for ((k = 0; k < n; k++)); do
+        t=$(run_timed "$@")
+        if [[ -z $best ]] || (($(echo "${t%% *} < ${best%% *}" | bc))); then
+            best=$t
+        fi
+    done
+    echo "$best"
+}
+
+mitsuba_render() { # scene.xml out.exr spp seed [name=value...]
+    python3 scripts/peers/mitsuba_render.py "$@"
+}
+
+# The Mitsuba reference of a scene, rendered once (in the background of
+# nothing else: it takes minutes).
+reference() { # name scene.xml [name=value...]
+    local name=$1 xml=$2 ref=$OUT/$1_ref_${REF_SPP}.exr
+    shift 2
+    if [[ ! -f $ref ]]; then
+        echo "rendering the ${REF_SPP}-spp Mitsuba reference of $name (minutes)" >&2
+        nice python3 scripts/peers/mitsuba_render.py "$xml" "$ref" "$REF_SPP" 0 "$@" >/dev/null
+    fi
+    echo "$ref"
 }
 
 if [[ $which == all || $which == cornell ]]; then
     echo "== cornell (path tracing, 64 spp, against a ${REF_SPP}-spp Mitsuba 3 reference)"
-    ref=$OUT/cornell_ref_${REF_SPP}.exr
-    [[ -f $ref ]] || mitsuba_render "$SCENES/cornell/scene.xml" "$ref" "$REF_SPP" 0
+    ref=$(reference cornell "$SCENES/cornell/scene.xml")
     t_mi=$(timed mitsuba_render "$SCENES/cornell/scene.xml" "$OUT/cornell_mitsuba64.exr" 64 1)
     t_tsl=$(timed "$TSLC" render examples/cornell.tsl -o "$OUT/cornell_tsl64.exr" --spp 64 --seed 1 --quiet)
-    python3 scripts/compare_images.py "$ref" "$OUT/cornell_mitsuba64.exr" "$OUT/cornell_tsl64.exr"
+    "$TSLC" render examples/cornell.tsl -o "$OUT/cornell_ids.exr" --spp 1 --aov --quiet
+    python3 scripts/compare_images.py "$ref" "$OUT/cornell_mitsuba64.exr" "$OUT/cornell_tsl64.exr" \
+        --objects "$OUT/cornell_ids.exr" --labels floor,ceiling,back,right,left,small_block,large_block,light
     echo "time: mitsuba ${t_mi}s, tslc ${t_tsl}s"
 fi
 
@@ -68,3 +143,65 @@ for scene in whitted procedural; do
     echo "time, 10 rays/pixel: povray ${t_pov}s, tslc ${t_tsl}s (povray/tslc $(echo "scale=2; $t_pov / $t_tsl" | bc)x)"
     echo "time, 1 ray/pixel:   povray ${t_pov1}s, tslc ${t_tsl1}s (povray/tslc $(echo "scale=2; $t_pov1 / $t_tsl1" | bc)x)"
 done
+
+# Fidelity and equal-time figures of a path-traced scene against Mitsuba.
+against_mitsuba() { # name labels [mitsuba name=value...]
+    local name=$1 labels=$2 xml=scripts/peers/$1.xml tsl=examples/$1.tsl ref
+    shift 2
+    echo "== $name (path tracing, against a ${REF_SPP}-spp Mitsuba 3 reference; $THREADS threads each)"
+    ref=$(reference "$name" "$xml" "$@")
+    local tsl_ok=1
+    if ! "$TSLC" render "$tsl" -o "$OUT/${name}_ids.exr" --spp 1 --aov --quiet 2>"$OUT/.tsl.log"; then
+        tsl_ok=0
+        echo "tslc cannot render $tsl yet (first error below): Mitsuba's figures only"
+        grep -m1 "error" "$OUT/.tsl.log" || true
+    fi
+    local t images=("$OUT/${name}_mitsuba64.exr") objects=()
+    t=$(run_timed mitsuba_render "$xml" "$OUT/${name}_mitsuba64.exr" 64 1 "$@")
+    read -r w r c <<<"$t"
+    local times="mitsuba ${w}s (render ${r}s, cpu ${c}s)"
+    if ((tsl_ok)); then
+        t=$(run_timed "$TSLC" render "$tsl" -o "$OUT/${name}_tsl64.exr" --spp 64 --seed 1 --threads "$THREADS")
+        read -r w r c <<<"$t"
+        times+=", tslc ${w}s (render ${r}s, cpu ${c}s)"
+        images+=("$OUT/${name}_tsl64.exr")
+        objects=(--objects "$OUT/${name}_ids.exr" --labels "$labels")
+    fi
+    echo "-- 64 spp (seed 1) against the reference"
+    python3 scripts/compare_images.py "$ref" "${images[@]}" "${objects[@]}"
+    echo "time at 64 spp (whole process): $times"
+    # Mitsuba's own render at HIGH_SPP (kept) shows how close an unbiased
+    # renderer comes at that count: the noise of the means and of the reference.
+    local high=("$OUT/${name}_mitsuba${HIGH_SPP}.exr")
+    [[ -f ${high[0]} ]] || nice python3 scripts/peers/mitsuba_render.py "$xml" "${high[0]}" "$HIGH_SPP" 3 "$@" >/dev/null
+    if ((tsl_ok)); then
+        "$TSLC" render "$tsl" -o "$OUT/${name}_tsl${HIGH_SPP}.exr" --spp "$HIGH_SPP" --seed 3 --threads "$THREADS" --quiet
+        high+=("$OUT/${name}_tsl${HIGH_SPP}.exr")
+    fi
+    echo "-- $HIGH_SPP spp (seed 3): means against the reference, whole image and per object"
+    python3 scripts/compare_images.py "$ref" "${high[@]}" "${objects[@]}"
+    echo "-- equal time: spp ladder $LADDER (seed 2; each time the least of $REPEAT runs)"
+    local ladder=$OUT/${name}_ladder.tsv
+    : >"$ladder"
+    for spp in $LADDER; do
+        if ((tsl_ok)); then
+            t=$(best_of "$REPEAT" "$TSLC" render "$tsl" -o "$OUT/${name}_tsl_ladder$spp.exr" --spp "$spp" \
+                --seed 2 --threads "$THREADS")
+            echo "tslc $spp $t $OUT/${name}_tsl_ladder$spp.exr" >>"$ladder"
+        fi
+        t=$(best_of "$REPEAT" mitsuba_render "$xml" "$OUT/${name}_mitsuba_ladder$spp.exr" "$spp" 2 "$@")
+        echo "mitsuba $spp $t $OUT/${name}_mitsuba_ladder$spp.exr" >>"$ladder"
+    done
+    python3 scripts/peers/equal_time.py "$ref" "$ladder"
+}
+
+if [[ $which == all || $which == glossy ]]; then
+    against_mitsuba glossy floor,ceiling,back,right,left,gold,copper,steel,light
+fi
+
+if [[ $which == all || $which == envlight ]]; then
+    [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
+    # Mitsuba's lat-long convention differs: convert, and check the match.
+    python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
+    against_mitsuba envlight ground,clay,gold,copper,steel "envmap=$PWD/$OUT/sky_mitsuba.exr"
+fi

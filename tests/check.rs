@@ -5,6 +5,8 @@
 //! - every `tests/check/err/*.tsl` has its expected diagnostics beside it in
 //!   a `.stderr` file. Bless changes with `UPDATE_EXPECT=1 cargo test --test check`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use tsl::LoadOptions;
 

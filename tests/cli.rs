@@ -1,5 +1,7 @@
 //! `tslc check` as users and CI run it: exit codes, streams, formats.
 
+mod common;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

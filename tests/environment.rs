@@ -57,6 +57,7 @@ fn write_sky(path: &std::path::Path, w: u32, h: u32, f: impl Fn(u32, u32) -> [f3
         albedo: None,
         normal: None,
         depth: None,
+        object: None,
     };
     render::image_io::write_image(path, &image).unwrap();
 }

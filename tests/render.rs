@@ -442,6 +442,7 @@ fn environment_backgrounds_light_the_scene() {
         albedo: None,
         normal: None,
         depth: None,
+        object: None,
     };
     render::image_io::write_image(&sky, &image).unwrap();
     // A white diffuse floor under a uniform sky of 0.5 reflects 0.5 (one
@@ -459,6 +460,36 @@ fn environment_backgrounds_light_the_scene() {
     let _ = std::fs::remove_dir_all(&dir);
     let m = mean(&out)[0];
     assert!((m - 0.5).abs() < 0.03, "{m}");
+}
+
+#[test]
+fn object_layer_names_the_first_object_each_pixel_centre_sees() {
+    // Fov 90 on 8 x 4 pixels: pixel (i, j) looks along
+    // (-1 + (i + 0.5) / 4, 0.5 - (j + 0.5) / 4, -1).
+    let src = r#"
+        scene {
+            camera { from (0, 0, 0); to (0, 0, -1); fov 90; }
+            render { width 8; height 4; spp 4; integrator "whitted"; }
+            object quad { corner (-2, -2, -1); edge1 (2, 0, 0); edge2 (0, 4, 0); material lambert; }   // 0: left half
+            light rect { corner (0, 0, -2); edge1 (4, 0, 0); edge2 (0, 4, 0); radiance gray(1); }     // 1: top right
+            object quad { corner (-6, -6, -3); edge1 (5.5, 0, 0); edge2 (0, 12, 0); material lambert; } // 2: behind 0
+            object sphere { center (2.5, -1.5, -4); radius 0.3; material lambert; }                    // 3: pixel (6, 3)
+        }
+    "#;
+    let scene = scene_of(src, ColorModel::Rgb, &Overrides::default());
+    let image = render::render(&scene, &RenderOptions { aov: true, ..Default::default() }).unwrap().0;
+    let object = image.object.expect("--aov gives the object layer");
+    let at = |i: usize, j: usize| object[j * 8 + i];
+    for j in 0..4 {
+        for i in 0..4 {
+            assert_eq!(at(i, j), 0, "pixel ({i}, {j})");
+        }
+    }
+    assert_eq!([at(4, 0), at(7, 0), at(4, 1), at(7, 1)], [1; 4]);
+    assert_eq!([at(6, 3), at(4, 2), at(7, 2), at(5, 3)], [3, render::NO_OBJECT, render::NO_OBJECT, render::NO_OBJECT]);
+    assert!(!object.contains(&2), "object 2 is hidden behind object 0");
+    let plain = render::render(&scene, &RenderOptions::default()).unwrap().0;
+    assert!(plain.object.is_none() && plain.color == image.color, "the layer changes no pixel");
 }
 
 #[test]

@@ -80,6 +80,7 @@ fn tiles_merge_into_the_same_bits_as_one_render() {
         b.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
     );
     assert!(a.albedo.is_some() && a.albedo == b.albedo);
+    assert!(a.object.is_some() && a.object == b.object);
     // A missing tile is reported.
     let o = tslc(&["merge", "-o", &merged, &tiles[0], &tiles[2]]);
     assert!(!o.status.success() && stderr(&o).contains("missing"), "{}", stderr(&o));

@@ -11,7 +11,11 @@
 //! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
 //! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`
 //! (world space) and `Z` (distance from the camera; infinite where a ray
-//! left the scene), the names OpenImageDenoise front ends and Blender read.
+//! left the scene), the names OpenImageDenoise front ends and Blender read,
+//! and `object`: the index of the object the pixel centre's camera ray hits
+//! first (scene order of `object`, `light rect` and `light sphere` blocks,
+//! from 0; -1 where it leaves the scene), a whole number stored as float so
+//! any EXR reader takes it, for masks that compare images object by object.
 
 use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
 use std::path::{Path, PathBuf};
@@ -32,6 +36,8 @@ pub struct RenderedImage {
     pub albedo: Option<Vec<[f32; 3]>>,
     pub normal: Option<Vec<[f32; 3]>>,
     pub depth: Option<Vec<f32>>,
+    /// The object index per pixel ([`crate::render::NO_OBJECT`] for none).
+    pub object: Option<Vec<i32>>,
 }
 
 impl RenderedImage {
@@ -45,7 +51,8 @@ impl RenderedImage {
         }
         let aov_ok = self.albedo.as_ref().is_none_or(|a| a.len() == n)
             && self.normal.as_ref().is_none_or(|a| a.len() == n)
-            && self.depth.as_ref().is_none_or(|a| a.len() == n);
+            && self.depth.as_ref().is_none_or(|a| a.len() == n)
+            && self.object.as_ref().is_none_or(|a| a.len() == n);
         if self.color.len() != n || !aov_ok {
             return Err(format!("the pixel buffers do not hold {}x{} pixels", self.width, self.height));
         }
@@ -151,6 +158,9 @@ fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
     if let Some(d) = &image.depth {
         channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
     }
+    if let Some(o) = &image.object {
+        channels.push(AnyChannel::new("object", FlatSamples::F32(o.iter().map(|&k| k as f32).collect())));
+    }
     let position = Vec2(image.x0 as i32, image.y0 as i32);
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
@@ -233,6 +243,7 @@ pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
         albedo: triple(["albedo.R", "albedo.G", "albedo.B"]),
         normal: triple(["normal.X", "normal.Y", "normal.Z"]),
         depth: layer.channel("Z").map(<[f32]>::to_vec),
+        object: layer.channel("object").map(|o| o.iter().map(|&k| k as i32).collect()),
     };
     out.check().map_err(fail)?;
     Ok(out)
@@ -259,6 +270,7 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
         albedo: aovs.then(|| vec![[0.0; 3]; n]),
         normal: aovs.then(|| vec![[0.0; 3]; n]),
         depth: aovs.then(|| vec![0.0; n]),
+        object: first.object.is_some().then(|| vec![crate::render::NO_OBJECT; n]),
     };
     let mut owner: Vec<Option<usize>> = vec![None; n];
     for (k, part) in parts.iter().enumerate() {
@@ -271,7 +283,11 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
                 first_path.display()
             ));
         }
-        if part.albedo.is_some() != aovs || part.normal.is_some() != aovs || part.depth.is_some() != aovs {
+        if part.albedo.is_some() != aovs
+            || part.normal.is_some() != aovs
+            || part.depth.is_some() != aovs
+            || part.object.is_some() != first.object.is_some()
+        {
             return Err(format!("{path} and {} differ in their AOV layers", first_path.display()));
         }
         for y in 0..part.height {
@@ -295,6 +311,9 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
                     a[dst] = pa[src];
                 }
                 if let (Some(a), Some(pa)) = (&mut out.depth, &part.depth) {
+                    a[dst] = pa[src];
+                }
+                if let (Some(a), Some(pa)) = (&mut out.object, &part.object) {
                     a[dst] = pa[src];
                 }
             }
@@ -387,6 +406,7 @@ mod tests {
             albedo: aov.then(|| vec![[0.5, 0.25, 0.125]; n]),
             normal: aov.then(|| vec![[0.0, 1.0, -0.0]; n]),
             depth: aov.then(|| (0..n).map(|k| if k == 0 { f32::INFINITY } else { k as f32 }).collect()),
+            object: aov.then(|| (0..n).map(|k| k as i32 - 1).collect()),
         }
     }
 
@@ -432,6 +452,7 @@ mod tests {
                 img.normal.map(|n| n.iter().map(|p| p.map(f32::to_bits)).collect())
             );
             assert_eq!(back.depth, img.depth);
+            assert_eq!(back.object, img.object);
         }
         assert!(leftovers(&dir).is_empty());
         let _ = std::fs::remove_dir_all(&dir);

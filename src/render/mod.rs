@@ -71,7 +71,7 @@ pub struct RenderOptions<'a> {
     pub threads: usize,
     /// The pixels to render, `(x0, y0, width, height)`; `None` for all.
     pub window: Option<(u32, u32, u32, u32)>,
-    /// Also produce albedo, normal and depth layers.
+    /// Also produce albedo, normal, depth and object-index layers.
     pub aov: bool,
     /// Called from worker threads as pixels finish: (pixels done, total).
     pub progress: Option<&'a (dyn Fn(u64, u64) + Sync)>,
@@ -118,6 +118,8 @@ struct TileOut {
     h: u32,
     color: Vec<[f32; 3]>,
     aov: Vec<Aov>,
+    /// Per pixel with AOVs: the object the pixel centre's ray hits first.
+    object: Vec<i32>,
     counters: Counters,
     dropped: u64,
 }
@@ -172,6 +174,7 @@ fn render_lanes<const N: usize>(
         albedo: options.aov.then(|| vec![[0.0; 3]; (width * height) as usize]),
         normal: options.aov.then(|| vec![[0.0; 3]; (width * height) as usize]),
         depth: options.aov.then(|| vec![0.0; (width * height) as usize]),
+        object: options.aov.then(|| vec![NO_OBJECT; (width * height) as usize]),
     };
     let mut stats = RenderStats { threads, ..RenderStats::default() };
     for t in outs {
@@ -180,10 +183,13 @@ fn render_lanes<const N: usize>(
                 let src = (j * t.w + i) as usize;
                 let dst = ((t.y0 - y0 + j) * width + (t.x0 - x0 + i)) as usize;
                 image.color[dst] = t.color[src];
-                if let (Some(a), Some(n), Some(d)) = (&mut image.albedo, &mut image.normal, &mut image.depth) {
+                if let (Some(a), Some(n), Some(d), Some(o)) =
+                    (&mut image.albedo, &mut image.normal, &mut image.depth, &mut image.object)
+                {
                     a[dst] = t.aov[src].albedo;
                     n[dst] = t.aov[src].normal;
                     d[dst] = t.aov[src].depth;
+                    o[dst] = t.object[src];
                 }
             }
         }
@@ -204,6 +210,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     let to_rgb = crate::color::to_rgb_weights(scene.model);
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
+    let mut objects = Vec::with_capacity(aovs.capacity());
     let mut dropped = 0;
     for py in y0..y0 + h {
         for px in x0..x0 + w {
@@ -246,8 +253,20 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                     normal: aov_sum.normal.map(|x| x / n),
                     depth: if hits > 0 { aov_sum.depth / hits as f32 } else { f32::INFINITY },
                 });
+                objects.push(object_at_centre(scene, px, py));
             }
         }
     }
-    TileOut { x0, y0, w, h, color, aov: aovs, counters: tracer.counters, dropped }
+    TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped }
+}
+
+/// The object layer's value where the pixel centre's ray leaves the scene.
+pub const NO_OBJECT: i32 = -1;
+
+/// The index (in [`Scene::objects`], scene order) of the first surface the
+/// ray through the centre of pixel `(px, py)` and the centre of the lens
+/// meets, or [`NO_OBJECT`]. Geometry only: a cutout's holes do not count.
+fn object_at_centre(scene: &Scene, px: u32, py: u32) -> i32 {
+    let ray = scene.camera.ray(px as f32 + 0.5, py as f32 + 0.5, [0.5, 0.5]);
+    scene.geometry.intersect(&ray, 0.0, f32::INFINITY).map_or(NO_OBJECT, |hit| hit.object as i32)
 }

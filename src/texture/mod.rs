@@ -152,6 +152,7 @@ mod tests {
             albedo: None,
             normal: None,
             depth: None,
+            object: None,
         };
         crate::render::image_io::write_image(&exr, &image).unwrap();
         let e = m.load(&exr, Encoding::Srgb).unwrap();
