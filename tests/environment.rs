@@ -91,6 +91,53 @@ fn a_lambert_sphere_in_a_constant_environment_reflects_its_albedo() {
     }
 }
 
+#[test]
+fn a_rough_conductor_sphere_with_fresnel_one_in_a_constant_environment_nearly_vanishes() {
+    // Fresnel 1 and a convex sphere: all light the surface sends back is
+    // the environment's, less what single scattering loses between facets
+    // (little at low roughness, more at grazing angles and high roughness).
+    for (alpha, distribution, floor) in [(0.05, "ggx", 0.97), (0.05, "beckmann", 0.97), (0.3, "ggx", 0.85)] {
+        let src = format!(
+            r#"scene {{
+                light environment {{ radiance gray(0.5); }}
+                camera {{ from (0, 0, 4); to (0, 0, 0); fov 12; }}
+                render {{ width 12; height 12; spp 64; max_depth 8; }}
+                object sphere {{ center (0, 0, 0); radius 1;
+                    material rough_conductor(alpha: {alpha}, distribution: "{distribution}"); }}
+            }}"#
+        );
+        let scene = scene_of(&src, ColorModel::Rgb);
+        let m = mean(&green(&render_scene(&scene).0)) / 0.5;
+        assert!(m <= 1.005 && m >= floor, "alpha {alpha} {distribution}: the sphere returns {m} of the environment");
+    }
+}
+
+#[test]
+fn a_mix_renders_as_the_mix_of_its_two_images() {
+    // The path-traced image of mix(0.3, a, b) is, in expectation, 0.7 of
+    // a's image plus 0.3 of b's: sampling composes without bias.
+    let scene_with = |material: &str| {
+        let src = format!(
+            r#"scene {{
+                light environment {{ radiance rgb(0.6, 0.5, 0.4); }}
+                light sphere {{ center (2, 3, 2); radius 0.5; radiance gray(20); }}
+                camera {{ from (0, 1.5, 4); to (0, 0.5, 0); fov 35; }}
+                render {{ width 16; height 12; spp 256; max_depth 6; }}
+                object sphere {{ center (0, 0.6, 0); radius 0.6; material {material}; }}
+                object plane {{ point (0, 0, 0); normal (0, 1, 0); material lambert(kd: gray(0.5)); }}
+            }}"#
+        );
+        green(&render_scene(&scene_of(&src, ColorModel::Rgb)).0)
+    };
+    let a = "rough_conductor(alpha: 0.1, eta: CU_ETA, k: CU_K)";
+    let b = "lambert(kd: rgb(0.2, 0.6, 0.3))";
+    let (ia, ib, im) = (scene_with(a), scene_with(b), scene_with(&format!("mix(0.3, {a}, {b})")));
+    let expected: Vec<f64> = ia.iter().zip(&ib).map(|(x, y)| 0.7 * x + 0.3 * y).collect();
+    let z = z_score(&im, &expected);
+    assert!(z.abs() < 4.0, "mix {} vs mixed images {}: z = {z}", mean(&im), mean(&expected));
+    assert!((mean(&im) - mean(&expected)).abs() < 0.02 * mean(&expected));
+}
+
 // ---------------------------------------------------------------- strategies
 
 #[test]

@@ -204,6 +204,8 @@ const STDLIB: &str = "
     material t_glass = glass;
     material t_mirror = mirror;
     material t_conductor = conductor(eta: AG_ETA, k: AG_K);
+    material t_standard = standard_surface(base_color: rgb(0.6, 0.3, 0.1), coat: 0.8, coat_roughness: 0.2);
+    material t_standard_metal = standard_surface(metalness: 0.7, specular_roughness: 0.4, base_color: rgb(0.9, 0.6, 0.3));
 ";
 
 #[test]
@@ -225,6 +227,8 @@ fn every_stdlib_material_samples_its_pdf() {
         "t_beckmann_aniso",
         "t_plastic",
         "t_rough_plastic",
+        "t_standard",
+        "t_standard_metal",
     ];
     let mut seed = 1000;
     for name in names {
@@ -370,7 +374,9 @@ fn dielectrics_conserve_energy() {
         "material frosted = rough_dielectric(alpha: 0.05, int_ior: 1.5, ext_ior: 1);
         material frosted_ggx = rough_dielectric(alpha: 0.3, distribution: \"ggx\", int_ior: 1.5, ext_ior: 1);
         material glossy_plastic = rough_plastic(alpha: 0.1, diffuse_reflectance: gray(1));
-        material coat = plastic(diffuse_reflectance: gray(1));",
+        material coat = plastic(diffuse_reflectance: gray(1));
+        material layered = standard_surface(base_color: gray(1), coat: 1, coat_roughness: 0.2);
+        material metal = standard_surface(base_color: gray(0.95), metalness: 1, specular_roughness: 0.2);",
     );
     for (t, ph) in VIEWS {
         let wo = direction(t, ph);
@@ -387,7 +393,7 @@ fn dielectrics_conserve_energy() {
         }
         // A white base under a clear coat: what the coat does not reflect
         // the base returns, up to the light the coat traps.
-        for name in ["glossy_plastic", "coat"] {
+        for name in ["glossy_plastic", "coat", "layered", "metal"] {
             let (r, _) = albedo(&p.material(name).unwrap(), &surface(), wo, &p.rgb(1.0, 1.0, 1.0), 20_000);
             assert!((0.8..=1.01).contains(&r), "`{name}` at {t} degrees reflects {r}");
         }
