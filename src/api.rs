@@ -296,7 +296,7 @@ impl Program {
                 let (Some(index), Some(native)) = (index, native) else {
                     return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
                 };
-                methods.push(Function { part: part.clone(), index, native });
+                methods.push(Function::new(part.clone(), index, native));
             }
             out.push(Material::new(self.clone(), methods));
         }
@@ -350,7 +350,7 @@ impl Program {
                 .jit
                 .function(&f.name)
                 .ok_or_else(|| Error::plain(format!("internal error: `{}` was not compiled", f.name)))?;
-            out.push(Function { part: part.clone(), index, native });
+            out.push(Function::new(part.clone(), index, native));
         }
         if let Ok(mut parts) = self.inner.parts.write() {
             parts.push(part);
@@ -469,7 +469,7 @@ impl Program {
         self.parts().into_iter().find_map(|part| {
             let index = part.ir.functions.iter().position(|f| f.name == name)?;
             let native = part.jit.function(name)?;
-            Some(Function { part, index, native })
+            Some(Function::new(part, index, native))
         })
     }
 }
@@ -481,9 +481,18 @@ pub struct Function {
     part: Arc<Part>,
     index: usize,
     native: EntryFn,
+    /// Argument and result words, kept here so that a call checks its
+    /// slices without reaching into the part's IR.
+    words: (usize, usize),
 }
 
 impl Function {
+    fn new(part: Arc<Part>, index: usize, native: EntryFn) -> Function {
+        let f = &part.ir.functions[index];
+        let words = (f.params.len(), f.results.len());
+        Function { part, index, native, words }
+    }
+
     pub fn ir(&self) -> &IrFunction {
         &self.part.ir.functions[self.index]
     }
@@ -502,17 +511,13 @@ impl Function {
         args: &[u32],
         out: &mut [u32],
     ) -> Result<(), String> {
-        let f = self.ir();
-        if args.len() < f.params.len() || out.len() < f.results.len() {
-            return Err(format!(
-                "`{}` takes {} argument words and gives {} result words",
-                f.name,
-                f.params.len(),
-                f.results.len()
-            ));
+        let (params, results) = self.words;
+        if args.len() < params || out.len() < results {
+            let name = &self.ir().name;
+            return Err(format!("`{name}` takes {params} argument words and gives {results} result words"));
         }
         match backend {
-            Backend::Interpreter => crate::interp::run(f, &g.words(), args, out),
+            Backend::Interpreter => crate::interp::run(self.ir(), &g.words(), args, out),
             Backend::Jit => {
                 // SAFETY: the function was compiled from this IR function,
                 // which reads at most `params.len()` argument words and the
@@ -719,6 +724,19 @@ impl Material {
     fn new(program: Program, methods: Vec<Function>) -> Material {
         let facts = Facts::of(&methods);
         Material { program, methods, facts }
+    }
+
+    /// The compiled entry of one interface method (`"sample"`, ...), for
+    /// hosts that pack argument words themselves and reuse their buffers
+    /// ([`Function::call_words`]); `None` for a name not in the interface.
+    pub fn method(&self, name: &str) -> Option<&Function> {
+        let k = crate::check::INTERFACE.iter().position(|m| m.name == name)?;
+        self.methods.get(k)
+    }
+
+    /// The `sample` entry (method 11 of `check::INTERFACE`).
+    pub(crate) fn sample_entry(&self) -> &Function {
+        &self.methods[11]
     }
 
     /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]

@@ -636,6 +636,16 @@ impl Builder {
             (BinOp::FDiv, _, Some(1.0)) => return a,
             _ => {}
         }
+        // `true && x` is x, `false || x` is x.
+        if matches!(op, BinOp::And | BinOp::Or) {
+            let unit = Const::B(op == BinOp::And);
+            if self.konst(a) == Some(unit) {
+                return b;
+            }
+            if self.konst(b) == Some(unit) {
+                return a;
+            }
+        }
         self.def(op.result(), Op::Binary(op, a, b))
     }
 
@@ -924,14 +934,16 @@ impl Builder {
         self.un(UnOp::Sqrt, d)
     }
 
-    /// `a / |a|`, and the zero vector for a zero vector.
+    /// `a / |a|`, and the zero vector for a zero vector: one division,
+    /// then a multiplication per lane.
     fn normalize(&mut self, a: &[Value]) -> Vec<Value> {
         let len = self.length(a);
-        let zero = self.f(0.0);
+        let (zero, one) = (self.f(0.0), self.f(1.0));
         let positive = self.flt(zero, len);
+        let inv = self.fdiv(one, len);
         a.iter()
             .map(|x| {
-                let q = self.fdiv(*x, len);
+                let q = self.fmul(*x, inv);
                 self.select(positive, q, zero)
             })
             .collect()

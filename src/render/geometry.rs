@@ -102,6 +102,7 @@ impl Geometry {
         best
     }
 
+    #[inline(always)]
     fn intersect_bvh(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let mut best = self
             .bvh

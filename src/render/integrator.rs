@@ -166,6 +166,14 @@ struct Refraction<const N: usize> {
     entering: bool,
 }
 
+/// A direction the material drew: the interface's `bsdf_sample`.
+struct Drawn<const N: usize> {
+    wi: Vec3,
+    weight: Spectrum<N>,
+    pdf: f32,
+    delta: bool,
+}
+
 /// Where a Whitted ray is in its tree: its depth (the camera ray has 1),
 /// its weight in the pixel, and the path length before it.
 #[derive(Clone, Copy)]
@@ -369,15 +377,35 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let f = if same_side { self.reflection(sh, wi, &self.ones) } else { Spectrum::ZERO };
             return (f, sh.object.material.pdf_lanes(&sh.g, v3(wi), v3(sh.wo), &eta.0));
         };
-        self.lobe_args.clear();
-        let words = v3(wi).into_iter().chain(v3(sh.wo)).chain(eta.0[..lanes].iter().copied());
-        self.lobe_args.extend(words.map(f32::to_bits));
-        if f.call_words(crate::Backend::Jit, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
+        let args = &mut self.lobe_args;
+        args.clear();
+        push_words(args, &v3(wi));
+        push_words(args, &v3(sh.wo));
+        push_words(args, &eta.0[..lanes]);
+        if f.call_words(crate::Backend::Jit, &sh.g, args, &mut self.lobe_out).is_err() {
             return (Spectrum::ZERO, 0.0);
         }
         let out = &self.lobe_out;
         let f = Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[k]) } else { 0.0 }));
         (f, f32::from_bits(out[lanes]))
+    }
+
+    /// The material's `sample` at `sh`, through the tracer's buffers.
+    fn sample(&mut self, sh: &Shading, eta: &Spectrum<N>, u1: f32, u2: [f32; 2]) -> Option<Drawn<N>> {
+        let lanes = self.lanes;
+        let args = &mut self.lobe_args;
+        args.clear();
+        push_words(args, &v3(sh.wo));
+        push_words(args, &eta.0[..lanes]);
+        push_words(args, &[u1, u2[0], u2[1]]);
+        sh.object.sample.call_words(crate::Backend::Jit, &sh.g, args, &mut self.lobe_out).ok()?;
+        let word = |k: usize| f32::from_bits(self.lobe_out[k]);
+        Some(Drawn {
+            wi: Vec3::new(word(0), word(1), word(2)).normalize_or_zero(),
+            weight: Spectrum(std::array::from_fn(|k| if k < lanes { word(3 + k) } else { 0.0 })),
+            pdf: word(3 + lanes),
+            delta: word(4 + lanes) > 0.0,
+        })
     }
 
     // ------------------------------------------------------------ visibility
@@ -745,9 +773,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
             // The material chooses how the path goes on.
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let mut weight = Spectrum::<N>::ZERO;
-            let s = sh.object.material.sample_into(&sh.g, v3(sh.wo), &eta.0, u1, u2, &mut weight.0);
-            let wi = Vec3::from(s.wi).normalize_or_zero();
+            let Some(s) = self.sample(&sh, &eta, u1, u2) else { break };
+            let (wi, weight) = (s.wi, s.weight);
             if wi == Vec3::ZERO || !(s.delta || s.pdf > 0.0) || weight.is_black() || !weight.is_finite() {
                 break;
             }
@@ -775,6 +802,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
             depth += 1;
         }
         (l, aov)
+    }
+}
+
+/// Appends floats to argument words.
+fn push_words(words: &mut Vec<u32>, xs: &[f32]) {
+    for x in xs {
+        words.push(x.to_bits());
     }
 }
 

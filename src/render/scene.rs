@@ -139,6 +139,8 @@ pub struct Object {
     /// call (`ir::lower::lower_eval_pdf`); absent for area lights given as
     /// `light rect` or `light sphere`, whose emitter reflects nothing.
     pub eval_pdf: Option<crate::Function>,
+    /// The material's `sample` entry, called with the tracer's own buffers.
+    pub sample: crate::Function,
     /// Multiplies the material's emission (area lights given as `light rect`
     /// or `light sphere` use the stdlib `emitter` scaled to their radiance,
     /// as pbrt's area lights take a `scale`).
@@ -660,6 +662,7 @@ impl<'a> Builder<'a> {
                     reflection_sum: None,
                     delta_lobes: None,
                     eval_pdf: None,
+                    sample: material.sample_entry().clone(),
                     emission_scale: scale,
                     emissive,
                     always_opaque: material.always_opaque(),
