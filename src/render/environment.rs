@@ -204,43 +204,76 @@ fn lookup(map: &EnvironmentMap, d: Vec3, out: &mut [f32]) {
     }
 }
 
+/// Cells of the sampling distribution per texel side: enough that the
+/// distribution has about 2048 columns (at most 4 x 4 cells a texel), so
+/// that its piecewise-constant density follows the bilinear lookup closely
+/// beside a small bright sun, where one cell a texel leaves the radiance
+/// over the density varying several times within a cell (noise).
+fn cells_per_texel(width: usize) -> usize {
+    match width {
+        0..=512 => 4,
+        513..=1024 => 2,
+        _ => 1,
+    }
+}
+
 /// The sampling distribution of an image and its radiance integral.
 ///
-/// Cell (i, j) of the distribution is texel (i, j)'s footprint in (u, v).
-/// Its weight is the mean of the bilinear lookup over the cell: the 3 x 3
-/// texels around it with weights 1/8, 3/4, 1/8 along each axis (wrapping
-/// across, clamped at the poles). So a cell has weight wherever the lookup
-/// can be positive in it, which a texel's own value alone would miss
-/// beside a lone bright texel. Times `sin(theta)` at the row's centre:
-/// rows near the poles cover less solid angle.
+/// Each texel's footprint in (u, v) is cut into `s x s` cells
+/// ([`cells_per_texel`]); a cell's weight is the mean of the bilinear
+/// lookup over it, times `sin(theta)` at its centre (rows near the poles
+/// cover less solid angle). With `s` even every cell lies inside one
+/// bilinear patch, where the mean is the value at the centre; with `s = 1`
+/// it is the 3 x 3 texels around it with weights 1/8, 3/4, 1/8 along each
+/// axis (wrapping across, clamped at the poles). Either way a cell has
+/// weight wherever the lookup can be positive in it, which a texel's own
+/// value alone would miss beside a lone bright texel.
 fn image_distribution(map: &EnvironmentMap) -> (Distribution2D, f32) {
     let (w, h) = (map.width as usize, map.height as usize);
     let level: Vec<f32> = map.texels.chunks(map.lanes.max(1)).take(w * h).map(mean_lane).collect();
     if w == 0 || h == 0 || level.len() < w * h {
         return (Distribution2D::new(&[], 1, 1), 0.0);
     }
-    const TENT: [(isize, f32); 3] = [(-1, 0.125), (0, 0.75), (1, 0.125)];
-    let mut weights = vec![0.0f32; w * h];
+    let at = |i: isize, j: isize| level[j.clamp(0, h as isize - 1) as usize * w + i.rem_euclid(w as isize) as usize];
+    let s = cells_per_texel(w);
+    let (cw, ch) = (w * s, h * s);
+    let mut weights = vec![0.0f32; cw * ch];
+    for cj in 0..ch {
+        let sin_centre = ((cj as f32 + 0.5) * PI / ch as f32).sin();
+        for ci in 0..cw {
+            let mean = if s == 1 {
+                const TENT: [(isize, f32); 3] = [(-1, 0.125), (0, 0.75), (1, 0.125)];
+                let mut mean = 0.0;
+                for (dj, wj) in TENT {
+                    for (di, wi) in TENT {
+                        mean += wi * wj * at(ci as isize + di, cj as isize + dj);
+                    }
+                }
+                mean
+            } else {
+                // The bilinear lookup at the cell's centre, in texel units
+                // (texel centres at half-integers).
+                let x = (ci as f32 + 0.5) / s as f32 - 0.5;
+                let y = (cj as f32 + 0.5) / s as f32 - 0.5;
+                let (x0, y0) = (x.floor(), y.floor());
+                let (fx, fy) = (x - x0, y - y0);
+                let (i0, j0) = (x0 as isize, y0 as isize);
+                (1.0 - fx) * (1.0 - fy) * at(i0, j0)
+                    + fx * (1.0 - fy) * at(i0 + 1, j0)
+                    + (1.0 - fx) * fy * at(i0, j0 + 1)
+                    + fx * fy * at(i0 + 1, j0 + 1)
+            };
+            weights[cj * cw + ci] = mean * sin_centre;
+        }
+    }
     let mut integral = 0.0f64;
     for j in 0..h {
         let theta = |k: usize| k as f32 * PI / h as f32;
-        let sin_centre = ((j as f32 + 0.5) * PI / h as f32).sin();
         // The solid angle of one texel of this row.
         let solid = TAU / w as f32 * (theta(j).cos() - theta(j + 1).cos());
-        for i in 0..w {
-            let mut mean = 0.0;
-            for (dj, wj) in TENT {
-                let jj = (j as isize + dj).clamp(0, h as isize - 1) as usize;
-                for (di, wi) in TENT {
-                    let ii = (i as isize + di).rem_euclid(w as isize) as usize;
-                    mean += wi * wj * level[jj * w + ii];
-                }
-            }
-            weights[j * w + i] = mean * sin_centre;
-            integral += f64::from(level[j * w + i]) * f64::from(solid);
-        }
+        integral += level[j * w..(j + 1) * w].iter().map(|l| f64::from(*l) * f64::from(solid)).sum::<f64>();
     }
-    (Distribution2D::new(&weights, w, h), integral as f32)
+    (Distribution2D::new(&weights, cw, ch), integral as f32)
 }
 
 #[cfg(test)]
@@ -341,7 +374,7 @@ mod tests {
     #[test]
     fn peaked_images_are_sampled_by_their_cells() {
         // Directions turned back into the image's (u, v) and binned 2 x 2
-        // a texel, so each bin's expected count is exact.
+        // a texel.
         let env = Environment::new(EnvironmentSource::Image(sparse()), 1.0, Vec3::new(0.0, 90.0, 0.0));
         let distribution = env.distribution.as_ref().unwrap();
         let to_env = env.rotation.unwrap().1;
@@ -353,10 +386,18 @@ mod tests {
             let (i, j) = (((u * nu as f32) as usize).min(nu - 1), ((v * nv as f32) as usize).min(nv - 1));
             observed[j * nu + i] += 1.0;
         }
+        // The density is constant on cells that divide the bins: the mean
+        // over an 8 x 8 grid in each bin is exact.
+        const SUB: usize = 8;
         let expected: Vec<f64> = (0..nu * nv)
             .map(|b| {
-                let centre = [((b % nu) as f32 + 0.5) / nu as f32, ((b / nu) as f32 + 0.5) / nv as f32];
-                f64::from(distribution.pdf(centre)) / (nu * nv) as f64 * f64::from(samples)
+                let mut sum = 0.0;
+                for k in 0..SUB * SUB {
+                    let x = ((b % nu) as f32 + ((k % SUB) as f32 + 0.5) / SUB as f32) / nu as f32;
+                    let y = ((b / nu) as f32 + ((k / SUB) as f32 + 0.5) / SUB as f32) / nv as f32;
+                    sum += f64::from(distribution.pdf([x, y]));
+                }
+                sum / (SUB * SUB) as f64 / (nu * nv) as f64 * f64::from(samples)
             })
             .collect();
         let empty = observed.iter().zip(&expected).filter(|(o, e)| **e == 0.0 && **o > 0.0).count();
