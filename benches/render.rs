@@ -52,6 +52,8 @@ fn main() {
     bench_scene("procedural", &examples.join("procedural.tsl"), None);
     bench_scene("procedural", &examples.join("procedural.tsl"), Some(10));
     bench_scene("cornell", &examples.join("cornell.tsl"), None);
+    bench_scene("glossy", &examples.join("glossy.tsl"), None);
+    bench_scene("envlight", &examples.join("envlight.tsl"), None);
 
     // heavy: generate the mesh once, then time the BVH over it.
     let gen_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-gen");
