@@ -352,31 +352,23 @@ fn rotate_turns_the_environment_as_it_turns_objects() {
     assert!((turned[0] - 1.0).abs() < 1e-3 && turned[2].abs() < 1e-3, "{turned:?}");
 }
 
-fn build_error(src: &str) -> String {
-    let program = Compiler::new().source("bad.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
-    match Scene::build(&program, &Overrides::default()) {
-        Ok(_) => panic!("the scene built"),
-        Err(e) => e.to_string(),
-    }
-}
-
 #[test]
 fn bad_environments_are_located_errors() {
     let camera = "camera { from (0, 0, 5); to (0, 0, 0); }";
     let src = format!(r#"scene {{ {camera} light environment {{ file "no/such/sky.hdr"; }} }}"#);
     let column = src.find("\"no/such").unwrap() + 1;
-    let missing = build_error(&src);
+    let missing = common::build_error(&src);
     assert!(missing.contains(&format!("bad.tsl:1:{column}")) && missing.contains("sky.hdr"), "{missing}");
     let src = format!(r#"scene {{ {camera} background "no/such/sky.exr"; }}"#);
     let column = src.find("\"no/such").unwrap() + 1;
-    let missing = build_error(&src);
+    let missing = common::build_error(&src);
     assert!(missing.contains(&format!("bad.tsl:1:{column}")), "{missing}");
     // Scales the checker cannot see: from a constant, and not finite.
     let src = format!(r#"const float S = -2; scene {{ {camera} light environment {{ radiance gray(1); scale S; }} }}"#);
-    let negative = build_error(&src);
+    let negative = common::build_error(&src);
     assert!(negative.contains("bad.tsl:1:") && negative.contains("negative"), "{negative}");
     let src = format!(r#"scene {{ {camera} light environment {{ radiance gray(1); scale 1.0 / 0.0; }} }}"#);
-    let infinite = build_error(&src);
+    let infinite = common::build_error(&src);
     assert!(infinite.contains("bad.tsl:1:") && infinite.contains("finite"), "{infinite}");
     // Two environments do not compile; the checker points at the second.
     let src = format!(r#"scene {{ {camera} background gray(1); light environment {{ radiance gray(1); }} }}"#);

@@ -3,6 +3,8 @@
 //! of the stdlib materials, determinism across thread counts, and clear
 //! errors for bad scenes.
 
+mod common;
+
 use tsl::render::{self, IntegratorKind, Overrides, RenderOptions, RenderedImage, Scene};
 use tsl::{ColorModel, Compiler, ShadingGlobals};
 
@@ -148,23 +150,15 @@ fn images_do_not_depend_on_the_thread_count() {
     }
 }
 
-fn build_error(src: &str) -> String {
-    let program = Compiler::new().source("bad.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
-    match Scene::build(&program, &Overrides::default()) {
-        Ok(_) => panic!("the scene built"),
-        Err(e) => e.to_string(),
-    }
-}
-
 #[test]
 fn bad_scenes_are_located_errors() {
-    let missing = build_error(
+    let missing = common::build_error(
         r#"scene { camera { from (0, 0, 5); to (0, 0, 0); } object mesh { file "no/such/mesh.obj"; material lambert; } }"#,
     );
     assert!(missing.contains("bad.tsl:1:") && missing.contains("mesh.obj"), "{missing}");
-    let camera = build_error(r#"scene { camera { from (1, 2, 3); to (1, 2, 3); } }"#);
+    let camera = common::build_error(r#"scene { camera { from (1, 2, 3); to (1, 2, 3); } }"#);
     assert!(camera.contains("bad.tsl:1:") && camera.contains("differ"), "{camera}");
-    let radius = build_error(
+    let radius = common::build_error(
         r#"const float R = -1; scene { camera { from (0, 0, 5); to (0, 0, 0); } object sphere { center (0, 0, 0); radius R; material lambert; } }"#,
     );
     assert!(radius.contains("bad.tsl:1:") && radius.contains("positive"), "{radius}");
@@ -173,7 +167,7 @@ fn bad_scenes_are_located_errors() {
     std::fs::create_dir_all(&dir).unwrap();
     let obj = dir.join("nan.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let nan = build_error(&format!(
+    let nan = common::build_error(&format!(
         r#"scene {{ camera {{ from (0, 0, 5); to (0, 0, 0); }} object mesh {{ file "{}"; material lambert; }} }}"#,
         obj.display()
     ));

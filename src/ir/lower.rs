@@ -214,13 +214,8 @@ pub fn lower_delta_lobes(
         let wr = lw.mat_method(&mut b, &mat, reflection, &[dr.clone(), ones.clone(), wo.clone()], &ctx);
         let dt = lw.mat_method(&mut b, &mat, refraction_dir, &[wo.clone(), eta.clone()], &ctx);
         let wt = lw.mat_method(&mut b, &mat, refraction, &[dt.clone(), ones, eta, wo], &ctx);
-        let results: Vec<Value> = [dr, wr, dt, wt].concat();
-        b.func.results = vec![Scalar::F32; results.len()];
-        for (k, x) in results.iter().enumerate() {
-            b.push(Inst::Output(k as u32, *x));
-        }
-        let ret = Ty::Array(Box::new(Ty::Float), results.len() as u32);
-        module.functions.push(b.finish());
+        let (function, ret) = finish_words(b, &[dr, wr, dt, wt].concat());
+        module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
     (module, entries, lw.diags)
@@ -251,15 +246,21 @@ pub fn lower_eval_pdf(
         let mat = Mat::of_root(expr);
         let mut results = lw.eval_at(&mut b, &mat, &args[0], &args[1], &args[2], &ctx);
         results.extend(lw.mat_method(&mut b, &mat, pdf, &args, &ctx));
-        b.func.results = vec![Scalar::F32; results.len()];
-        for (k, x) in results.iter().enumerate() {
-            b.push(Inst::Output(k as u32, *x));
-        }
-        let ret = Ty::Array(Box::new(Ty::Float), results.len() as u32);
-        module.functions.push(b.finish());
+        let (function, ret) = finish_words(b, &results);
+        module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
     }
     (module, entries, lw.diags)
+}
+
+/// Finishes an entry that returns `results` as float words (a combination
+/// of methods), with the array type hosts read them as.
+fn finish_words(mut b: Builder, results: &[Value]) -> (Function, Ty) {
+    b.func.results = vec![Scalar::F32; results.len()];
+    for (k, x) in results.iter().enumerate() {
+        b.push(Inst::Output(k as u32, *x));
+    }
+    (b.finish(), Ty::Array(Box::new(Ty::Float), results.len() as u32))
 }
 
 struct Lowerer<'p> {

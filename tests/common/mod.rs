@@ -6,6 +6,15 @@
 
 use tsl::ShadingGlobals;
 
+/// The message of building a scene from `src` that must fail.
+pub fn build_error(src: &str) -> String {
+    let program = tsl::Compiler::new().source("bad.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
+    match tsl::render::Scene::build(&program, &tsl::render::Overrides::default()) {
+        Ok(_) => panic!("the scene built"),
+        Err(e) => e.to_string(),
+    }
+}
+
 /// A fresh, empty directory for one test, unique to this process.
 pub fn temp_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("tsl-test-{name}-{}", std::process::id()));

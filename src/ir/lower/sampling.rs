@@ -234,7 +234,7 @@ impl<'p> Lowerer<'p> {
         Some(DeltaLobes { dirs: [dr, dt], weights, means, total, p_smooth })
     }
 
-    /// The default `sample(wo, eta, uc, u)` of a material instance.
+    /// The default `sample(wo, eta, u1, u2)` of a material instance.
     pub(super) fn default_sample(
         &mut self,
         b: &mut Builder,
@@ -242,12 +242,12 @@ impl<'p> Lowerer<'p> {
         args: &[Vec<Value>],
         ctx: &Ctx,
     ) -> Vec<Value> {
-        let (wo, eta, uc, u) = (&args[0], &args[1], args[2][0], &args[3]);
+        let (wo, eta, u1, u2) = (&args[0], &args[1], args[2][0], &args[3]);
         let n = self.sampling_normal(b, inst, wo, ctx);
         let lobes = self.delta_lobes_of(b, inst, wo, eta, ctx);
         let tys = self.words(&Ty::BsdfSample);
         let smooth = |b: &mut Builder, me: &mut Self, lobes: Option<&DeltaLobes>| -> Vec<Value> {
-            let (wi, cos) = b.cosine_about(&n, u);
+            let (wi, cos) = b.cosine_about(&n, u2);
             let inv_pi = b.f(std::f32::consts::FRAC_1_PI);
             let mut pdf = b.fmul(cos, inv_pi);
             let mut ok = {
@@ -272,17 +272,17 @@ impl<'p> Lowerer<'p> {
             b.select_lanes(ok, &sample, &none)
         };
         let Some(lobes) = lobes else { return smooth(b, self, None) };
-        let is_smooth = b.flt(uc, lobes.p_smooth);
+        let is_smooth = b.flt(u1, lobes.p_smooth);
         b.branch(
             self,
             is_smooth,
             &tys,
             |b, me| smooth(b, me, Some(&lobes)),
-            |b, me| {
+            |b, _| {
                 // Pick a delta lobe in proportion to its mean weight.
                 let one = b.f(1.0);
                 let rest = b.fsub(one, lobes.p_smooth);
-                let shifted = b.fsub(uc, lobes.p_smooth);
+                let shifted = b.fsub(u1, lobes.p_smooth);
                 let scaled = b.safe_div(shifted, rest);
                 let pick = b.fmul(scaled, lobes.total);
                 let reflect = b.flt(pick, lobes.means[0]);
@@ -293,7 +293,6 @@ impl<'p> Lowerer<'p> {
                 let p = b.fmul(share, rest);
                 let weight = w.iter().map(|x| b.safe_div(*x, p)).collect();
                 let (zero, flag) = (b.f(0.0), b.f(1.0));
-                let _ = me;
                 Sample { wi: dir, weight, pdf: zero, delta: flag }.lanes()
             },
         )
