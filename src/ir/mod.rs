@@ -16,6 +16,7 @@
 //!   and a call at most `MAX_CALL_ITERATIONS` loop iterations in all,
 //!   float to int conversion saturates. No IR program can trap or hang.
 
+mod builder;
 pub mod lower;
 pub mod opt;
 

@@ -1,0 +1,781 @@
+//! The builtin functions: type constructors, elementwise math, geometry,
+//! noise, colors and their conversions, transforms, and the value forms of
+//! `mix`, `blend` and `select`.
+
+use super::*;
+
+impl<'p> Lowerer<'p> {
+    pub(super) fn construct(
+        &mut self,
+        b: &mut Builder,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+        base: ast::BaseType,
+        args: &'p [ast::Arg],
+        e: &'p Expr,
+    ) -> Val<'p> {
+        use ast::BaseType as B;
+        if base == B::Normal
+            && args.is_empty()
+            && let Some(inst) = fr.material.clone()
+        {
+            let im = interface_method("normal").expect("normal is an interface method");
+            return Val::Lanes(self.instance_method(b, &inst, im, &[], ctx));
+        }
+        let vals: Vec<(Val<'p>, Ty)> =
+            args.iter().map(|a| (self.expr(b, fr, ctx, &a.value), self.ty_of(&a.value))).collect();
+        match base {
+            B::Int => {
+                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                let x = self.scalar(b, v);
+                Val::Lanes(vec![if t == Ty::Int { x } else { b.un(UnOp::FToI, x) }])
+            }
+            B::Float => {
+                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                Val::Lanes(self.float_lanes(b, v, &t, 1))
+            }
+            B::Matrix if vals.is_empty() => Val::Lanes(identity(b)),
+            B::BsdfSample => {
+                // bsdf_sample(wi, weight, pdf): not a delta lobe.
+                let mut lanes = Vec::new();
+                for ((v, t), want) in vals.into_iter().zip([Ty::Vector, Ty::Color, Ty::Float]) {
+                    let n = self.lanes_of(&want);
+                    lanes.extend(self.float_lanes(b, v, &t, n));
+                }
+                lanes.push(b.f(0.0));
+                Val::Lanes(lanes)
+            }
+            B::Matrix if vals.len() == 1 => {
+                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                let s = self.float_lanes(b, v, &t, 1)[0];
+                Val::Lanes(diag(b, [s, s, s]))
+            }
+            _ => {
+                let n = self.lanes_of(&self.ty_of(e));
+                let mut lanes = Vec::new();
+                for (v, t) in vals {
+                    lanes.extend(self.float_lanes(b, v, &t, 1));
+                }
+                if lanes.len() == 1 && n > 1 {
+                    lanes = vec![lanes[0]; n];
+                }
+                Val::Lanes(lanes)
+            }
+        }
+    }
+
+    pub(super) fn builtin(
+        &mut self,
+        b: &mut Builder,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+        name: &str,
+        args: &'p [ast::Arg],
+        e: &'p Expr,
+    ) -> Val<'p> {
+        let ty = self.ty_of(e);
+        let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == name) else { return Val::Unit };
+        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
+        let bound = bind_args(&params, args);
+        if matches!(name, "texture" | "texture_float") {
+            return self.texture(b, fr, ctx, spec, &bound, e);
+        }
+        let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
+        for a in &bound {
+            vals.push(a.map(|a| (self.expr(b, fr, ctx, a), self.ty_of(a))));
+        }
+        let n = self.lanes_of(&ty);
+        // Float lanes of argument k, broadcast to the result width.
+        let mut arg = |me: &mut Self, b: &mut Builder, k: usize, width: usize| -> Vec<Value> {
+            match vals.get_mut(k).and_then(Option::take) {
+                Some((v, t)) => me.float_lanes(b, v, &t, width),
+                None => b.zeros(width),
+            }
+        };
+        let unary_native = |b: &mut Builder, native: &'static str, x: Vec<Value>| -> Val<'p> {
+            Val::Lanes(x.into_iter().map(|v| b.call(native, vec![v])).collect())
+        };
+
+        match name {
+            "abs" if ty == Ty::Int => {
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let neg = b.un(UnOp::INeg, x);
+                let zero = b.i(0);
+                let lt = b.bin(BinOp::ILt, x, zero);
+                Val::Lanes(vec![b.select(lt, neg, x)])
+            }
+            "abs" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::FAbs, x)).collect()),
+            "sign" => {
+                let x = arg(self, b, 0, n);
+                let (zero, one, minus) = (b.f(0.0), b.f(1.0), b.f(-1.0));
+                Val::Lanes(
+                    x.into_iter()
+                        .map(|v| {
+                            let pos = b.flt(zero, v);
+                            let neg = b.flt(v, zero);
+                            let s = b.select(neg, minus, zero);
+                            b.select(pos, one, s)
+                        })
+                        .collect(),
+                )
+            }
+            "floor" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Floor, x)).collect()),
+            "ceil" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Ceil, x)).collect()),
+            "fract" => Val::Lanes(
+                arg(self, b, 0, n)
+                    .into_iter()
+                    .map(|x| {
+                        let f = b.un(UnOp::Floor, x);
+                        b.fsub(x, f)
+                    })
+                    .collect(),
+            ),
+            "sqrt" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Sqrt, x)).collect()),
+            n_ if unary_native_name(n_).is_some() => {
+                let x = arg(self, b, 0, n);
+                unary_native(b, unary_native_name(name).unwrap_or("tsl_round"), x)
+            }
+            "radians" | "degrees" => {
+                let k =
+                    b.f(if name == "radians" { std::f32::consts::PI / 180.0 } else { 180.0 / std::f32::consts::PI });
+                Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.fmul(x, k)).collect())
+            }
+            "atan2" => {
+                let (y, x) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0]);
+                Val::Lanes(vec![b.call("tsl_atan2", vec![y, x])])
+            }
+            "pow" => {
+                let x = arg(self, b, 0, n);
+                let p = arg(self, b, 1, 1)[0];
+                Val::Lanes(x.into_iter().map(|v| b.call("tsl_pow", vec![v, p])).collect())
+            }
+            "min" | "max" if ty == Ty::Int => {
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let y = self.scalar_arg(b, &bound, 1, fr, ctx);
+                let lt = b.bin(BinOp::ILt, x, y);
+                Val::Lanes(vec![if name == "min" { b.select(lt, x, y) } else { b.select(lt, y, x) }])
+            }
+            "min" | "max" => {
+                let x = arg(self, b, 0, n);
+                let y = arg(self, b, 1, n);
+                let op = if name == "min" { BinOp::FMin } else { BinOp::FMax };
+                Val::Lanes(b.map2(op, &x, &y))
+            }
+            "clamp" if ty == Ty::Int => {
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let lo = self.scalar_arg(b, &bound, 1, fr, ctx);
+                let hi = self.scalar_arg(b, &bound, 2, fr, ctx);
+                let below = b.bin(BinOp::ILt, x, lo);
+                let x = b.select(below, lo, x);
+                let above = b.bin(BinOp::ILt, hi, x);
+                Val::Lanes(vec![b.select(above, hi, x)])
+            }
+            "mod" if ty == Ty::Int => {
+                // Floored modulo: ((a % b) + b) % b, zero for b == 0.
+                let x = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let y = self.scalar_arg(b, &bound, 1, fr, ctx);
+                let r = b.bin(BinOp::IRem, x, y);
+                let r = b.bin(BinOp::IAdd, r, y);
+                Val::Lanes(vec![b.bin(BinOp::IRem, r, y)])
+            }
+            "clamp" => {
+                let x = arg(self, b, 0, n);
+                let lo = arg(self, b, 1, n);
+                let hi = arg(self, b, 2, n);
+                Val::Lanes((0..n).map(|k| b.clamp(x[k], lo[k], hi[k])).collect())
+            }
+            "mod" => {
+                let x = arg(self, b, 0, n);
+                let y = arg(self, b, 1, n);
+                Val::Lanes(
+                    (0..n)
+                        .map(|k| {
+                            let d = b.fdiv(x[k], y[k]);
+                            let f = b.un(UnOp::Floor, d);
+                            let m = b.fmul(y[k], f);
+                            b.fsub(x[k], m)
+                        })
+                        .collect(),
+                )
+            }
+            "step" => {
+                let edge = arg(self, b, 0, n);
+                let x = arg(self, b, 1, n);
+                let (zero, one) = (b.f(0.0), b.f(1.0));
+                Val::Lanes(
+                    (0..n)
+                        .map(|k| {
+                            let below = b.flt(x[k], edge[k]);
+                            b.select(below, zero, one)
+                        })
+                        .collect(),
+                )
+            }
+            "smoothstep" => {
+                let e0 = arg(self, b, 0, n);
+                let e1 = arg(self, b, 1, n);
+                let x = arg(self, b, 2, n);
+                let (zero, one, two, three) = (b.f(0.0), b.f(1.0), b.f(2.0), b.f(3.0));
+                Val::Lanes(
+                    (0..n)
+                        .map(|k| {
+                            let num = b.fsub(x[k], e0[k]);
+                            let den = b.fsub(e1[k], e0[k]);
+                            let t = b.fdiv(num, den);
+                            let t = b.clamp(t, zero, one);
+                            let tt = b.fmul(t, t);
+                            let two_t = b.fmul(two, t);
+                            let s = b.fsub(three, two_t);
+                            b.fmul(tt, s)
+                        })
+                        .collect(),
+                )
+            }
+            "dot" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let x = arg(self, b, 0, w);
+                let y = arg(self, b, 1, w);
+                Val::Lanes(vec![b.dot(&x, &y)])
+            }
+            "cross" => {
+                let x = arg(self, b, 0, 3);
+                let y = arg(self, b, 1, 3);
+                Val::Lanes(b.cross(&x, &y))
+            }
+            "length" | "normalize" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let x = arg(self, b, 0, w);
+                Val::Lanes(if name == "length" { vec![b.length(&x)] } else { b.normalize(&x) })
+            }
+            "distance" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let x = arg(self, b, 0, w);
+                let y = arg(self, b, 1, w);
+                let d = b.map2(BinOp::FSub, &x, &y);
+                Val::Lanes(vec![b.length(&d)])
+            }
+            "reflect" => {
+                let i = arg(self, b, 0, 3);
+                let nrm = arg(self, b, 1, 3);
+                let d = b.dot(&nrm, &i);
+                let two = b.f(2.0);
+                let k = b.fmul(two, d);
+                let s = b.scale(&nrm, k);
+                Val::Lanes(b.map2(BinOp::FSub, &i, &s))
+            }
+            "refract" => {
+                let i = arg(self, b, 0, 3);
+                let nrm = arg(self, b, 1, 3);
+                let eta = arg(self, b, 2, 1)[0];
+                Val::Lanes(refract(b, &i, &nrm, eta))
+            }
+            "faceforward" => {
+                let nrm = arg(self, b, 0, 3);
+                let i = arg(self, b, 1, 3);
+                let d = b.dot(&nrm, &i);
+                let zero = b.f(0.0);
+                let facing = b.flt(d, zero);
+                Val::Lanes(
+                    nrm.iter()
+                        .map(|x| {
+                            let neg = b.un(UnOp::FNeg, *x);
+                            b.select(facing, *x, neg)
+                        })
+                        .collect(),
+                )
+            }
+            "noise" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let p = arg(self, b, 0, w);
+                let key = MemoKey::Noise(p.clone());
+                if let Some(v) = b.lookup(&key) {
+                    return Val::Lanes(v);
+                }
+                if b.noise_budget == 0 {
+                    return Val::Lanes(vec![b.call(native_name(name, w), p)]);
+                }
+                b.noise_budget -= 1;
+                let v = noise::noise(b, &p);
+                b.remember(key, vec![v]);
+                Val::Lanes(vec![v])
+            }
+            "cellnoise" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let p = arg(self, b, 0, w);
+                let native = native_name(name, w);
+                Val::Lanes(vec![b.call(native, p)])
+            }
+            "pnoise" => {
+                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let mut p = arg(self, b, 0, w);
+                p.extend(arg(self, b, 1, w));
+                Val::Lanes(vec![b.call(native_name(name, w), p)])
+            }
+            "rgb" => {
+                let (r, g, bl) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]);
+                Val::Lanes(self.rgb_to_lanes(b, [r, g, bl]))
+            }
+            "hsv" => {
+                let (h, s, v) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]);
+                let rgb = hsv_to_rgb(b, h, s, v);
+                Val::Lanes(self.rgb_to_lanes(b, rgb))
+            }
+            "xyz" => {
+                let xyz = [arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]];
+                let rgb = xyz_rows_to_rgb(b, xyz);
+                Val::Lanes(self.rgb_to_lanes(b, rgb))
+            }
+            "gray" => {
+                let x = arg(self, b, 0, 1)[0];
+                Val::Lanes(vec![x; self.lanes])
+            }
+            "black" => Val::Lanes(b.zeros(self.lanes)),
+            "spectrum" => self.spectrum(b, &mut vals, &bound),
+            "delta_sample" => {
+                // A delta lobe: pdf 0 (no density), the flag set.
+                let mut lanes = arg(self, b, 0, 3);
+                lanes.extend(arg(self, b, 1, self.lanes));
+                lanes.push(b.f(0.0));
+                lanes.push(b.f(1.0));
+                Val::Lanes(lanes)
+            }
+            "no_sample" => Val::Lanes(b.zeros(n)),
+            "brightness" => {
+                let c = arg(self, b, 0, self.lanes);
+                let w = color::luminance_weights(self.model);
+                Val::Lanes(vec![b.weighted(&w, &c)])
+            }
+            "to_rgb" | "to_xyz" => {
+                let c = arg(self, b, 0, self.lanes);
+                let rows = if name == "to_rgb" {
+                    color::to_rgb_weights(self.model)
+                } else {
+                    color::to_xyz_weights(self.model)
+                };
+                Val::Lanes(rows.iter().map(|w| b.weighted(w, &c)).collect())
+            }
+            "translate" => {
+                let v = arg(self, b, 0, 3);
+                let mut m = identity(b);
+                m[3] = v[0];
+                m[7] = v[1];
+                m[11] = v[2];
+                Val::Lanes(m)
+            }
+            "rotate" => {
+                let deg = arg(self, b, 0, 1)[0];
+                let axis = arg(self, b, 1, 3);
+                Val::Lanes(rotation(b, deg, &axis))
+            }
+            "scale" => {
+                let (v, t) = vals[0].take().unwrap_or((Val::Unit, Ty::Float));
+                let s = self.float_lanes(b, v, &t, 3);
+                Val::Lanes(diag(b, [s[0], s[1], s[2]]))
+            }
+            "inverse" => {
+                let m = arg(self, b, 0, 12);
+                Val::Lanes(mat_inverse(b, &m))
+            }
+            "transform_point" | "transform_vector" => {
+                let m = arg(self, b, 0, 12);
+                let p = arg(self, b, 1, 3);
+                Val::Lanes(transform_point(b, &m, &p, name == "transform_point"))
+            }
+            "transform_normal" => {
+                let m = arg(self, b, 0, 12);
+                let nrm = arg(self, b, 1, 3);
+                let inv = mat_inverse(b, &m);
+                // Normals go through the inverse transpose.
+                let t: Vec<Value> = (0..3)
+                    .map(|r| {
+                        let row: Vec<Value> = (0..3).map(|c| inv[c * 4 + r]).collect();
+                        b.dot(&row, &nrm)
+                    })
+                    .collect();
+                Val::Lanes(t)
+            }
+            "mix" => {
+                let t = arg(self, b, 0, 1)[0];
+                let x = arg(self, b, 1, n);
+                let y = arg(self, b, 2, n);
+                Val::Lanes(b.lerp(t, &x, &y))
+            }
+            "blend" => {
+                let t = arg(self, b, 0, 1)[0];
+                let spline = match vals.get_mut(2).and_then(Option::take) {
+                    Some((v, _)) => self.scalar(b, v),
+                    None => b.b(false),
+                };
+                let items = match vals.get_mut(1).and_then(Option::take) {
+                    Some((Val::Array(a), Ty::Array(e, _))) => {
+                        let lanes = self.lanes_of(&e);
+                        let elems = self.array_elems(b, &a, lanes);
+                        if *e == Ty::Int {
+                            elems.into_iter().map(|l| vec![b.un(UnOp::IToF, l[0])]).collect()
+                        } else {
+                            elems
+                        }
+                    }
+                    _ => Vec::new(),
+                };
+                let w = blend_weights(b, t, spline, items.len());
+                let mut acc = b.zeros(n);
+                for (wk, item) in w.iter().zip(&items) {
+                    let s = b.scale(item, *wk);
+                    acc = b.map2(BinOp::FAdd, &acc, &s);
+                }
+                Val::Lanes(acc)
+            }
+            "select" => {
+                let i = self.scalar_arg(b, &bound, 0, fr, ctx);
+                let (items, elem) = match vals.get_mut(1).and_then(Option::take) {
+                    Some((Val::Array(a), Ty::Array(e, _))) => {
+                        let lanes = self.lanes_of(&e);
+                        (self.array_elems(b, &a, lanes), *e)
+                    }
+                    _ => (Vec::new(), Ty::Float),
+                };
+                if items.is_empty() {
+                    return Val::Lanes(b.zeros(n));
+                }
+                let i = self.clamp_index(b, i, items.len() as i32);
+                let mut acc = items[0].clone();
+                for (k, item) in items.iter().enumerate().skip(1) {
+                    let kv = b.i(k as i32);
+                    let hit = b.bin(BinOp::IEq, i, kv);
+                    acc = acc.iter().zip(item).map(|(a, x)| b.select(hit, *x, *a)).collect();
+                }
+                let _ = elem;
+                Val::Lanes(acc)
+            }
+            _ => Val::Lanes(b.zeros(n)),
+        }
+    }
+
+    pub(super) fn scalar_arg(
+        &mut self,
+        b: &mut Builder,
+        bound: &[Option<&'p Expr>],
+        k: usize,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+    ) -> Value {
+        match bound.get(k).copied().flatten() {
+            Some(e) => {
+                let v = self.expr(b, fr, ctx, e);
+                self.scalar(b, v)
+            }
+            None => b.i(0),
+        }
+    }
+
+    /// `spectrum([(nm, value), ...])`: wavelengths must be constants; values
+    /// may vary. Each lane is a fixed weighting of the values.
+    pub(super) fn spectrum(
+        &mut self,
+        b: &mut Builder,
+        vals: &mut [Option<(Val<'p>, Ty)>],
+        bound: &[Option<&'p Expr>],
+    ) -> Val<'p> {
+        let Some((Val::Array(a), _)) = vals.first_mut().and_then(Option::take) else {
+            return Val::Lanes(b.zeros(self.lanes));
+        };
+        let elems = self.array_elems(b, &a, 2);
+        let mut wavelengths = Vec::new();
+        for e in &elems {
+            match b.fconst(e[0]) {
+                Some(nm) => wavelengths.push(nm),
+                None => {
+                    let span = bound.first().copied().flatten().map(|e| e.span).unwrap_or_default();
+                    self.error(span, "spectrum wavelengths must be constants");
+                    return Val::Lanes(b.zeros(self.lanes));
+                }
+            }
+        }
+        let values: Vec<Value> = elems.iter().map(|e| e[1]).collect();
+        let w = color::resample_weights(self.model, &wavelengths);
+        Val::Lanes(w.iter().map(|row| b.weighted(row, &values)).collect())
+    }
+
+    /// An RGB triple in the color model: itself, or Smits' upsampling.
+    pub(super) fn rgb_to_lanes(&mut self, b: &mut Builder, rgb: [Value; 3]) -> Vec<Value> {
+        if let ColorModel::Rgb = self.model {
+            return rgb.to_vec();
+        }
+        if let (Some(r), Some(g), Some(bl)) = (b.fconst(rgb[0]), b.fconst(rgb[1]), b.fconst(rgb[2])) {
+            return color::rgb_to_lanes(self.model, [r, g, bl]).into_iter().map(|x| b.f(x)).collect();
+        }
+        let coef = smits_coefficients(b, rgb);
+        let basis = color::smits_basis(self.model);
+        let spectra = [&basis.white, &basis.cyan, &basis.magenta, &basis.yellow, &basis.red, &basis.green, &basis.blue];
+        (0..self.lanes)
+            .map(|i| {
+                let weights: Vec<Value> = spectra.iter().map(|s| b.f(s[i])).collect();
+                b.dot(&weights, &coef)
+            })
+            .collect()
+    }
+}
+
+/// The native computing an elementwise builtin that Cranelift has no
+/// instruction for.
+pub(super) fn unary_native_name(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "round" => "tsl_round",
+        "exp" => "tsl_exp",
+        "log" => "tsl_log",
+        "sin" => "tsl_sin",
+        "cos" => "tsl_cos",
+        "tan" => "tsl_tan",
+        "asin" => "tsl_asin",
+        "acos" => "tsl_acos",
+        "atan" => "tsl_atan",
+        _ => return None,
+    })
+}
+
+pub(super) fn native_name(name: &str, width: usize) -> &'static str {
+    match (name, width) {
+        ("noise", 1) => "tsl_noise1",
+        ("noise", 2) => "tsl_noise2",
+        ("noise", _) => "tsl_noise3",
+        ("pnoise", 1) => "tsl_pnoise1",
+        ("pnoise", 2) => "tsl_pnoise2",
+        ("pnoise", _) => "tsl_pnoise3",
+        ("cellnoise", 1) => "tsl_cellnoise1",
+        ("cellnoise", 2) => "tsl_cellnoise2",
+        _ => "tsl_cellnoise3",
+    }
+}
+
+pub(super) fn identity(b: &mut Builder) -> Vec<Value> {
+    let one = b.f(1.0);
+    diag(b, [one, one, one])
+}
+
+pub(super) fn diag(b: &mut Builder, d: [Value; 3]) -> Vec<Value> {
+    let zero = b.f(0.0);
+    let mut m = vec![zero; 12];
+    m[0] = d[0];
+    m[5] = d[1];
+    m[10] = d[2];
+    m
+}
+
+/// Rodrigues' rotation by `deg` degrees about `axis`.
+pub(super) fn rotation(b: &mut Builder, deg: Value, axis: &[Value]) -> Vec<Value> {
+    let a = b.normalize(axis);
+    let k = b.f(std::f32::consts::PI / 180.0);
+    let rad = b.fmul(deg, k);
+    let (s, c) = (b.call("tsl_sin", vec![rad]), b.call("tsl_cos", vec![rad]));
+    let one = b.f(1.0);
+    let t = b.fsub(one, c);
+    let zero = b.f(0.0);
+    let mut m = vec![zero; 12];
+    for r in 0..3 {
+        for col in 0..3 {
+            let aa = b.fmul(a[r], a[col]);
+            let mut v = b.fmul(t, aa);
+            if r == col {
+                v = b.fadd(v, c);
+            } else {
+                // The cross-product term: +/- sin times the third axis component.
+                let third = 3 - r - col;
+                let sign = if (r + 1) % 3 == col { -1.0 } else { 1.0 };
+                let sv = b.f(sign);
+                let term = b.fmul(s, a[third]);
+                let term = b.fmul(sv, term);
+                v = b.fadd(v, term);
+            }
+            m[r * 4 + col] = v;
+        }
+    }
+    m
+}
+
+pub(super) fn refract(b: &mut Builder, i: &[Value], n: &[Value], eta: Value) -> Vec<Value> {
+    let d = b.dot(n, i);
+    let one = b.f(1.0);
+    let dd = b.fmul(d, d);
+    let sin2 = b.fsub(one, dd);
+    let ee = b.fmul(eta, eta);
+    let e_sin2 = b.fmul(ee, sin2);
+    let k = b.fsub(one, e_sin2);
+    let zero = b.f(0.0);
+    let tir = b.flt(k, zero);
+    let root = b.un(UnOp::Sqrt, k);
+    let ed = b.fmul(eta, d);
+    let coef = b.fadd(ed, root);
+    (0..3)
+        .map(|c| {
+            let a = b.fmul(eta, i[c]);
+            let m = b.fmul(coef, n[c]);
+            let r = b.fsub(a, m);
+            b.select(tir, zero, r)
+        })
+        .collect()
+}
+
+/// HSV (all in [0, 1]) to RGB, the standard six-sector formula.
+pub(super) fn hsv_to_rgb(b: &mut Builder, h: Value, s: Value, v: Value) -> [Value; 3] {
+    let six = b.f(6.0);
+    let one = b.f(1.0);
+    let hf = b.un(UnOp::Floor, h);
+    let h = b.fsub(h, hf);
+    let h6 = b.fmul(h, six);
+    let sector = b.un(UnOp::Floor, h6);
+    let f = b.fsub(h6, sector);
+    let one_s = b.fsub(one, s);
+    let p = b.fmul(v, one_s);
+    let sf = b.fmul(s, f);
+    let one_sf = b.fsub(one, sf);
+    let q = b.fmul(v, one_sf);
+    let one_f = b.fsub(one, f);
+    let s1f = b.fmul(s, one_f);
+    let one_s1f = b.fsub(one, s1f);
+    let t = b.fmul(v, one_s1f);
+    let table = [[v, t, p], [q, v, p], [p, v, t], [p, q, v], [t, p, v], [v, p, q]];
+    let mut out = table[5];
+    for (k, row) in table.iter().enumerate().take(5).rev() {
+        let kv = b.f(k as f32);
+        let hit = b.feq(sector, kv);
+        for c in 0..3 {
+            out[c] = b.select(hit, row[c], out[c]);
+        }
+    }
+    out
+}
+
+pub(super) fn xyz_rows_to_rgb(b: &mut Builder, xyz: [Value; 3]) -> [Value; 3] {
+    // Columns of the XYZ → linear sRGB matrix, taken from the color module.
+    let cols = [
+        color::xyz_to_linear_srgb([1.0, 0.0, 0.0]),
+        color::xyz_to_linear_srgb([0.0, 1.0, 0.0]),
+        color::xyz_to_linear_srgb([0.0, 0.0, 1.0]),
+    ];
+    let mut out = [Value(0); 3];
+    for (r, o) in out.iter_mut().enumerate() {
+        let w = [cols[0][r], cols[1][r], cols[2][r]];
+        *o = b.weighted(&w, &xyz);
+    }
+    out
+}
+
+/// Smits (1999): how much of each of the seven basis spectra (white, cyan,
+/// magenta, yellow, red, green, blue) to add for an RGB triple. The same
+/// case analysis as `color::smits_coefficients`, as selects.
+pub(super) fn smits_coefficients(b: &mut Builder, rgb: [Value; 3]) -> Vec<Value> {
+    let [r, g, bl] = rgb;
+    let zero = b.f(0.0);
+    let mut coef = vec![zero; 7];
+    // Case: red is smallest → white r, then cyan and blue/green.
+    let c_r = {
+        let rg = b.bin(BinOp::FLe, r, g);
+        let rb = b.bin(BinOp::FLe, r, bl);
+        b.and(rg, rb)
+    };
+    let c_g = {
+        let gr = b.bin(BinOp::FLe, g, r);
+        let gb = b.bin(BinOp::FLe, g, bl);
+        b.and(gr, gb)
+    };
+    // Otherwise blue is smallest.
+    let cases = [
+        // (smallest, a, b, white, two-channel basis index, a-only, b-only)
+        (r, g, bl, 1usize, 5usize, 6usize),
+        (g, r, bl, 2, 4, 6),
+        (bl, r, g, 3, 4, 5),
+    ];
+    let mut per_case: Vec<Vec<Value>> = Vec::new();
+    for (min, a, c, pair, a_only, c_only) in cases {
+        let mut k = vec![zero; 7];
+        k[0] = min;
+        let a_le_c = b.bin(BinOp::FLe, a, c);
+        let da = b.fsub(a, min);
+        let dc = b.fsub(c, min);
+        let ca = b.fsub(c, a);
+        let ac = b.fsub(a, c);
+        // The pair colour takes the smaller excess; the remainder goes to the
+        // single-channel basis of the larger channel.
+        k[pair] = b.select(a_le_c, da, dc);
+        k[c_only] = b.select(a_le_c, ca, zero);
+        k[a_only] = b.select(a_le_c, zero, ac);
+        per_case.push(k);
+    }
+    for i in 0..7 {
+        let gb = b.select(c_g, per_case[1][i], per_case[2][i]);
+        coef[i] = b.select(c_r, per_case[0][i], gb);
+    }
+    coef
+}
+
+/// Interpolation weights of `n` knots at `t` in [0, 1]: piecewise linear,
+/// or uniform Catmull-Rom with the end knots repeated.
+pub(super) fn blend_weights(b: &mut Builder, t: Value, spline: Value, n: usize) -> Vec<Value> {
+    if n == 0 {
+        return Vec::new();
+    }
+    if n == 1 {
+        return vec![b.f(1.0)];
+    }
+    let (zero, one) = (b.f(0.0), b.f(1.0));
+    let t = b.clamp(t, zero, one);
+    let span = b.f((n - 1) as f32);
+    let x = b.fmul(t, span);
+    let max_seg = b.f((n - 2) as f32);
+    let fl = b.un(UnOp::Floor, x);
+    let seg = b.fmin(fl, max_seg);
+    let f = b.fsub(x, seg);
+    let seg_i = b.un(UnOp::FToI, seg);
+    // Catmull-Rom basis for knots seg-1 .. seg+2.
+    let half = b.f(0.5);
+    let f2 = b.fmul(f, f);
+    let f3 = b.fmul(f2, f);
+    let poly = |b: &mut Builder, c3: f32, c2: f32, c1: f32, c0: f32| {
+        let (a3, a2, a1, a0) = (b.f(c3), b.f(c2), b.f(c1), b.f(c0));
+        let t3 = b.fmul(a3, f3);
+        let t2 = b.fmul(a2, f2);
+        let t1 = b.fmul(a1, f);
+        let s = b.fadd(t3, t2);
+        let s = b.fadd(s, t1);
+        let s = b.fadd(s, a0);
+        b.fmul(half, s)
+    };
+    let basis = [
+        poly(b, -1.0, 2.0, -1.0, 0.0),
+        poly(b, 3.0, -5.0, 0.0, 2.0),
+        poly(b, -3.0, 4.0, 1.0, 0.0),
+        poly(b, 1.0, -1.0, 0.0, 0.0),
+    ];
+    let one_f = b.fsub(one, f);
+    let last = (n - 1) as i32;
+    (0..n)
+        .map(|k| {
+            let kv = b.i(k as i32);
+            // Linear: the two knots around t.
+            let at_seg = b.bin(BinOp::IEq, seg_i, kv);
+            let next = b.i(1);
+            let seg1 = b.bin(BinOp::IAdd, seg_i, next);
+            let at_next = b.bin(BinOp::IEq, seg1, kv);
+            let w_seg = b.select(at_seg, one_f, zero);
+            let w_next = b.select(at_next, f, zero);
+            let linear = b.fadd(w_seg, w_next);
+            // Spline: knots seg-1 .. seg+2, indices clamped to the ends.
+            let mut spl = zero;
+            for (j, bj) in basis.iter().enumerate() {
+                let off = b.i(j as i32 - 1);
+                let idx = b.bin(BinOp::IAdd, seg_i, off);
+                let lo = b.i(0);
+                let hi = b.i(last);
+                let below = b.bin(BinOp::ILt, idx, lo);
+                let idx = b.select(below, lo, idx);
+                let above = b.bin(BinOp::ILt, hi, idx);
+                let idx = b.select(above, hi, idx);
+                let hit = b.bin(BinOp::IEq, idx, kv);
+                let term = b.select(hit, *bj, zero);
+                spl = b.fadd(spl, term);
+            }
+            b.select(spline, spl, linear)
+        })
+        .collect()
+}

@@ -1,0 +1,186 @@
+//! The lowerer's own state and the entry points it builds: the program's
+//! items and their symbols, the lanes of each type, parameters read from
+//! argument words and results written back, one function per generator and
+//! one per interface method of each material.
+
+use super::*;
+
+impl<'p> Lowerer<'p> {
+    pub(super) fn new(program: &'p Program, model: ColorModel) -> Lowerer<'p> {
+        Lowerer {
+            program,
+            model,
+            lanes: model.lanes(),
+            diags: Vec::new(),
+            next_id: 0,
+            samplers: HashMap::default(),
+            direction_only: false,
+        }
+    }
+
+    pub(super) fn item(&self, sym: Symbol) -> &'p Item {
+        &self.program.loaded.modules[sym.module].ast.items[sym.item]
+    }
+
+    pub(super) fn is_prelude(&self, sym: Symbol) -> bool {
+        self.program.loaded.modules[sym.module].is_prelude
+    }
+
+    pub(super) fn id(&mut self) -> u32 {
+        self.next_id += 1;
+        self.next_id
+    }
+
+    /// Types that scalarize: everything but arrays, strings, materials, void.
+    pub(super) fn is_plain(&self, t: &Ty) -> bool {
+        !matches!(t, Ty::Array(..) | Ty::String | Ty::Material | Ty::Void | Ty::Error)
+    }
+
+    pub(super) fn lanes_of(&self, t: &Ty) -> usize {
+        match t {
+            Ty::Float | Ty::Int | Ty::Bool => 1,
+            Ty::Vec2 => 2,
+            Ty::Vector | Ty::Point | Ty::Normal => 3,
+            Ty::Color => self.lanes,
+            Ty::Matrix => 12,
+            // wi, weight, pdf, and delta as 0 or 1.
+            Ty::BsdfSample => 5 + self.lanes,
+            _ => 0,
+        }
+    }
+
+    /// Which lanes of a value of type `ty` member `field` is.
+    pub(super) fn field_lanes(&self, ty: &Ty, field: &str) -> std::ops::Range<usize> {
+        if *ty == Ty::BsdfSample {
+            let mut start = 0;
+            for (name, t) in crate::check::SAMPLE_FIELDS {
+                let n = self.lanes_of(t);
+                if *name == field {
+                    return start..start + n;
+                }
+                start += n;
+            }
+        }
+        let k = match field {
+            "x" => 0,
+            "y" => 1,
+            _ => 2,
+        };
+        k..k + 1
+    }
+
+    /// `s.delta` is stored as a float lane, 1 for true.
+    pub(super) fn is_flag_field(ty: &Ty, field: &str) -> bool {
+        *ty == Ty::BsdfSample && field == "delta"
+    }
+
+    pub(super) fn scalar_of(t: &Ty) -> Scalar {
+        match t {
+            Ty::Int => Scalar::I32,
+            Ty::Bool => Scalar::Bool,
+            _ => Scalar::F32,
+        }
+    }
+
+    pub(super) fn words(&self, t: &Ty) -> Vec<Scalar> {
+        vec![Self::scalar_of(t); self.lanes_of(t)]
+    }
+
+    pub(super) fn root_ctx(&mut self) -> Ctx {
+        let id = self.id();
+        Ctx { id, overrides: Rc::new(HashMap::default()) }
+    }
+
+    /// Reads a method's parameters from the argument words, as lanes.
+    pub(super) fn method_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Vec<Value>> {
+        self.params_from_args(b, params)
+            .into_iter()
+            .map(|v| match v {
+                Val::Lanes(l) => l,
+                _ => Vec::new(),
+            })
+            .collect()
+    }
+
+    /// Reads parameters from the argument words.
+    pub(super) fn params_from_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Val<'p>> {
+        let mut word = 0;
+        let mut out = Vec::new();
+        for (_, ty) in params {
+            let scalar = Self::scalar_of(ty);
+            let lanes: Vec<Value> = (0..self.lanes_of(ty))
+                .map(|_| {
+                    b.func.params.push(scalar);
+                    word += 1;
+                    b.def(scalar, Op::Param(word - 1))
+                })
+                .collect();
+            out.push(Val::Lanes(lanes));
+        }
+        out
+    }
+
+    pub(super) fn write_results(&self, b: &mut Builder, ret: &Ty, v: &[Value]) {
+        b.func.results = self.words(ret);
+        for (k, x) in v.iter().enumerate() {
+            b.push(Inst::Output(k as u32, *x));
+        }
+    }
+
+    pub(super) fn lower_function_entry(
+        &mut self,
+        name: &str,
+        sym: Symbol,
+        f: &'p ast::Function,
+        params: &[(String, Ty)],
+        ret: &Ty,
+    ) -> Function {
+        let mut b = Builder::new(name);
+        let args = self.params_from_args(&mut b, params);
+        let ctx = self.root_ctx();
+        let result = self.inline_function(&mut b, sym, f, args, &ctx);
+        let lanes = self.lanes(&mut b, result, ret);
+        self.write_results(&mut b, ret, &lanes);
+        b.finish()
+    }
+
+    pub(super) fn material_entries(&mut self, name: &str, sym: Symbol, module: &mut Module, entries: &mut Vec<Entry>) {
+        let expr = self.material_name_expr(sym);
+        for im in INTERFACE {
+            let fname = format!("{name}.{}", im.name);
+            let mut b = Builder::new(&fname);
+            let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
+            let args = self.method_args(&mut b, &params);
+            let ctx = self.root_ctx();
+            let mat = match expr {
+                MatSource::Tree(e) => {
+                    Mat { expr: e, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) }
+                }
+                MatSource::Def => {
+                    let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::default()), false);
+                    let result = self.instance_method(&mut b, &inst, im, &args, &ctx);
+                    self.write_results(&mut b, &im.ret, &result);
+                    module.functions.push(b.finish());
+                    entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
+                    continue;
+                }
+            };
+            let result = self.mat_method(&mut b, &mat, im, &args, &ctx);
+            self.write_results(&mut b, &im.ret, &result);
+            module.functions.push(b.finish());
+            entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
+        }
+    }
+
+    pub(super) fn material_name_expr(&self, sym: Symbol) -> MatSource<'p> {
+        match self.item(sym) {
+            Item::MaterialTree(t) => MatSource::Tree(&t.body),
+            _ => MatSource::Def,
+        }
+    }
+}
+
+pub(super) enum MatSource<'p> {
+    Tree(&'p Expr),
+    Def,
+}

@@ -1,0 +1,346 @@
+//! Materials and their methods: instances bound to their parameters, a
+//! method's own body or the interface default, templates, and whether a
+//! method is the default throughout a tree.
+
+use super::*;
+
+impl<'p> Lowerer<'p> {
+    /// Binds a material definition's parameters: given arguments (lowered in
+    /// the tree's context) or defaults.
+    pub(super) fn instance_from_def(
+        &mut self,
+        b: &mut Builder,
+        sym: Symbol,
+        args: &'p [ast::Arg],
+        ctx: &Ctx,
+        env: &Rc<HashMap<String, Val<'p>>>,
+        env_prelude: bool,
+    ) -> Rc<Instance<'p>> {
+        let Item::Material(def) = self.item(sym) else {
+            return Rc::new(Instance { id: 0, def: empty_def(), params: Vec::new(), in_prelude: false });
+        };
+        let params: Vec<(&str, Ty)> = def.params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
+        let bound = bind_args(&params, args);
+        let mut values = Vec::new();
+        for (p, a) in def.params.iter().zip(bound) {
+            let ty = Ty::from_ast(&p.ty);
+            let v = match a {
+                Some(a) => {
+                    let mut fr = self.env_frame(env, env_prelude);
+                    self.expr_as(b, &mut fr, ctx, a, &ty)
+                }
+                None => match &p.default {
+                    Some(d) => {
+                        let mut fr = self.new_frame(self.is_prelude(sym), HashSet::default());
+                        self.expr_as(b, &mut fr, ctx, d, &ty)
+                    }
+                    None => self.zero_value(b, &ty),
+                },
+            };
+            values.push((p.name.name.clone(), v));
+        }
+        let id = self.id();
+        Rc::new(Instance { id, def, params: values, in_prelude: self.is_prelude(sym) })
+    }
+
+    /// A frame whose only scope is a template environment.
+    pub(super) fn env_frame(&self, env: &Rc<HashMap<String, Val<'p>>>, in_prelude: bool) -> Frame<'p> {
+        let mut fr = self.new_frame(in_prelude, HashSet::default());
+        fr.scopes[0] = env.iter().map(|(k, v)| (k.clone(), Binding::Val(v.clone()))).collect();
+        fr
+    }
+
+    /// One interface method of a material instance: its own body, or the
+    /// documented default.
+    pub(super) fn instance_method(
+        &mut self,
+        b: &mut Builder,
+        inst: &Rc<Instance<'p>>,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let key = MemoKey::Method { instance: inst.id, method: im.name, ctx: ctx.id, args: args.concat() };
+        if let Some(v) = b.lookup(&key) {
+            return v;
+        }
+        let result = match inst.def.methods.iter().find(|m| m.name.name == im.name) {
+            Some(m) => {
+                let mut fr = self.new_frame(inst.in_prelude, assigned_names(&m.body));
+                fr.material = Some(inst.clone());
+                for (name, v) in &inst.params {
+                    fr.scopes[0].insert(name.clone(), Binding::Val(v.clone()));
+                }
+                fr.scopes.push(HashMap::default());
+                for (p, a) in m.params.iter().zip(args) {
+                    let ty = Ty::from_ast(&p.ty);
+                    self.bind(b, &mut fr, &p.name.name, Val::Lanes(a.clone()), &ty);
+                }
+                let v = self.body_with_return(b, &mut fr, ctx, &m.body, &im.ret);
+                self.lanes(b, v, &im.ret)
+            }
+            None => self.default_method(b, inst, im, args, ctx),
+        };
+        b.remember(key, result.clone());
+        result
+    }
+
+    pub(super) fn default_method(
+        &mut self,
+        b: &mut Builder,
+        inst: &Rc<Instance<'p>>,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        match im.name {
+            "refraction_index" => {
+                let one = b.f(1.0);
+                vec![one; self.lanes]
+            }
+            "ambient" => {
+                let diffuse = interface_method("diffuse").expect("diffuse is an interface method");
+                let d = self.instance_method(b, inst, diffuse, &[], ctx);
+                b.map2(BinOp::FMul, &args[0], &d)
+            }
+            "absorption" => args[0].clone(),
+            "normal" => self.global(b, ctx, "N").unwrap_or_default(),
+            "opaque" => vec![b.b(true)],
+            "sample" => self.default_sample(b, inst, args, ctx),
+            "pdf" => self.default_pdf(b, inst, args, ctx),
+            _ => b.zeros(self.lanes_of(&im.ret)),
+        }
+    }
+
+    /// One interface method of a material expression (a texture tree).
+    pub(super) fn mat_method(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let e = mat.expr;
+        match &e.kind {
+            ExprKind::Name(n) => {
+                if let Some(Val::Material(m)) = mat.env.get(n) {
+                    let m = m.clone();
+                    return self.mat_method(b, &m, im, args, ctx);
+                }
+                match self.symbol(mat.in_prelude, n) {
+                    Some(sym) => match self.item(sym) {
+                        Item::MaterialTree(t) => {
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
+                            self.mat_method(b, &m, im, args, ctx)
+                        }
+                        Item::Material(_) => {
+                            let inst = self.instance_from_def(b, sym, &[], ctx, &mat.env, mat.in_prelude);
+                            self.instance_method(b, &inst, im, args, ctx)
+                        }
+                        _ => b.zeros(self.lanes_of(&im.ret)),
+                    },
+                    None => b.zeros(self.lanes_of(&im.ret)),
+                }
+            }
+            ExprKind::Ternary { cond, then_expr, else_expr } => {
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let c = self.expr(b, &mut fr, ctx, cond);
+                let c = self.scalar(b, c);
+                let tys = self.words(&im.ret);
+                let (m1, m2) = (
+                    Mat { expr: then_expr, env: mat.env.clone(), in_prelude: mat.in_prelude },
+                    Mat { expr: else_expr, env: mat.env.clone(), in_prelude: mat.in_prelude },
+                );
+                b.branch(
+                    self,
+                    c,
+                    &tys,
+                    |b, me| me.mat_method(b, &m1, im, args, ctx),
+                    |b, me| me.mat_method(b, &m2, im, args, ctx),
+                )
+            }
+            ExprKind::Call { callee, args: call_args } => {
+                if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
+                    return match self.item(sym) {
+                        Item::Material(_) => {
+                            let inst = self.instance_from_def(b, sym, call_args, ctx, &mat.env, mat.in_prelude);
+                            self.instance_method(b, &inst, im, args, ctx)
+                        }
+                        Item::MaterialTree(t) => {
+                            let env = self.template_env(b, t, call_args, mat, ctx);
+                            let m = Mat { expr: &t.body, env, in_prelude: self.is_prelude(sym) };
+                            self.mat_method(b, &m, im, args, ctx)
+                        }
+                        _ => b.zeros(self.lanes_of(&im.ret)),
+                    };
+                }
+                self.tree_node(b, mat, &callee.name, call_args, im, args, ctx)
+            }
+            _ => b.zeros(self.lanes_of(&im.ret)),
+        }
+    }
+
+    /// Binds a template's parameters: materials stay expressions, values
+    /// are lowered now.
+    pub(super) fn template_env(
+        &mut self,
+        b: &mut Builder,
+        t: &'p ast::MaterialTree,
+        call_args: &'p [ast::Arg],
+        mat: &Mat<'p>,
+        ctx: &Ctx,
+    ) -> Rc<HashMap<String, Val<'p>>> {
+        let params = t.params.as_deref().unwrap_or(&[]);
+        let typed: Vec<(&str, Ty)> = params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
+        let bound = bind_args(&typed, call_args);
+        let mut env = HashMap::default();
+        for (p, a) in params.iter().zip(bound) {
+            let ty = Ty::from_ast(&p.ty);
+            let (expr, source_env, prelude) = match (a, &p.default) {
+                (Some(a), _) => (a, mat.env.clone(), mat.in_prelude),
+                (None, Some(d)) => (d, Rc::new(HashMap::default()), mat.in_prelude),
+                (None, None) => continue,
+            };
+            let v = if ty == Ty::Material {
+                Val::Material(Mat { expr, env: source_env, in_prelude: prelude })
+            } else {
+                let mut fr = self.env_frame(&source_env, prelude);
+                self.expr_as(b, &mut fr, ctx, expr, &ty)
+            };
+            env.insert(p.name.name.clone(), v);
+        }
+        Rc::new(env)
+    }
+
+    /// Whether method `im` of the material expression is the interface
+    /// default everywhere in its tree (no leaf defines it and no node
+    /// changes it). Conservative: `false` when unsure.
+    pub(super) fn uses_default(&self, mat: &Mat<'p>, im: &'static InterfaceMethod, depth: u32) -> bool {
+        if depth > 64 {
+            return false;
+        }
+        let defines = |def: &ast::MaterialDef| def.methods.iter().any(|m| m.name.name == im.name);
+        match &mat.expr.kind {
+            ExprKind::Name(n) => {
+                if let Some(Val::Material(m)) = mat.env.get(n) {
+                    return self.uses_default(m, im, depth + 1);
+                }
+                match self.symbol(mat.in_prelude, n) {
+                    Some(sym) => match self.item(sym) {
+                        Item::MaterialTree(t) if t.params.is_none() => {
+                            let m = Mat {
+                                expr: &t.body,
+                                env: Rc::new(HashMap::default()),
+                                in_prelude: self.is_prelude(sym),
+                            };
+                            self.uses_default(&m, im, depth + 1)
+                        }
+                        Item::Material(def) => !defines(def),
+                        _ => false,
+                    },
+                    None => false,
+                }
+            }
+            ExprKind::Ternary { then_expr, else_expr, .. } => [then_expr, else_expr].iter().all(|e| {
+                self.uses_default(&Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude }, im, depth + 1)
+            }),
+            ExprKind::Call { callee, args: call_args } => {
+                if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
+                    return match self.item(sym) {
+                        Item::Material(def) => !defines(def),
+                        Item::MaterialTree(t) => {
+                            // A template: its body, with its material
+                            // parameters bound to the call's arguments.
+                            let params = t.params.as_deref().unwrap_or(&[]);
+                            let typed: Vec<(&str, Ty)> =
+                                params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
+                            let mut env = HashMap::default();
+                            for (p, a) in params.iter().zip(bind_args(&typed, call_args)) {
+                                if Ty::from_ast(&p.ty) != Ty::Material {
+                                    continue;
+                                }
+                                let bound = match (a, &p.default) {
+                                    (Some(a), _) => Mat { expr: a, env: mat.env.clone(), in_prelude: mat.in_prelude },
+                                    (None, Some(d)) => Mat {
+                                        expr: d,
+                                        env: Rc::new(HashMap::default()),
+                                        in_prelude: self.is_prelude(sym),
+                                    },
+                                    (None, None) => continue,
+                                };
+                                env.insert(p.name.name.clone(), Val::Material(bound));
+                            }
+                            let body = Mat { expr: &t.body, env: Rc::new(env), in_prelude: self.is_prelude(sym) };
+                            self.uses_default(&body, im, depth + 1)
+                        }
+                        _ => false,
+                    };
+                }
+                // Only `spline:` (a value) may be named; a named material
+                // child, or `only:` (which changes where a method comes
+                // from), is not analysed.
+                if call_args.iter().any(|a| a.name.as_ref().is_some_and(|n| n.name != "spline")) {
+                    return false;
+                }
+                let positional: Vec<&'p ast::Arg> = call_args.iter().filter(|a| a.name.is_none()).collect();
+                let child = |k: usize| {
+                    positional.get(k).map(|a| Mat { expr: &a.value, env: mat.env.clone(), in_prelude: mat.in_prelude })
+                };
+                let all = |items: Vec<Mat<'p>>| {
+                    !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
+                };
+                match callee.name.as_str() {
+                    "mix" => all([child(1), child(2)].into_iter().flatten().collect()),
+                    "blend" | "select" => all(self.material_items(child(1).map(|m| m.expr), mat)),
+                    // bump changes the normal; transform moves the point.
+                    "bump" => im.name != "normal" && all(child(2).into_iter().collect()),
+                    "transform" => all(child(1).into_iter().collect()),
+                    // scale keeps a black default black.
+                    "scale" => {
+                        matches!(
+                            im.name,
+                            "reflection"
+                                | "refraction"
+                                | "emission"
+                                | "diffuse"
+                                | "reflection_dir"
+                                | "refraction_dir"
+                                | "normal"
+                                | "opaque"
+                        ) && all(child(1).into_iter().collect())
+                    }
+                    _ => false,
+                }
+            }
+            _ => false,
+        }
+    }
+
+    /// The interface default of a method that needs no material to compute
+    /// (every default but `ambient`, which reads `diffuse`).
+    pub(super) fn plain_default(
+        &mut self,
+        b: &mut Builder,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Option<Vec<Value>> {
+        Some(match im.name {
+            "refraction_index" => {
+                let one = b.f(1.0);
+                vec![one; self.lanes]
+            }
+            "absorption" => args[0].clone(),
+            "normal" => self.global(b, ctx, "N").unwrap_or_default(),
+            "opaque" => vec![b.b(true)],
+            // These read the material's other methods.
+            "ambient" | "sample" | "pdf" => return None,
+            _ => b.zeros(self.lanes_of(&im.ret)),
+        })
+    }
+}

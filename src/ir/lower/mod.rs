@@ -1,0 +1,363 @@
+//! Lowering a checked program to scalar IR, for one color model.
+//!
+//! Each entry point is built by inlining: user functions, material methods
+//! and whole texture trees become one straight [`Function`]. Along the way
+//! constants fold (a material instance such as `phong(kd: rgb(1, 0, 0))`
+//! compiles with `kd` as a constant, OSL's runtime specialisation), and a
+//! generator called again with the same arguments in the same coordinate
+//! context reuses the first result (the second paper's caching).
+
+mod builtins;
+mod context;
+mod expr;
+mod material;
+mod noise;
+mod sampling;
+mod stmt;
+mod texture;
+mod tree;
+
+use builtins::{blend_weights, identity};
+use expr::{bind_args, mat_inverse, transform_point};
+use stmt::assigned_names;
+use tree::empty_def;
+
+use super::builder::{Builder, Const, MemoKey};
+use super::*;
+use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
+use crate::color::{self, ColorModel};
+use crate::diag::{Diagnostic, Span};
+use crate::globals;
+use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
+use crate::texture::Sampler;
+// Lowering hashes small keys (values, ops) millions of times: FxHash.
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
+use std::rc::Rc;
+use std::sync::Arc;
+
+/// What an entry point computes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EntryKind {
+    /// A generator (a user or prelude function).
+    Function,
+    /// One interface method of a named material, or a combination of them
+    /// (`reflection` for reflection sums, `delta_lobes`).
+    Method(&'static str),
+}
+
+/// An entry point's name and its argument and result types, so hosts can
+/// pack arguments and unpack results.
+#[derive(Debug, Clone)]
+pub struct Entry {
+    /// `rings`, or `wood.reflection`.
+    pub name: String,
+    pub kind: EntryKind,
+    pub params: Vec<(String, Ty)>,
+    pub ret: Ty,
+}
+
+/// Lowers every entry point of a checked program: each function whose
+/// parameters and result are plain values, and each interface method of
+/// each material that needs no arguments.
+pub fn lower_program(program: &Program, model: ColorModel) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    lower_entries(program, model, |_, _| true)
+}
+
+/// Lowers the entry points of the global names `keep` accepts.
+pub fn lower_entries(
+    program: &Program,
+    model: ColorModel,
+    keep: impl Fn(&str, &Symbol) -> bool,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let mut names: Vec<(&String, &Symbol)> = program.symbols.iter().collect();
+    names.sort_by_key(|(n, s)| (s.module, s.item, n.as_str()));
+    names.retain(|(n, s)| keep(n, s));
+    for (name, sym) in names {
+        match (sym.kind, lw.item(*sym)) {
+            (SymbolKind::Function, Item::Function(f)) => {
+                let params: Vec<(String, Ty)> =
+                    f.params.iter().map(|p| (p.name.name.clone(), Ty::from_ast(&p.ty))).collect();
+                let ret = Ty::from_ast(&f.ret);
+                if ret == Ty::Void || !params.iter().chain([&(String::new(), ret.clone())]).all(|(_, t)| lw.is_plain(t))
+                {
+                    continue;
+                }
+                module.functions.push(lw.lower_function_entry(name, *sym, f, &params, &ret));
+                entries.push(Entry { name: name.clone(), kind: EntryKind::Function, params, ret });
+            }
+            (SymbolKind::Material, Item::Material(d)) if d.params.iter().all(|p| p.default.is_some()) => {
+                lw.material_entries(name, *sym, &mut module, &mut entries);
+            }
+            (SymbolKind::MaterialTree, Item::MaterialTree(t)) if t.params.is_none() => {
+                lw.material_entries(name, *sym, &mut module, &mut entries);
+            }
+            _ => {}
+        }
+    }
+    (module, entries, lw.diags)
+}
+
+/// Lowers one expression of the root program that reads no shading global
+/// (a scene property's value) to a function without parameters whose
+/// results are the value's words, converted to `to`.
+pub fn lower_value(
+    program: &Program,
+    model: ColorModel,
+    name: &str,
+    expr: &Expr,
+    to: &Ty,
+) -> (Function, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut b = Builder::new(name);
+    let ctx = lw.root_ctx();
+    let mut fr = lw.new_frame(false, HashSet::default());
+    let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
+    let lanes = lw.lanes(&mut b, v, to);
+    lw.write_results(&mut b, to, &lanes);
+    (b.finish(), lw.diags)
+}
+
+/// Lowers material expressions of the root program (a scene object's
+/// `material` value) to entry points `NAME.method`, one per interface
+/// method, as [`lower_entries`] does for named materials.
+pub fn lower_material_exprs(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    for (name, expr) in materials {
+        for im in INTERFACE {
+            let fname = format!("{name}.{}", im.name);
+            let mut b = Builder::new(&fname);
+            let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
+            let args = lw.method_args(&mut b, &params);
+            let ctx = lw.root_ctx();
+            let mat = Mat::of_root(expr);
+            let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
+            lw.write_results(&mut b, &im.ret, &result);
+            module.functions.push(b.finish());
+            entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
+        }
+    }
+    (module, entries, lw.diags)
+}
+
+/// Lowers, for each material expression, one entry point `NAME.reflection_sum{lights}`
+/// that returns the sum of `reflection` over `lights` lights:
+/// parameters `wi_1, light_1, ..., wi_K, light_K, wo`. The K copies of the
+/// method share one function and one coordinate context, so the texture
+/// they all read (generator calls, normals) is computed once: a renderer
+/// calls this once per hit instead of `reflection` once per light.
+pub fn lower_reflection_sums(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+    lights: usize,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
+    for (name, expr) in materials {
+        let fname = format!("{name}.reflection_sum{lights}");
+        let mut b = Builder::new(&fname);
+        let mut params: Vec<(String, Ty)> = Vec::new();
+        for k in 0..lights {
+            params.push((format!("wi{k}"), Ty::Vector));
+            params.push((format!("light{k}"), Ty::Color));
+        }
+        params.push(("wo".into(), Ty::Vector));
+        let args = lw.method_args(&mut b, &params);
+        let ctx = lw.root_ctx();
+        let mat = Mat::of_root(expr);
+        let wo = args[2 * lights].clone();
+        let mut sum: Option<Vec<Value>> = None;
+        for k in 0..lights {
+            let one =
+                lw.mat_method(&mut b, &mat, im, &[args[2 * k].clone(), args[2 * k + 1].clone(), wo.clone()], &ctx);
+            sum = Some(match sum {
+                None => one,
+                Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
+            });
+        }
+        let sum = sum.unwrap_or_else(|| b.zeros(lw.lanes));
+        lw.write_results(&mut b, &Ty::Color, &sum);
+        module.functions.push(b.finish());
+        entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
+    }
+    (module, entries, lw.diags)
+}
+
+/// Lowers, for each material expression, one entry point `NAME.delta_lobes`
+/// with parameters `wo, eta` that returns both perfect directions with their
+/// weights, the responses to unit light: `reflection_dir(wo)`,
+/// `reflection(that, 1, wo)`, `refraction_dir(wo, eta)` and
+/// `refraction(that, 1, eta, wo)`, in that order (3 + lanes + 3 + lanes
+/// words). One call instead of four, and what the methods share (the
+/// faced normal, Fresnel terms, the texture) is computed once.
+pub fn lower_delta_lobes(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let methods = ["reflection_dir", "reflection", "refraction_dir", "refraction"].map(interface_method);
+    let [Some(reflection_dir), Some(reflection), Some(refraction_dir), Some(refraction)] = methods else {
+        return (module, entries, lw.diags);
+    };
+    for (name, expr) in materials {
+        let fname = format!("{name}.delta_lobes");
+        let mut b = Builder::new(&fname);
+        let params: Vec<(String, Ty)> = vec![("wo".into(), Ty::Vector), ("eta".into(), Ty::Color)];
+        let args = lw.method_args(&mut b, &params);
+        let (wo, eta) = (args[0].clone(), args[1].clone());
+        let ctx = lw.root_ctx();
+        let mat = Mat::of_root(expr);
+        let one = b.f(1.0);
+        let ones = vec![one; lw.lanes];
+        let dr = lw.mat_method(&mut b, &mat, reflection_dir, std::slice::from_ref(&wo), &ctx);
+        let wr = lw.mat_method(&mut b, &mat, reflection, &[dr.clone(), ones.clone(), wo.clone()], &ctx);
+        let dt = lw.mat_method(&mut b, &mat, refraction_dir, &[wo.clone(), eta.clone()], &ctx);
+        let wt = lw.mat_method(&mut b, &mat, refraction, &[dt.clone(), ones, eta, wo], &ctx);
+        let (function, ret) = finish_words(b, &[dr, wr, dt, wt].concat());
+        module.functions.push(function);
+        entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
+    }
+    (module, entries, lw.diags)
+}
+
+/// Lowers, for each material expression, one entry point `NAME.eval_pdf`
+/// with parameters `wi, wo, eta` that returns what next-event estimation
+/// needs of a light sample: `f · cos` for unit light from `wi` (reflection
+/// on the side of the geometric normal, refraction across it) and the
+/// material's `pdf(wi, wo, eta)`, in that order (lanes + 1 words). One call
+/// instead of two, sharing the texture (Mitsuba's `eval_pdf`).
+pub fn lower_eval_pdf(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let mut module = Module::default();
+    let mut entries = Vec::new();
+    let Some(pdf) = interface_method("pdf") else { return (module, entries, lw.diags) };
+    for (name, expr) in materials {
+        let fname = format!("{name}.eval_pdf");
+        let mut b = Builder::new(&fname);
+        let params: Vec<(String, Ty)> =
+            vec![("wi".into(), Ty::Vector), ("wo".into(), Ty::Vector), ("eta".into(), Ty::Color)];
+        let args = lw.method_args(&mut b, &params);
+        let ctx = lw.root_ctx();
+        let mat = Mat::of_root(expr);
+        let mut results = lw.eval_at(&mut b, &mat, &args[0], &args[1], &args[2], &ctx);
+        results.extend(lw.mat_method(&mut b, &mat, pdf, &args, &ctx));
+        let (function, ret) = finish_words(b, &results);
+        module.functions.push(function);
+        entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
+    }
+    (module, entries, lw.diags)
+}
+
+/// Finishes an entry that returns `results` as float words (a combination
+/// of methods), with the array type hosts read them as.
+fn finish_words(mut b: Builder, results: &[Value]) -> (Function, Ty) {
+    b.func.results = vec![Scalar::F32; results.len()];
+    for (k, x) in results.iter().enumerate() {
+        b.push(Inst::Output(k as u32, *x));
+    }
+    (b.finish(), Ty::Array(Box::new(Ty::Float), results.len() as u32))
+}
+
+struct Lowerer<'p> {
+    program: &'p Program,
+    model: ColorModel,
+    lanes: usize,
+    diags: Vec<Diagnostic>,
+    next_id: u32,
+    /// One sampler per image, filter and address modes.
+    samplers: HashMap<TextureCall, Arc<Sampler>>,
+    /// Set while a mixture samples one of its children: the outermost
+    /// mixture computes the weight at the direction drawn, so nested ones
+    /// only choose (see `sampling::sample_mixture`).
+    direction_only: bool,
+}
+
+// ---------------------------------------------------------------- values
+
+/// A lowered TSL value.
+#[derive(Debug, Clone)]
+enum Val<'p> {
+    /// Scalars: 1 for float/int/bool, 2 for vec2, 3 for triples, the color
+    /// model's lanes for colors, 12 for matrices (three rows of an affine map).
+    Lanes(Vec<Value>),
+    /// An array: either known element values or IR arrays (one per lane).
+    Array(ArrayVal),
+    /// A string: only literals exist, used by nodes and options at
+    /// compile time.
+    Str(Rc<str>),
+    Material(Mat<'p>),
+    Unit,
+}
+
+#[derive(Debug, Clone)]
+enum ArrayVal {
+    Elems(Vec<Vec<Value>>),
+    Ir { arrays: Vec<ArrayId>, len: u32 },
+}
+
+/// A material expression with the template bindings it sees.
+#[derive(Debug, Clone)]
+struct Mat<'p> {
+    expr: &'p Expr,
+    env: Rc<HashMap<String, Val<'p>>>,
+    /// The item whose code the expression is in (prelude or user).
+    in_prelude: bool,
+}
+
+impl<'p> Mat<'p> {
+    /// A material expression of the root program (a scene object's
+    /// material): user code, no template bindings.
+    fn of_root(expr: &'p Expr) -> Mat<'p> {
+        Mat { expr, env: Rc::new(HashMap::default()), in_prelude: false }
+    }
+}
+
+/// A material instance: a definition with its parameters bound.
+#[derive(Debug)]
+struct Instance<'p> {
+    id: u32,
+    def: &'p ast::MaterialDef,
+    params: Vec<(String, Val<'p>)>,
+    in_prelude: bool,
+}
+
+/// The coordinate context: globals replaced by `transform` and `bump`.
+#[derive(Debug, Clone)]
+struct Ctx {
+    id: u32,
+    overrides: Rc<HashMap<&'static str, Vec<Value>>>,
+}
+
+#[derive(Debug, Clone)]
+enum Binding<'p> {
+    Val(Val<'p>),
+    Vars(Vec<Var>),
+}
+
+/// One inlined body: its scopes, where `return` goes, enclosing loops.
+struct Frame<'p> {
+    scopes: Vec<HashMap<String, Binding<'p>>>,
+    ret: Option<(Label, Vec<Var>, Ty)>,
+    loops: Vec<Label>,
+    material: Option<Rc<Instance<'p>>>,
+    assigned: HashSet<String>,
+    in_prelude: bool,
+}

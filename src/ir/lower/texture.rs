@@ -1,0 +1,109 @@
+//! Texture calls: the sampler a call names and the footprint of its
+//! coordinates, found by evaluating them again at the neighbouring pixels.
+
+use super::*;
+
+impl<'p> Lowerer<'p> {
+    /// `texture(file, st, ...)` and `texture_float(file, st, channel, ...)`.
+    /// The footprint is `dx`/`dy` when given; else `st` is evaluated again at
+    /// the neighbouring pixels (the globals moved by their derivatives), so
+    /// any expression of the globals gets its true change per pixel. When
+    /// that shows no change (`st` is a local or a parameter computed
+    /// earlier), the footprint of (u, v) stands in.
+    pub(super) fn texture(
+        &mut self,
+        b: &mut Builder,
+        fr: &mut Frame<'p>,
+        ctx: &Ctx,
+        spec: &crate::check::Builtin,
+        bound: &[Option<&'p Expr>],
+        e: &'p Expr,
+    ) -> Val<'p> {
+        let color = spec.name == "texture";
+        let width = if color { self.lanes } else { 1 };
+        let st_arg = spec.arg(bound, "st");
+        let Some(sampler) = self.sampler(e.span) else {
+            self.error(e.span, "internal error: this texture call has no loaded image");
+            return Val::Lanes(b.zeros(width));
+        };
+        let eval_st = |me: &mut Self, b: &mut Builder, fr: &mut Frame<'p>, c: &Ctx| -> Vec<Value> {
+            match st_arg {
+                Some(st) => {
+                    let v = me.expr_as(b, fr, c, st, &Ty::Vec2);
+                    me.lanes(b, v, &Ty::Vec2)
+                }
+                None => {
+                    let u = me.global(b, c, "u").unwrap_or_default();
+                    let v = me.global(b, c, "v").unwrap_or_default();
+                    vec![u[0], v[0]]
+                }
+            }
+        };
+        let st = eval_st(self, b, fr, ctx);
+        let uv_footprint = |me: &mut Self, b: &mut Builder, axis: &str| -> Vec<Value> {
+            let du = me.global(b, ctx, &format!("dud{axis}")).unwrap_or_default();
+            let dv = me.global(b, ctx, &format!("dvd{axis}")).unwrap_or_default();
+            vec![du[0], dv[0]]
+        };
+        let mut derivs = Vec::new();
+        for (param, axis) in [("dx", "x"), ("dy", "y")] {
+            let d = match spec.arg(bound, param) {
+                Some(d) => {
+                    let v = self.expr_as(b, fr, ctx, d, &Ty::Vec2);
+                    self.lanes(b, v, &Ty::Vec2)
+                }
+                None if st_arg.is_none() => uv_footprint(self, b, axis),
+                None => {
+                    let shifted = self.pixel_neighbour(b, ctx, axis);
+                    let moved = eval_st(self, b, fr, &shifted);
+                    if moved == st { uv_footprint(self, b, axis) } else { b.map2(BinOp::FSub, &moved, &st) }
+                }
+            };
+            derivs.push(d);
+        }
+        let coords = [st[0], st[1], derivs[0][0], derivs[0][1], derivs[1][0], derivs[1][1]];
+        let rgba = b.texture(&sampler, coords);
+        if color {
+            return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
+        }
+        let channel = match spec.arg(bound, "channel") {
+            Some(c) => {
+                let v = self.expr(b, fr, ctx, c);
+                self.scalar(b, v)
+            }
+            None => b.i(0),
+        };
+        self.index(b, Val::Lanes(rgba.to_vec()), &Ty::Float, channel)
+    }
+
+    /// The sampler of the texture call at `span`, made once per image,
+    /// filter and address modes.
+    pub(super) fn sampler(&mut self, span: Span) -> Option<Arc<Sampler>> {
+        let call = *self.program.texture_calls.get(&span)?;
+        let image = self.program.images.get(call.image)?.image.clone()?;
+        Some(
+            self.samplers
+                .entry(call)
+                .or_insert_with(|| Arc::new(Sampler { image, filter: call.filter, wrap: call.wrap }))
+                .clone(),
+        )
+    }
+
+    /// The coordinate context of the next pixel in `axis` ("x" or "y"):
+    /// P and Pl moved by dP/d`axis`, u and v by their derivatives.
+    pub(super) fn pixel_neighbour(&mut self, b: &mut Builder, ctx: &Ctx, axis: &str) -> Ctx {
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let dp = g(self, b, &format!("dPd{axis}"));
+        let mut changes = Vec::new();
+        for name in ["P", "Pl"] {
+            let p = g(self, b, name);
+            changes.push((name, b.map2(BinOp::FAdd, &p, &dp)));
+        }
+        for name in ["u", "v"] {
+            let x = g(self, b, name);
+            let d = g(self, b, &format!("d{name}d{axis}"));
+            changes.push((name, vec![b.fadd(x[0], d[0])]));
+        }
+        self.with_overrides(ctx, changes)
+    }
+}

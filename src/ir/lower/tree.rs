@@ -1,0 +1,366 @@
+//! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `scale` and
+//! `transform`, and the coordinate contexts `bump` and `transform` give
+//! their subtrees.
+
+use super::*;
+
+impl<'p> Lowerer<'p> {
+    /// The texture-tree nodes.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn tree_node(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        node: &str,
+        call_args: &'p [ast::Arg],
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == node) else {
+            return b.zeros(self.lanes_of(&im.ret));
+        };
+        // A method no child defines is the default whatever the weights:
+        // the weights (often noise) need not be computed at all.
+        if matches!(node, "mix" | "blend" | "select") && self.uses_default(mat, im, 0) {
+            if let Some(v) = self.plain_default(b, im, args, ctx) {
+                return v;
+            }
+            // The default ambient, light * diffuse(), is linear: blending the
+            // children's is the node's own, from the node's diffuse.
+            if im.name == "ambient"
+                && let Some(diffuse) = interface_method("diffuse")
+            {
+                let d = self.mat_method(b, mat, diffuse, &[], ctx);
+                return b.map2(BinOp::FMul, &args[0], &d);
+            }
+        }
+        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
+        let bound = bind_args(&params, call_args);
+        let child = |k: usize| {
+            bound.get(k).copied().flatten().map(|e| Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude })
+        };
+        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+        let mut scalar = |me: &mut Self, b: &mut Builder, k: usize, ctx: &Ctx| -> Value {
+            match bound.get(k).copied().flatten() {
+                Some(e) => {
+                    let v = me.expr_as(b, &mut fr, ctx, e, &Ty::Float);
+                    me.scalar(b, v)
+                }
+                None => b.f(0.0),
+            }
+        };
+        let tys = self.words(&im.ret);
+        match node {
+            "mix" => {
+                let (Some(a), Some(c)) = (child(1), child(2)) else { return b.zeros(tys.len()) };
+                if let Some(ExprKind::Str(only)) = bound.get(3).copied().flatten().map(|e| &e.kind) {
+                    // A partial blend samples as its first child.
+                    if im.name == "sample" {
+                        return self.sample_as_first(b, mat, &a, args, ctx);
+                    }
+                    if im.name == "pdf" || only != im.name {
+                        return self.mat_method(b, &a, im, args, ctx);
+                    }
+                }
+                let t = scalar(self, b, 0, ctx);
+                if matches!(im.name, "sample" | "pdf") {
+                    let one = b.f(1.0);
+                    let weights = [b.fsub(one, t), t];
+                    let items = [a, c];
+                    return if im.name == "sample" {
+                        self.sample_mixture(b, mat, &weights, &items, args, ctx)
+                    } else {
+                        self.pdf_mixture(b, &weights, &items, args, ctx)
+                    };
+                }
+                self.mix_children(b, t, &a, &c, im, args, ctx)
+            }
+            "blend" => {
+                let t = scalar(self, b, 0, ctx);
+                let spline = match bound.get(2).copied().flatten() {
+                    Some(e) => {
+                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                        let v = self.expr(b, &mut fr, ctx, e);
+                        self.scalar(b, v)
+                    }
+                    None => b.b(false),
+                };
+                let items = self.material_items(bound.get(1).copied().flatten(), mat);
+                let w = blend_weights(b, t, spline, items.len());
+                match im.name {
+                    "sample" => self.sample_mixture(b, mat, &w, &items, args, ctx),
+                    "pdf" => self.pdf_mixture(b, &w, &items, args, ctx),
+                    _ => self.weighted_children(b, &w, &items, im, args, ctx),
+                }
+            }
+            "select" => {
+                let i = match bound.first().copied().flatten() {
+                    Some(e) => {
+                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                        let v = self.expr(b, &mut fr, ctx, e);
+                        self.scalar(b, v)
+                    }
+                    None => b.i(0),
+                };
+                let items = self.material_items(bound.get(1).copied().flatten(), mat);
+                if items.is_empty() {
+                    return b.zeros(tys.len());
+                }
+                let i = self.clamp_index(b, i, items.len() as i32);
+                self.select_child(b, i, &items, 0, im, args, ctx)
+            }
+            "bump" => {
+                let Some(m) = child(2) else { return b.zeros(tys.len()) };
+                let amount = scalar(self, b, 1, ctx);
+                let Some(height) = bound.first().copied().flatten() else { return b.zeros(tys.len()) };
+                let bumped = self.bump_ctx(b, height, mat, amount, ctx);
+                self.mat_method(b, &m, im, args, &bumped)
+            }
+            "scale" => {
+                let Some(m) = child(1) else { return b.zeros(tys.len()) };
+                let inner = self.mat_method(b, &m, im, args, ctx);
+                if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse" | "sample") {
+                    return inner;
+                }
+                let c = match bound.first().copied().flatten() {
+                    Some(e) => {
+                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                        let v = self.expr(b, &mut fr, ctx, e);
+                        self.lanes(b, v, &Ty::Color)
+                    }
+                    None => return inner,
+                };
+                if im.name == "sample" {
+                    return self.scale_sample(b, &inner, &c);
+                }
+                b.map2(BinOp::FMul, &inner, &c)
+            }
+            "transform" => {
+                let Some(m) = child(1) else { return b.zeros(tys.len()) };
+                let xf = match bound.first().copied().flatten() {
+                    Some(e) => {
+                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                        let v = self.expr(b, &mut fr, ctx, e);
+                        self.lanes(b, v, &Ty::Matrix)
+                    }
+                    None => identity(b),
+                };
+                let moved = self.transform_ctx(b, &xf, ctx);
+                self.mat_method(b, &m, im, args, &moved)
+            }
+            _ => b.zeros(tys.len()),
+        }
+    }
+
+    pub(super) fn material_items(&self, e: Option<&'p Expr>, mat: &Mat<'p>) -> Vec<Mat<'p>> {
+        match e.map(|e| &e.kind) {
+            Some(ExprKind::Array(items)) => {
+                items.iter().map(|it| Mat { expr: it, env: mat.env.clone(), in_prelude: mat.in_prelude }).collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// `mix`: at t = 0 only `a` runs, at t = 1 only `b`; between, every
+    /// result blends linearly (normals are renormalised; a blend is opaque
+    /// when both children are).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn mix_children(
+        &mut self,
+        b: &mut Builder,
+        t: Value,
+        a: &Mat<'p>,
+        c: &Mat<'p>,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let (zero, one) = (b.f(0.0), b.f(1.0));
+        let is_zero = b.feq(t, zero);
+        let is_one = b.feq(t, one);
+        let need_a = b.not(is_one);
+        let need_c = b.not(is_zero);
+        if im.ret == Ty::Bool {
+            let yes = b.b(true);
+            let oa = b.guarded(self, need_a, vec![yes], |b, me| me.mat_method(b, a, im, args, ctx));
+            let oc = b.guarded(self, need_c, vec![yes], |b, me| me.mat_method(b, c, im, args, ctx));
+            return vec![b.and(oa[0], oc[0])];
+        }
+        let n = self.lanes_of(&im.ret);
+        let zeros = b.zeros(n);
+        let va = b.guarded(self, need_a, zeros.clone(), |b, me| me.mat_method(b, a, im, args, ctx));
+        let vc = b.guarded(self, need_c, zeros, |b, me| me.mat_method(b, c, im, args, ctx));
+        if va == vc {
+            // Both children agree (typically the same constant): no blend.
+            return va;
+        }
+        let blended = b.lerp(t, &va, &vc);
+        if im.name == "normal" { b.normalize(&blended) } else { blended }
+    }
+
+    /// `blend`: Σ w_k child_k, evaluating only children with nonzero weight.
+    pub(super) fn weighted_children(
+        &mut self,
+        b: &mut Builder,
+        w: &[Value],
+        items: &[Mat<'p>],
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let zero = b.f(0.0);
+        if im.ret == Ty::Bool {
+            let mut acc = b.b(true);
+            for (wk, item) in w.iter().zip(items) {
+                let used = b.feq(*wk, zero);
+                let used = b.not(used);
+                let yes = b.b(true);
+                let o = b.guarded(self, used, vec![yes], |b, me| me.mat_method(b, item, im, args, ctx));
+                acc = b.and(acc, o[0]);
+            }
+            return vec![acc];
+        }
+        let n = self.lanes_of(&im.ret);
+        let mut results = Vec::new();
+        for (wk, item) in w.iter().zip(items) {
+            let used = b.feq(*wk, zero);
+            let used = b.not(used);
+            let zeros = b.zeros(n);
+            results.push(b.guarded(self, used, zeros, |b, me| me.mat_method(b, item, im, args, ctx)));
+        }
+        if results.windows(2).all(|r| r[0] == r[1]) {
+            // All children agree: the weights (which sum to one) change nothing.
+            return results.pop().unwrap_or_else(|| b.zeros(n));
+        }
+        let mut acc = b.zeros(n);
+        for (wk, v) in w.iter().zip(&results) {
+            let s = b.scale(v, *wk);
+            acc = b.map2(BinOp::FAdd, &acc, &s);
+        }
+        if im.name == "normal" { b.normalize(&acc) } else { acc }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn select_child(
+        &mut self,
+        b: &mut Builder,
+        i: Value,
+        items: &[Mat<'p>],
+        k: usize,
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        if k + 1 == items.len() {
+            return self.mat_method(b, &items[k], im, args, ctx);
+        }
+        let kv = b.i(k as i32);
+        let hit = b.bin(BinOp::IEq, i, kv);
+        let tys = self.words(&im.ret);
+        b.branch(
+            self,
+            hit,
+            &tys,
+            |b, me| me.mat_method(b, &items[k], im, args, ctx),
+            |b, me| me.select_child(b, i, items, k + 1, im, args, ctx),
+        )
+    }
+
+    pub(super) fn with_overrides(&mut self, ctx: &Ctx, changes: Vec<(&'static str, Vec<Value>)>) -> Ctx {
+        let mut map = (*ctx.overrides).clone();
+        map.extend(changes);
+        let id = self.id();
+        Ctx { id, overrides: Rc::new(map) }
+    }
+
+    /// `transform`: the subtree sees P, Pl, (u, v) and the tangents mapped.
+    pub(super) fn transform_ctx(&mut self, b: &mut Builder, m: &[Value], ctx: &Ctx) -> Ctx {
+        let mut changes = Vec::new();
+        for name in ["P", "Pl"] {
+            let p = self.global(b, ctx, name).unwrap_or_default();
+            changes.push((name, transform_point(b, m, &p, true)));
+        }
+        for name in ["dPdu", "dPdv"] {
+            let d = self.global(b, ctx, name).unwrap_or_default();
+            changes.push((name, transform_point(b, m, &d, false)));
+        }
+        let u = self.global(b, ctx, "u").unwrap_or_default();
+        let v = self.global(b, ctx, "v").unwrap_or_default();
+        let zero = b.f(0.0);
+        let uv = transform_point(b, m, &[u[0], v[0], zero], true);
+        changes.push(("u", vec![uv[0]]));
+        changes.push(("v", vec![uv[1]]));
+        self.with_overrides(ctx, changes)
+    }
+
+    /// `bump`: the normal tilted by the gradient of `height` along the
+    /// tangents, estimated by forward differences; the subtree sees it as N.
+    pub(super) fn bump_ctx(
+        &mut self,
+        b: &mut Builder,
+        height: &'p Expr,
+        mat: &Mat<'p>,
+        amount: Value,
+        ctx: &Ctx,
+    ) -> Ctx {
+        let h_at = |me: &mut Self, b: &mut Builder, c: &Ctx| -> Value {
+            let mut fr = me.env_frame(&mat.env, mat.in_prelude);
+            let v = me.expr_as(b, &mut fr, c, height, &Ty::Float);
+            me.scalar(b, v)
+        };
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let (p, pl, u, v) = (g(self, b, "P"), g(self, b, "Pl"), g(self, b, "u"), g(self, b, "v"));
+        let (dpdu, dpdv, n) = (g(self, b, "dPdu"), g(self, b, "dPdv"), g(self, b, "N"));
+        let delta = b.f(BUMP_DELTA);
+        let h0 = h_at(self, b, ctx);
+        let mut gradient = Vec::new();
+        for (tangent, param, pname) in [(&dpdu, &u, "u"), (&dpdv, &v, "v")] {
+            let step = b.scale(tangent, delta);
+            let moved_p = b.map2(BinOp::FAdd, &p, &step);
+            let moved_pl = b.map2(BinOp::FAdd, &pl, &step);
+            let moved_param = b.fadd(param[0], delta);
+            let shifted = self.with_overrides(ctx, vec![("P", moved_p), ("Pl", moved_pl), (pname, vec![moved_param])]);
+            let h = h_at(self, b, &shifted);
+            let dh = b.fsub(h, h0);
+            gradient.push(b.fdiv(dh, delta));
+        }
+        // dp/du' = dPdu + amount dh/du N (likewise v); N' = their cross product.
+        let ku = b.fmul(amount, gradient[0]);
+        let kv = b.fmul(amount, gradient[1]);
+        let nu = b.scale(&n, ku);
+        let nv = b.scale(&n, kv);
+        let du = b.map2(BinOp::FAdd, &dpdu, &nu);
+        let dv = b.map2(BinOp::FAdd, &dpdv, &nv);
+        let c = b.cross(&du, &dv);
+        let c = b.normalize(&c);
+        // Keep the side of the original normal; fall back to it when the
+        // tangents are degenerate.
+        let zero = b.f(0.0);
+        let facing = b.dot(&c, &n);
+        let flip = b.flt(facing, zero);
+        let len = b.dot(&c, &c);
+        let degenerate = b.feq(len, zero);
+        let new_n: Vec<Value> = (0..3)
+            .map(|k| {
+                let neg = b.un(UnOp::FNeg, c[k]);
+                let oriented = b.select(flip, neg, c[k]);
+                b.select(degenerate, n[k], oriented)
+            })
+            .collect();
+        self.with_overrides(ctx, vec![("N", new_n)])
+    }
+}
+
+/// The step of the forward differences in `bump`, in (u, v) units.
+pub const BUMP_DELTA: f32 = 1.0 / 1024.0;
+
+pub(super) fn empty_def() -> &'static ast::MaterialDef {
+    static EMPTY: std::sync::OnceLock<ast::MaterialDef> = std::sync::OnceLock::new();
+    EMPTY.get_or_init(|| ast::MaterialDef {
+        name: ast::Ident { name: String::new(), span: Span::default() },
+        params: Vec::new(),
+        methods: Vec::new(),
+        span: Span::default(),
+    })
+}
