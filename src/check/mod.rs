@@ -14,7 +14,7 @@ mod interface;
 mod scene;
 mod ty;
 
-pub use builtins::{BUILTINS, Builtin};
+pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode};
 pub use interface::{GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use ty::{SAMPLE_FIELDS, Ty};
 
@@ -50,6 +50,10 @@ pub struct Program {
     pub expr_types: HashMap<Span, Ty>,
     /// The global item each name or call resolved to, keyed by its span.
     pub resolutions: HashMap<Span, Symbol>,
+    /// The builtin each call to one resolved to, keyed by the callee's span
+    /// (a user function of the same name is an error, so names alone would
+    /// do; the lowering matches on the enum instead of on strings).
+    pub builtin_calls: HashMap<Span, BuiltinFn>,
     /// The images `texture` calls name, each once per file and encoding.
     pub images: Vec<ImageUse>,
     /// Every `texture` / `texture_float` call, keyed by its span.
@@ -126,6 +130,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         texture_calls: HashMap::new(),
         string_options: HashMap::new(),
         string_args: Vec::new(),
+        builtin_calls: HashMap::new(),
     };
     checker.check_items();
     checker.report_string_options();
@@ -135,7 +140,8 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     let resolutions = std::mem::take(&mut checker.resolutions);
     let images = std::mem::take(&mut checker.images);
     let texture_calls = std::mem::take(&mut checker.texture_calls);
-    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions, images, texture_calls }, diags)
+    let builtin_calls = std::mem::take(&mut checker.builtin_calls);
+    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions, builtin_calls, images, texture_calls }, diags)
 }
 
 type Symbols = HashMap<String, Symbol>;
@@ -283,6 +289,8 @@ struct Checker<'a> {
     /// String literals passed for `string` parameters, checked against
     /// their options once every body has been seen.
     string_args: Vec<StringArg>,
+    /// The builtin each call resolved to, by the callee's span.
+    builtin_calls: HashMap<Span, BuiltinFn>,
 }
 
 /// A string literal given for a `string` parameter of an item.
@@ -1219,6 +1227,7 @@ impl<'a> Checker<'a> {
         }
         // 4. A builtin.
         if let Some(b) = builtin(name) {
+            self.builtin_calls.insert(callee.span, b.func);
             return self.builtin_call(b, args, span);
         }
         self.unknown(name, callee.span, "function");
@@ -1309,14 +1318,8 @@ impl<'a> Checker<'a> {
     }
 
     fn builtin_call(&mut self, b: &Builtin, args: &[Arg], span: Span) -> Ty {
-        let params: Vec<ParamInfo> = b
-            .params
-            .iter()
-            .map(|p| match p.strip_suffix('?') {
-                Some(n) => ParamInfo { name: n, ty: None, required: false },
-                None => ParamInfo { name: p, ty: None, required: true },
-            })
-            .collect();
+        let params: Vec<ParamInfo> =
+            b.params.iter().map(|p| ParamInfo { name: p.name, ty: None, required: !p.optional }).collect();
         let Some(bound) = self.bind_args(b.name, &params, args, span) else {
             self.untyped_args(args);
             return Ty::Error;
@@ -1325,8 +1328,8 @@ impl<'a> Checker<'a> {
         for arg in &bound {
             tys.push(arg.map(|a| self.expr(a, None)));
         }
-        if matches!(b.name, "mix" | "blend" | "select" | "bump" | "transform")
-            || (b.name == "scale" && bound[1].is_some())
+        if b.func.tree_node().is_some_and(|n| n != TreeNode::Scale)
+            || (b.func == BuiltinFn::Scale && bound[1].is_some())
         {
             // Texture-tree nodes over materials are material values.
             if tys.iter().flatten().any(|t| *t == Ty::Material || matches!(t, Ty::Array(e, _) if **e == Ty::Material))
@@ -1335,7 +1338,7 @@ impl<'a> Checker<'a> {
                 return self.material_value(span);
             }
         }
-        let result = match type_builtin(b.name, &tys) {
+        let result = match type_builtin(b.func, &tys) {
             Ok(t) => t,
             Err(ArgError { arg, message, help }) => {
                 let at = arg.and_then(|i| bound.get(i).copied().flatten()).map_or(span, |e| e.span);
@@ -1350,18 +1353,18 @@ impl<'a> Checker<'a> {
                 return Ty::Error;
             }
         };
-        match b.name {
-            "mix" => {
-                if let Some(only) = bound[3] {
+        match b.func {
+            BuiltinFn::Mix => {
+                if let Some(only) = b.arg(&bound, "only") {
                     self.check_only(only);
                 }
             }
-            "spectrum" => {
-                if let Some(samples) = bound[0] {
+            BuiltinFn::Spectrum => {
+                if let Some(samples) = b.arg(&bound, "samples") {
                     self.check_spectrum(samples);
                 }
             }
-            "texture" | "texture_float" => self.check_texture(b, &bound, span),
+            BuiltinFn::Texture | BuiltinFn::TextureFloat => self.check_texture(b, &bound, span),
             _ => {}
         }
         result
@@ -1371,7 +1374,7 @@ impl<'a> Checker<'a> {
     /// naming things that exist; the call is recorded for loading and
     /// lowering. It depends on the shading point (its footprint).
     fn check_texture(&mut self, b: &Builtin, bound: &[Option<&Expr>], span: Span) {
-        let (name, color) = (b.name, b.name == "texture");
+        let (name, color) = (b.name, b.func == BuiltinFn::Texture);
         let arg = |param: &str| b.arg(bound, param);
         if !self.body.globals_allowed {
             self.error(

@@ -69,15 +69,16 @@ impl<'p> Lowerer<'p> {
         b: &mut Builder,
         fr: &mut Frame<'p>,
         ctx: &Ctx,
-        name: &str,
+        f: BuiltinFn,
         args: &'p [ast::Arg],
         e: &'p Expr,
     ) -> Val<'p> {
+        use BuiltinFn::*;
         let ty = self.ty_of(e);
-        let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == name) else { return Val::Unit };
-        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
+        let spec = f.builtin();
+        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
         let bound = bind_args(&params, args);
-        if matches!(name, "texture" | "texture_float") {
+        if matches!(f, Texture | TextureFloat) {
             return self.texture(b, fr, ctx, spec, &bound, e);
         }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
@@ -96,16 +97,16 @@ impl<'p> Lowerer<'p> {
             Val::Lanes(x.into_iter().map(|v| b.call(native, vec![v])).collect())
         };
 
-        match name {
-            "abs" if ty == Ty::Int => {
+        match f {
+            Abs if ty == Ty::Int => {
                 let x = self.scalar_arg(b, &bound, 0, fr, ctx);
                 let neg = b.un(UnOp::INeg, x);
                 let zero = b.i(0);
                 let lt = b.bin(BinOp::ILt, x, zero);
                 Val::Lanes(vec![b.select(lt, neg, x)])
             }
-            "abs" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::FAbs, x)).collect()),
-            "sign" => {
+            Abs => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::FAbs, x)).collect()),
+            Sign => {
                 let x = arg(self, b, 0, n);
                 let (zero, one, minus) = (b.f(0.0), b.f(1.0), b.f(-1.0));
                 Val::Lanes(
@@ -119,9 +120,9 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "floor" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Floor, x)).collect()),
-            "ceil" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Ceil, x)).collect()),
-            "fract" => Val::Lanes(
+            Floor => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Floor, x)).collect()),
+            Ceil => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Ceil, x)).collect()),
+            Fract => Val::Lanes(
                 arg(self, b, 0, n)
                     .into_iter()
                     .map(|x| {
@@ -130,38 +131,37 @@ impl<'p> Lowerer<'p> {
                     })
                     .collect(),
             ),
-            "sqrt" => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Sqrt, x)).collect()),
-            n_ if unary_native_name(n_).is_some() => {
+            Sqrt => Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.un(UnOp::Sqrt, x)).collect()),
+            Round | Exp | Log | Sin | Cos | Tan | Asin | Acos | Atan => {
                 let x = arg(self, b, 0, n);
-                unary_native(b, unary_native_name(name).unwrap_or("tsl_round"), x)
+                unary_native(b, unary_native_name(f), x)
             }
-            "radians" | "degrees" => {
-                let k =
-                    b.f(if name == "radians" { std::f32::consts::PI / 180.0 } else { 180.0 / std::f32::consts::PI });
+            Radians | Degrees => {
+                let k = b.f(if f == Radians { std::f32::consts::PI / 180.0 } else { 180.0 / std::f32::consts::PI });
                 Val::Lanes(arg(self, b, 0, n).into_iter().map(|x| b.fmul(x, k)).collect())
             }
-            "atan2" => {
+            Atan2 => {
                 let (y, x) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0]);
                 Val::Lanes(vec![b.call("tsl_atan2", vec![y, x])])
             }
-            "pow" => {
+            Pow => {
                 let x = arg(self, b, 0, n);
                 let p = arg(self, b, 1, 1)[0];
                 Val::Lanes(x.into_iter().map(|v| b.call("tsl_pow", vec![v, p])).collect())
             }
-            "min" | "max" if ty == Ty::Int => {
+            Min | Max if ty == Ty::Int => {
                 let x = self.scalar_arg(b, &bound, 0, fr, ctx);
                 let y = self.scalar_arg(b, &bound, 1, fr, ctx);
                 let lt = b.bin(BinOp::ILt, x, y);
-                Val::Lanes(vec![if name == "min" { b.select(lt, x, y) } else { b.select(lt, y, x) }])
+                Val::Lanes(vec![if f == Min { b.select(lt, x, y) } else { b.select(lt, y, x) }])
             }
-            "min" | "max" => {
+            Min | Max => {
                 let x = arg(self, b, 0, n);
                 let y = arg(self, b, 1, n);
-                let op = if name == "min" { BinOp::FMin } else { BinOp::FMax };
+                let op = if f == Min { BinOp::FMin } else { BinOp::FMax };
                 Val::Lanes(b.map2(op, &x, &y))
             }
-            "clamp" if ty == Ty::Int => {
+            Clamp if ty == Ty::Int => {
                 let x = self.scalar_arg(b, &bound, 0, fr, ctx);
                 let lo = self.scalar_arg(b, &bound, 1, fr, ctx);
                 let hi = self.scalar_arg(b, &bound, 2, fr, ctx);
@@ -170,7 +170,7 @@ impl<'p> Lowerer<'p> {
                 let above = b.bin(BinOp::ILt, hi, x);
                 Val::Lanes(vec![b.select(above, hi, x)])
             }
-            "mod" if ty == Ty::Int => {
+            Mod if ty == Ty::Int => {
                 // Floored modulo: ((a % b) + b) % b, zero for b == 0.
                 let x = self.scalar_arg(b, &bound, 0, fr, ctx);
                 let y = self.scalar_arg(b, &bound, 1, fr, ctx);
@@ -178,13 +178,13 @@ impl<'p> Lowerer<'p> {
                 let r = b.bin(BinOp::IAdd, r, y);
                 Val::Lanes(vec![b.bin(BinOp::IRem, r, y)])
             }
-            "clamp" => {
+            Clamp => {
                 let x = arg(self, b, 0, n);
                 let lo = arg(self, b, 1, n);
                 let hi = arg(self, b, 2, n);
                 Val::Lanes((0..n).map(|k| b.clamp(x[k], lo[k], hi[k])).collect())
             }
-            "mod" => {
+            Mod => {
                 let x = arg(self, b, 0, n);
                 let y = arg(self, b, 1, n);
                 Val::Lanes(
@@ -198,7 +198,7 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "step" => {
+            Step => {
                 let edge = arg(self, b, 0, n);
                 let x = arg(self, b, 1, n);
                 let (zero, one) = (b.f(0.0), b.f(1.0));
@@ -211,7 +211,7 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "smoothstep" => {
+            Smoothstep => {
                 let e0 = arg(self, b, 0, n);
                 let e1 = arg(self, b, 1, n);
                 let x = arg(self, b, 2, n);
@@ -231,30 +231,30 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "dot" => {
+            Dot => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
                 let x = arg(self, b, 0, w);
                 let y = arg(self, b, 1, w);
                 Val::Lanes(vec![b.dot(&x, &y)])
             }
-            "cross" => {
+            Cross => {
                 let x = arg(self, b, 0, 3);
                 let y = arg(self, b, 1, 3);
                 Val::Lanes(b.cross(&x, &y))
             }
-            "length" | "normalize" => {
+            Length | Normalize => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
                 let x = arg(self, b, 0, w);
-                Val::Lanes(if name == "length" { vec![b.length(&x)] } else { b.normalize(&x) })
+                Val::Lanes(if f == Length { vec![b.length(&x)] } else { b.normalize(&x) })
             }
-            "distance" => {
+            Distance => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
                 let x = arg(self, b, 0, w);
                 let y = arg(self, b, 1, w);
                 let d = b.map2(BinOp::FSub, &x, &y);
                 Val::Lanes(vec![b.length(&d)])
             }
-            "reflect" => {
+            Reflect => {
                 let i = arg(self, b, 0, 3);
                 let nrm = arg(self, b, 1, 3);
                 let d = b.dot(&nrm, &i);
@@ -263,13 +263,13 @@ impl<'p> Lowerer<'p> {
                 let s = b.scale(&nrm, k);
                 Val::Lanes(b.map2(BinOp::FSub, &i, &s))
             }
-            "refract" => {
+            Refract => {
                 let i = arg(self, b, 0, 3);
                 let nrm = arg(self, b, 1, 3);
                 let eta = arg(self, b, 2, 1)[0];
                 Val::Lanes(refract(b, &i, &nrm, eta))
             }
-            "faceforward" => {
+            Faceforward => {
                 let nrm = arg(self, b, 0, 3);
                 let i = arg(self, b, 1, 3);
                 let d = b.dot(&nrm, &i);
@@ -284,7 +284,7 @@ impl<'p> Lowerer<'p> {
                         .collect(),
                 )
             }
-            "noise" => {
+            Noise => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
                 let p = arg(self, b, 0, w);
                 let key = MemoKey::Noise(p.clone());
@@ -292,46 +292,46 @@ impl<'p> Lowerer<'p> {
                     return Val::Lanes(v);
                 }
                 if b.noise_budget == 0 {
-                    return Val::Lanes(vec![b.call(native_name(name, w), p)]);
+                    return Val::Lanes(vec![b.call(native_name(f, w), p)]);
                 }
                 b.noise_budget -= 1;
                 let v = noise::noise(b, &p);
                 b.remember(key, vec![v]);
                 Val::Lanes(vec![v])
             }
-            "cellnoise" => {
+            Cellnoise => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
                 let p = arg(self, b, 0, w);
-                let native = native_name(name, w);
+                let native = native_name(f, w);
                 Val::Lanes(vec![b.call(native, p)])
             }
-            "pnoise" => {
+            Pnoise => {
                 let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
                 let mut p = arg(self, b, 0, w);
                 p.extend(arg(self, b, 1, w));
-                Val::Lanes(vec![b.call(native_name(name, w), p)])
+                Val::Lanes(vec![b.call(native_name(f, w), p)])
             }
-            "rgb" => {
+            Rgb => {
                 let (r, g, bl) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]);
                 Val::Lanes(self.rgb_to_lanes(b, [r, g, bl]))
             }
-            "hsv" => {
+            Hsv => {
                 let (h, s, v) = (arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]);
                 let rgb = hsv_to_rgb(b, h, s, v);
                 Val::Lanes(self.rgb_to_lanes(b, rgb))
             }
-            "xyz" => {
+            Xyz => {
                 let xyz = [arg(self, b, 0, 1)[0], arg(self, b, 1, 1)[0], arg(self, b, 2, 1)[0]];
                 let rgb = xyz_rows_to_rgb(b, xyz);
                 Val::Lanes(self.rgb_to_lanes(b, rgb))
             }
-            "gray" => {
+            Gray => {
                 let x = arg(self, b, 0, 1)[0];
                 Val::Lanes(vec![x; self.lanes])
             }
-            "black" => Val::Lanes(b.zeros(self.lanes)),
-            "spectrum" => self.spectrum(b, &mut vals, &bound),
-            "delta_sample" => {
+            Black => Val::Lanes(b.zeros(self.lanes)),
+            Spectrum => self.spectrum(b, &mut vals, &bound),
+            DeltaSample => {
                 // A delta lobe: pdf 0 (no density), the flag set.
                 let mut lanes = arg(self, b, 0, 3);
                 lanes.extend(arg(self, b, 1, self.lanes));
@@ -339,22 +339,19 @@ impl<'p> Lowerer<'p> {
                 lanes.push(b.f(1.0));
                 Val::Lanes(lanes)
             }
-            "no_sample" => Val::Lanes(b.zeros(n)),
-            "brightness" => {
+            NoSample => Val::Lanes(b.zeros(n)),
+            Brightness => {
                 let c = arg(self, b, 0, self.lanes);
                 let w = color::luminance_weights(self.model);
                 Val::Lanes(vec![b.weighted(&w, &c)])
             }
-            "to_rgb" | "to_xyz" => {
+            ToRgb | ToXyz => {
                 let c = arg(self, b, 0, self.lanes);
-                let rows = if name == "to_rgb" {
-                    color::to_rgb_weights(self.model)
-                } else {
-                    color::to_xyz_weights(self.model)
-                };
+                let rows =
+                    if f == ToRgb { color::to_rgb_weights(self.model) } else { color::to_xyz_weights(self.model) };
                 Val::Lanes(rows.iter().map(|w| b.weighted(w, &c)).collect())
             }
-            "translate" => {
+            Translate => {
                 let v = arg(self, b, 0, 3);
                 let mut m = identity(b);
                 m[3] = v[0];
@@ -362,26 +359,26 @@ impl<'p> Lowerer<'p> {
                 m[11] = v[2];
                 Val::Lanes(m)
             }
-            "rotate" => {
+            Rotate => {
                 let deg = arg(self, b, 0, 1)[0];
                 let axis = arg(self, b, 1, 3);
                 Val::Lanes(rotation(b, deg, &axis))
             }
-            "scale" => {
+            Scale => {
                 let (v, t) = vals[0].take().unwrap_or((Val::Unit, Ty::Float));
                 let s = self.float_lanes(b, v, &t, 3);
                 Val::Lanes(diag(b, [s[0], s[1], s[2]]))
             }
-            "inverse" => {
+            Inverse => {
                 let m = arg(self, b, 0, 12);
                 Val::Lanes(mat_inverse(b, &m))
             }
-            "transform_point" | "transform_vector" => {
+            TransformPoint | TransformVector => {
                 let m = arg(self, b, 0, 12);
                 let p = arg(self, b, 1, 3);
-                Val::Lanes(transform_point(b, &m, &p, name == "transform_point"))
+                Val::Lanes(transform_point(b, &m, &p, f == TransformPoint))
             }
-            "transform_normal" => {
+            TransformNormal => {
                 let m = arg(self, b, 0, 12);
                 let nrm = arg(self, b, 1, 3);
                 let inv = mat_inverse(b, &m);
@@ -394,13 +391,13 @@ impl<'p> Lowerer<'p> {
                     .collect();
                 Val::Lanes(t)
             }
-            "mix" => {
+            Mix => {
                 let t = arg(self, b, 0, 1)[0];
                 let x = arg(self, b, 1, n);
                 let y = arg(self, b, 2, n);
                 Val::Lanes(b.lerp(t, &x, &y))
             }
-            "blend" => {
+            Blend => {
                 let t = arg(self, b, 0, 1)[0];
                 let spline = match vals.get_mut(2).and_then(Option::take) {
                     Some((v, _)) => self.scalar(b, v),
@@ -426,7 +423,7 @@ impl<'p> Lowerer<'p> {
                 }
                 Val::Lanes(acc)
             }
-            "select" => {
+            Select => {
                 let i = self.scalar_arg(b, &bound, 0, fr, ctx);
                 let (items, elem) = match vals.get_mut(1).and_then(Option::take) {
                     Some((Val::Array(a), Ty::Array(e, _))) => {
@@ -448,7 +445,11 @@ impl<'p> Lowerer<'p> {
                 let _ = elem;
                 Val::Lanes(acc)
             }
-            _ => Val::Lanes(b.zeros(n)),
+            // Only over materials: lowered by `tree_node`, never here.
+            Texture | TextureFloat | Bump | Transform => {
+                debug_assert!(false, "`{}` reached the value builtins", f.name());
+                Val::Lanes(b.zeros(n))
+            }
         }
     }
 
@@ -519,31 +520,31 @@ impl<'p> Lowerer<'p> {
 
 /// The native computing an elementwise builtin that Cranelift has no
 /// instruction for.
-pub(super) fn unary_native_name(name: &str) -> Option<&'static str> {
-    Some(match name {
-        "round" => "tsl_round",
-        "exp" => "tsl_exp",
-        "log" => "tsl_log",
-        "sin" => "tsl_sin",
-        "cos" => "tsl_cos",
-        "tan" => "tsl_tan",
-        "asin" => "tsl_asin",
-        "acos" => "tsl_acos",
-        "atan" => "tsl_atan",
-        _ => return None,
-    })
+pub(super) fn unary_native_name(f: BuiltinFn) -> &'static str {
+    match f {
+        BuiltinFn::Exp => "tsl_exp",
+        BuiltinFn::Log => "tsl_log",
+        BuiltinFn::Sin => "tsl_sin",
+        BuiltinFn::Cos => "tsl_cos",
+        BuiltinFn::Tan => "tsl_tan",
+        BuiltinFn::Asin => "tsl_asin",
+        BuiltinFn::Acos => "tsl_acos",
+        BuiltinFn::Atan => "tsl_atan",
+        _ => "tsl_round",
+    }
 }
 
-pub(super) fn native_name(name: &str, width: usize) -> &'static str {
-    match (name, width) {
-        ("noise", 1) => "tsl_noise1",
-        ("noise", 2) => "tsl_noise2",
-        ("noise", _) => "tsl_noise3",
-        ("pnoise", 1) => "tsl_pnoise1",
-        ("pnoise", 2) => "tsl_pnoise2",
-        ("pnoise", _) => "tsl_pnoise3",
-        ("cellnoise", 1) => "tsl_cellnoise1",
-        ("cellnoise", 2) => "tsl_cellnoise2",
+/// The native of a noise function of a `width`-lane point.
+pub(super) fn native_name(f: BuiltinFn, width: usize) -> &'static str {
+    match (f, width) {
+        (BuiltinFn::Noise, 1) => "tsl_noise1",
+        (BuiltinFn::Noise, 2) => "tsl_noise2",
+        (BuiltinFn::Noise, _) => "tsl_noise3",
+        (BuiltinFn::Pnoise, 1) => "tsl_pnoise1",
+        (BuiltinFn::Pnoise, 2) => "tsl_pnoise2",
+        (BuiltinFn::Pnoise, _) => "tsl_pnoise3",
+        (_, 1) => "tsl_cellnoise1",
+        (_, 2) => "tsl_cellnoise2",
         _ => "tsl_cellnoise3",
     }
 }

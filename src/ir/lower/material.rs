@@ -179,7 +179,13 @@ impl<'p> Lowerer<'p> {
                         _ => b.zeros(self.lanes_of(&im.ret)),
                     };
                 }
-                self.tree_node(b, mat, &callee.name, call_args, im, args, ctx)
+                match self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node()) {
+                    Some(node) => self.tree_node(b, mat, node, call_args, im, args, ctx),
+                    None => {
+                        debug_assert!(false, "`{}` is a material but no tree node", callee.name);
+                        b.zeros(self.lanes_of(&im.ret))
+                    }
+                }
             }
             _ => b.zeros(self.lanes_of(&im.ret)),
         }
@@ -294,14 +300,17 @@ impl<'p> Lowerer<'p> {
                 let all = |items: Vec<Mat<'p>>| {
                     !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
                 };
-                match callee.name.as_str() {
-                    "mix" => all([child(1), child(2)].into_iter().flatten().collect()),
-                    "blend" | "select" => all(self.material_items(child(1).map(|m| m.expr), mat)),
+                let Some(node) = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node()) else {
+                    return false;
+                };
+                match node {
+                    TreeNode::Mix => all([child(1), child(2)].into_iter().flatten().collect()),
+                    TreeNode::Blend | TreeNode::Select => all(self.material_items(child(1).map(|m| m.expr), mat)),
                     // bump changes the normal; transform moves the point.
-                    "bump" => im.name != "normal" && all(child(2).into_iter().collect()),
-                    "transform" => all(child(1).into_iter().collect()),
+                    TreeNode::Bump => im.name != "normal" && all(child(2).into_iter().collect()),
+                    TreeNode::Transform => all(child(1).into_iter().collect()),
                     // scale keeps a black default black.
-                    "scale" => {
+                    TreeNode::Scale => {
                         matches!(
                             im.name,
                             "reflection"
@@ -314,7 +323,6 @@ impl<'p> Lowerer<'p> {
                                 | "opaque"
                         ) && all(child(1).into_iter().collect())
                     }
-                    _ => false,
                 }
             }
             _ => false,

@@ -24,7 +24,9 @@ use tree::empty_def;
 
 use super::builder::{Builder, Const, MemoKey};
 use super::*;
-use crate::check::{INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, Ty, interface_method};
+use crate::check::{
+    BuiltinFn, INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, TreeNode, Ty, interface_method,
+};
 use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
 use crate::globals;

@@ -19,7 +19,7 @@ impl<'p> Lowerer<'p> {
         bound: &[Option<&'p Expr>],
         e: &'p Expr,
     ) -> Val<'p> {
-        let color = spec.name == "texture";
+        let color = spec.func == BuiltinFn::Texture;
         let width = if color { self.lanes } else { 1 };
         let st_arg = spec.arg(bound, "st");
         let Some(sampler) = self.sampler(e.span) else {

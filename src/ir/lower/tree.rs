@@ -11,18 +11,16 @@ impl<'p> Lowerer<'p> {
         &mut self,
         b: &mut Builder,
         mat: &Mat<'p>,
-        node: &str,
+        node: TreeNode,
         call_args: &'p [ast::Arg],
         im: &'static InterfaceMethod,
         args: &[Vec<Value>],
         ctx: &Ctx,
     ) -> Vec<Value> {
-        let Some(spec) = crate::check::BUILTINS.iter().find(|s| s.name == node) else {
-            return b.zeros(self.lanes_of(&im.ret));
-        };
+        let spec = node.builtin();
         // A method no child defines is the default whatever the weights:
         // the weights (often noise) need not be computed at all.
-        if matches!(node, "mix" | "blend" | "select") && self.uses_default(mat, im, 0) {
+        if matches!(node, TreeNode::Mix | TreeNode::Blend | TreeNode::Select) && self.uses_default(mat, im, 0) {
             if let Some(v) = self.plain_default(b, im, args, ctx) {
                 return v;
             }
@@ -35,7 +33,7 @@ impl<'p> Lowerer<'p> {
                 return b.map2(BinOp::FMul, &args[0], &d);
             }
         }
-        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.trim_end_matches('?'), Ty::Error)).collect();
+        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
         let bound = bind_args(&params, call_args);
         let child = |k: usize| {
             bound.get(k).copied().flatten().map(|e| Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude })
@@ -52,7 +50,7 @@ impl<'p> Lowerer<'p> {
         };
         let tys = self.words(&im.ret);
         match node {
-            "mix" => {
+            TreeNode::Mix => {
                 let (Some(a), Some(c)) = (child(1), child(2)) else { return b.zeros(tys.len()) };
                 if let Some(ExprKind::Str(only)) = bound.get(3).copied().flatten().map(|e| &e.kind) {
                     // A partial blend samples as its first child.
@@ -76,7 +74,7 @@ impl<'p> Lowerer<'p> {
                 }
                 self.mix_children(b, t, &a, &c, im, args, ctx)
             }
-            "blend" => {
+            TreeNode::Blend => {
                 let t = scalar(self, b, 0, ctx);
                 let spline = match bound.get(2).copied().flatten() {
                     Some(e) => {
@@ -94,7 +92,7 @@ impl<'p> Lowerer<'p> {
                     _ => self.weighted_children(b, &w, &items, im, args, ctx),
                 }
             }
-            "select" => {
+            TreeNode::Select => {
                 let i = match bound.first().copied().flatten() {
                     Some(e) => {
                         let mut fr = self.env_frame(&mat.env, mat.in_prelude);
@@ -110,14 +108,14 @@ impl<'p> Lowerer<'p> {
                 let i = self.clamp_index(b, i, items.len() as i32);
                 self.select_child(b, i, &items, 0, im, args, ctx)
             }
-            "bump" => {
+            TreeNode::Bump => {
                 let Some(m) = child(2) else { return b.zeros(tys.len()) };
                 let amount = scalar(self, b, 1, ctx);
                 let Some(height) = bound.first().copied().flatten() else { return b.zeros(tys.len()) };
                 let bumped = self.bump_ctx(b, height, mat, amount, ctx);
                 self.mat_method(b, &m, im, args, &bumped)
             }
-            "scale" => {
+            TreeNode::Scale => {
                 let Some(m) = child(1) else { return b.zeros(tys.len()) };
                 let inner = self.mat_method(b, &m, im, args, ctx);
                 if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse" | "sample") {
@@ -136,7 +134,7 @@ impl<'p> Lowerer<'p> {
                 }
                 b.map2(BinOp::FMul, &inner, &c)
             }
-            "transform" => {
+            TreeNode::Transform => {
                 let Some(m) = child(1) else { return b.zeros(tys.len()) };
                 let xf = match bound.first().copied().flatten() {
                     Some(e) => {
@@ -149,7 +147,6 @@ impl<'p> Lowerer<'p> {
                 let moved = self.transform_ctx(b, &xf, ctx);
                 self.mat_method(b, &m, im, args, &moved)
             }
-            _ => b.zeros(tys.len()),
         }
     }
 
