@@ -131,16 +131,24 @@ impl TreeNode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BuiltinParam {
     pub name: &'static str,
-    /// May be left out (each builtin documents what it then does).
-    pub optional: bool,
+    /// What the builtin does when the argument is left out, in words for
+    /// signatures and hovers (`"(u, v)"`, `"\"repeat\""`); `None` when the
+    /// argument is required. Lowering implements each default.
+    pub default: Option<&'static str>,
+}
+
+impl BuiltinParam {
+    pub fn optional(&self) -> bool {
+        self.default.is_some()
+    }
 }
 
 const fn req(name: &'static str) -> BuiltinParam {
-    BuiltinParam { name, optional: false }
+    BuiltinParam { name, default: None }
 }
 
-const fn opt(name: &'static str) -> BuiltinParam {
-    BuiltinParam { name, optional: true }
+const fn opt(name: &'static str, default: &'static str) -> BuiltinParam {
+    BuiltinParam { name, default: Some(default) }
 }
 
 /// A builtin function: its parameters and what "expected" messages show.
@@ -259,14 +267,14 @@ pub const BUILTINS: &[Builtin] = &[
         "texture",
         &[
             req("file"),
-            opt("st"),
-            opt("filter"),
-            opt("wrap"),
-            opt("swrap"),
-            opt("twrap"),
-            opt("colorspace"),
-            opt("dx"),
-            opt("dy"),
+            opt("st", "(u, v)"),
+            opt("filter", "\"trilinear\""),
+            opt("wrap", "\"repeat\""),
+            opt("swrap", "the wrap: value"),
+            opt("twrap", "the wrap: value"),
+            opt("colorspace", "\"srgb\""),
+            opt("dx", "st at the next pixel in x, less st"),
+            opt("dy", "st at the next pixel in y, less st"),
         ],
         "texture(string file, vec2 st = (u, v), string filter, string wrap, ..., vec2 dx, vec2 dy) -> color",
     ),
@@ -275,27 +283,27 @@ pub const BUILTINS: &[Builtin] = &[
         "texture_float",
         &[
             req("file"),
-            opt("st"),
-            opt("channel"),
-            opt("filter"),
-            opt("wrap"),
-            opt("swrap"),
-            opt("twrap"),
-            opt("dx"),
-            opt("dy"),
+            opt("st", "(u, v)"),
+            opt("channel", "0"),
+            opt("filter", "\"trilinear\""),
+            opt("wrap", "\"repeat\""),
+            opt("swrap", "the wrap: value"),
+            opt("twrap", "the wrap: value"),
+            opt("dx", "st at the next pixel in x, less st"),
+            opt("dy", "st at the next pixel in y, less st"),
         ],
         "texture_float(string file, vec2 st = (u, v), int channel = 0, string filter, ...) -> float",
     ),
     b(
         BuiltinFn::Mix,
         "mix",
-        &[req("t"), req("a"), req("b"), opt("only")],
+        &[req("t"), req("a"), req("b"), opt("only", "every method")],
         "mix(float t, T a, T b) -> T, T a float, vec2, triple, color or material",
     ),
     b(
         BuiltinFn::Blend,
         "blend",
-        &[req("t"), req("items"), opt("spline")],
+        &[req("t"), req("items"), opt("spline", "false")],
         "blend(float t, T[n] items, bool spline = false) -> T",
     ),
     b(BuiltinFn::Select, "select", &[req("index"), req("items")], "select(int index, T[n] items) -> T"),
@@ -308,7 +316,7 @@ pub const BUILTINS: &[Builtin] = &[
     b(
         BuiltinFn::Scale,
         "scale",
-        &[req("c"), opt("m")],
+        &[req("c"), opt("m", "none: scale(s) is a matrix")],
         "scale(color c, material m) -> material | scale(vector|float s) -> matrix",
     ),
     b(BuiltinFn::Transform, "transform", &[req("xform"), req("m")], "transform(matrix xform, material m) -> material"),

@@ -1319,7 +1319,7 @@ impl<'a> Checker<'a> {
 
     fn builtin_call(&mut self, b: &Builtin, args: &[Arg], span: Span) -> Ty {
         let params: Vec<ParamInfo> =
-            b.params.iter().map(|p| ParamInfo { name: p.name, ty: None, required: !p.optional }).collect();
+            b.params.iter().map(|p| ParamInfo { name: p.name, ty: None, required: !p.optional() }).collect();
         let Some(bound) = self.bind_args(b.name, &params, args, span) else {
             self.untyped_args(args);
             return Ty::Error;
