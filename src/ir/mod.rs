@@ -16,9 +16,13 @@
 //!   and a call at most `MAX_CALL_ITERATIONS` loop iterations in all,
 //!   float to int conversion saturates. No IR program can trap or hang.
 
+mod adce;
 mod builder;
 pub mod lower;
 pub mod opt;
+pub mod split;
+
+pub use adce::eliminate_dead_code_aggressive;
 
 use std::fmt::{self, Write};
 
@@ -215,6 +219,9 @@ pub struct Function {
     /// Element type and length of each array.
     pub arrays: Vec<(Scalar, u32)>,
     pub labels: u32,
+    /// The first argument words that are a hit record written by a
+    /// `prepare` function ([`split`]); 0 for functions called on their own.
+    pub record_words: u32,
     pub body: Vec<Inst>,
 }
 
@@ -261,7 +268,12 @@ fn scalar_name(s: Scalar) -> &'static str {
 impl fmt::Display for Function {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let list = |xs: &[Scalar]| xs.iter().map(|s| scalar_name(*s)).collect::<Vec<_>>().join(", ");
-        writeln!(f, "fn {}(args: [{}]) -> [{}] {{", self.name, list(&self.params), list(&self.results))?;
+        let (record, args) = self.params.split_at((self.record_words as usize).min(self.params.len()));
+        if record.is_empty() {
+            writeln!(f, "fn {}(args: [{}]) -> [{}] {{", self.name, list(args), list(&self.results))?;
+        } else {
+            writeln!(f, "fn {}(hit: [{}], args: [{}]) -> [{}] {{", self.name, list(record), list(args), list(&self.results))?;
+        }
         let mut out = String::new();
         print_body(&mut out, self, &self.body, 1);
         f.write_str(&out)?;
@@ -274,7 +286,7 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
     for inst in body {
         let _ = match inst {
             Inst::Def(v, op) => {
-                writeln!(out, "{pad}v{}: {} = {}", v.0, scalar_name(func.value_type(*v)), print_op(op))
+                writeln!(out, "{pad}v{}: {} = {}", v.0, scalar_name(func.value_type(*v)), print_op(func, op))
             }
             Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
             Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
@@ -308,12 +320,13 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
     }
 }
 
-fn print_op(op: &Op) -> String {
+fn print_op(func: &Function, op: &Op) -> String {
     match op {
+        Op::Param(i) if *i < func.record_words => format!("hit[{i}]"),
+        Op::Param(i) => format!("args[{}]", i - func.record_words),
         Op::F32(x) => format!("{x:?}"),
         Op::I32(x) => format!("{x}i"),
         Op::Bool(b) => format!("{b}"),
-        Op::Param(i) => format!("args[{i}]"),
         Op::Global(i) => format!("globals[{i}]"),
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),

@@ -15,13 +15,25 @@ pub fn eliminate_dead_code(f: &mut Function) {
 }
 
 fn operands(op: &Op, out: &mut Vec<Value>) {
+    for_each_operand(op, |v| out.push(v));
+}
+
+/// Calls `f` on each value `op` reads.
+pub(crate) fn for_each_operand(op: &Op, mut f: impl FnMut(Value)) {
     match op {
         Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Param(_) | Op::Global(_) | Op::Get(_) => {}
-        Op::Load { index, .. } | Op::Table { index, .. } => out.push(*index),
-        Op::Unary(_, a) => out.push(*a),
-        Op::Binary(_, a, b) => out.extend([*a, *b]),
-        Op::Select { cond, then_value, else_value } => out.extend([*cond, *then_value, *else_value]),
-        Op::Call { args, .. } => out.extend(args.iter().copied()),
+        Op::Load { index, .. } | Op::Table { index, .. } => f(*index),
+        Op::Unary(_, a) => f(*a),
+        Op::Binary(_, a, b) => {
+            f(*a);
+            f(*b);
+        }
+        Op::Select { cond, then_value, else_value } => {
+            f(*cond);
+            f(*then_value);
+            f(*else_value);
+        }
+        Op::Call { args, .. } => args.iter().for_each(|a| f(*a)),
     }
 }
 

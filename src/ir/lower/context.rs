@@ -102,9 +102,9 @@ impl<'p> Lowerer<'p> {
             .collect()
     }
 
-    /// Reads parameters from the argument words.
+    /// Reads parameters from the argument words after those already read.
     pub(super) fn params_from_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Val<'p>> {
-        let mut word = 0;
+        let mut word = b.func.params.len() as u32;
         let mut out = Vec::new();
         for (_, ty) in params {
             let scalar = Self::scalar_of(ty);

@@ -10,6 +10,7 @@
 mod builtins;
 mod context;
 mod expr;
+mod hit;
 mod material;
 mod noise;
 mod sampling;
@@ -21,6 +22,8 @@ use builtins::{blend_weights, identity};
 use expr::{bind_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
+
+pub use hit::{HitGroup, HitMethod, hit_inputs, lower_hit_groups, method_name};
 
 use super::builder::{Builder, Const, MemoKey};
 use super::*;

@@ -1,0 +1,163 @@
+//! Hit groups: the methods a renderer calls at one hit, lowered into one
+//! combined function and split into a per-hit `prepare` and the methods
+//! (`ir::split`). Lowering them together is what lets the split find one
+//! texture tree to hoist: the memo and value numbering of one builder
+//! already share the generators, lookups and normals every method reads.
+
+use super::*;
+use crate::ir::split::{self, Part, Split};
+
+/// A method of a hit group. Every one reads the hit inputs `wo` and `eta`
+/// where the interface method takes them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum HitMethod {
+    /// An interface method by name (`reflection`, `sample`, `emission`, ...).
+    Interface(&'static str),
+    /// `f · cos` for unit light from `wi` and the material's pdf
+    /// (see [`lower_eval_pdf`]): argument `wi`.
+    EvalPdf,
+    /// Both perfect directions and their weights (see [`lower_delta_lobes`]).
+    DeltaLobes,
+    /// `reflection` summed over this many lights (see [`lower_reflection_sums`]):
+    /// arguments `wi_1, light_1, ...`.
+    ReflectionSum(usize),
+}
+
+/// One material's hit group: `prepare`, and one function per method.
+#[derive(Debug, Clone)]
+pub struct HitGroup {
+    pub split: Split,
+    /// Each method's own arguments (after the hit record) and result.
+    pub entries: Vec<(HitMethod, Vec<(String, Ty)>, Ty)>,
+}
+
+/// The hit inputs every method of a group shares: `prepare`'s arguments.
+pub fn hit_inputs() -> Vec<(String, Ty)> {
+    vec![("wo".into(), Ty::Vector), ("eta".into(), Ty::Color)]
+}
+
+/// Lowers one hit group per material expression, named `NAME.hit`.
+pub fn lower_hit_groups(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+    methods: &[HitMethod],
+) -> (Vec<HitGroup>, Vec<Diagnostic>) {
+    let mut lw = Lowerer::new(program, model);
+    let groups = materials.iter().map(|(name, expr)| lw.hit_group(name, Mat::of_root(expr), methods)).collect();
+    (groups, lw.diags)
+}
+
+impl<'p> Lowerer<'p> {
+    fn hit_group(&mut self, name: &str, mat: Mat<'p>, methods: &[HitMethod]) -> HitGroup {
+        let mut b = Builder::new(&format!("{name}.hit"));
+        let inputs = self.method_args(&mut b, &hit_inputs());
+        let (wo, eta) = (inputs[0].clone(), inputs[1].clone());
+        let hit_words = b.func.params.len() as u32;
+        let ctx = self.root_ctx();
+        let mut parts = Vec::new();
+        let mut entries = Vec::new();
+        let mut outputs: Vec<(Scalar, Value)> = Vec::new();
+        for &method in methods {
+            let first_param = b.func.params.len() as u32;
+            let first_result = outputs.len() as u32;
+            let (params, ret) = match method {
+                HitMethod::Interface(m) => {
+                    let Some(im) = interface_method(m) else { continue };
+                    let own: Vec<(String, Ty)> = im
+                        .params
+                        .iter()
+                        .filter(|(n, _)| !matches!(*n, "wo" | "eta"))
+                        .map(|(n, t)| (n.to_string(), t.clone()))
+                        .collect();
+                    let mut own_args = self.method_args(&mut b, &own).into_iter();
+                    let args: Vec<Vec<Value>> = im
+                        .params
+                        .iter()
+                        .map(|(n, _)| match *n {
+                            "wo" => wo.clone(),
+                            "eta" => eta.clone(),
+                            _ => own_args.next().unwrap_or_default(),
+                        })
+                        .collect();
+                    let result = self.mat_method(&mut b, &mat, im, &args, &ctx);
+                    outputs.extend(self.words(&im.ret).into_iter().zip(result));
+                    (own, im.ret.clone())
+                }
+                HitMethod::EvalPdf => {
+                    let own = vec![("wi".to_string(), Ty::Vector)];
+                    let wi = self.method_args(&mut b, &own).remove(0);
+                    let mut results = self.eval_at(&mut b, &mat, &wi, &wo, &eta, &ctx);
+                    let args = [wi, wo.clone(), eta.clone()];
+                    results.extend(self.mat_method(&mut b, &mat, interface("pdf"), &args, &ctx));
+                    (own, self.float_words(&mut outputs, results))
+                }
+                HitMethod::DeltaLobes => {
+                    let one = b.f(1.0);
+                    let ones = vec![one; self.lanes];
+                    let dr = self.mat_method(&mut b, &mat, interface("reflection_dir"), std::slice::from_ref(&wo), &ctx);
+                    let args = [dr.clone(), ones.clone(), wo.clone()];
+                    let wr = self.mat_method(&mut b, &mat, interface("reflection"), &args, &ctx);
+                    let args = [wo.clone(), eta.clone()];
+                    let dt = self.mat_method(&mut b, &mat, interface("refraction_dir"), &args, &ctx);
+                    let args = [dt.clone(), ones, eta.clone(), wo.clone()];
+                    let wt = self.mat_method(&mut b, &mat, interface("refraction"), &args, &ctx);
+                    (Vec::new(), self.float_words(&mut outputs, [dr, wr, dt, wt].concat()))
+                }
+                HitMethod::ReflectionSum(lights) => {
+                    let mut own = Vec::new();
+                    for k in 0..lights {
+                        own.push((format!("wi{k}"), Ty::Vector));
+                        own.push((format!("light{k}"), Ty::Color));
+                    }
+                    let args = self.method_args(&mut b, &own);
+                    let mut sum: Option<Vec<Value>> = None;
+                    for k in 0..lights {
+                        let one_args = [args[2 * k].clone(), args[2 * k + 1].clone(), wo.clone()];
+                        let one = self.mat_method(&mut b, &mat, interface("reflection"), &one_args, &ctx);
+                        sum = Some(match sum {
+                            None => one,
+                            Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
+                        });
+                    }
+                    let sum = sum.unwrap_or_else(|| b.zeros(self.lanes));
+                    outputs.extend(self.words(&Ty::Color).into_iter().zip(sum));
+                    (own, Ty::Color)
+                }
+            };
+            parts.push(Part {
+                name: format!("{name}.hit.{}", method_name(method)),
+                params: first_param..b.func.params.len() as u32,
+                results: first_result..outputs.len() as u32,
+            });
+            entries.push((method, params, ret));
+        }
+        b.func.results = outputs.iter().map(|(t, _)| *t).collect();
+        for (k, (_, v)) in outputs.iter().enumerate() {
+            b.push(Inst::Output(k as u32, *v));
+        }
+        let combined = b.finish();
+        HitGroup { split: split::split(&combined, hit_words, &parts), entries }
+    }
+
+    /// Appends `results` as float words; the array type hosts read them as.
+    fn float_words(&self, outputs: &mut Vec<(Scalar, Value)>, results: Vec<Value>) -> Ty {
+        let n = results.len() as u32;
+        outputs.extend(results.into_iter().map(|v| (Scalar::F32, v)));
+        Ty::Array(Box::new(Ty::Float), n)
+    }
+}
+
+fn interface(name: &str) -> &'static InterfaceMethod {
+    interface_method(name).unwrap_or_else(|| unreachable!("`{name}` is an interface method"))
+}
+
+/// The name of a method's function in a group (`NAME.hit.sample`).
+pub fn method_name(method: HitMethod) -> String {
+    match method {
+        HitMethod::Interface(m) => m.to_string(),
+        HitMethod::EvalPdf => "eval_pdf".into(),
+        HitMethod::DeltaLobes => "delta_lobes".into(),
+        HitMethod::ReflectionSum(k) => format!("reflection_sum{k}"),
+    }
+}

@@ -1,0 +1,209 @@
+//! The per-hit split (`ir::split`) changes no result: for every material of
+//! `stdlib/`, the examples and `tests/check/ok/`, each method of a hit
+//! group, run after its `prepare`, gives what the method lowered on its own
+//! gives, at random shading points, in the RGB and a spectral model, on the
+//! interpreter and the JIT. And the split does what it is for: the
+//! per-direction methods of textured materials call no generator.
+
+use std::path::Path;
+use tsl::check::{SymbolKind, Ty};
+use tsl::ir::lower::{HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups};
+use tsl::syntax::ast::Item;
+use tsl::{ColorModel, Compiler, Program};
+
+mod common;
+use common::{Rng, close};
+
+const POINTS: usize = 200;
+
+const METHODS: [HitMethod; 8] = [
+    HitMethod::Interface("reflection"),
+    HitMethod::Interface("refraction"),
+    HitMethod::Interface("emission"),
+    HitMethod::Interface("sample"),
+    HitMethod::Interface("pdf"),
+    HitMethod::EvalPdf,
+    HitMethod::DeltaLobes,
+    HitMethod::ReflectionSum(2),
+];
+
+/// Every material without parameters the program names (named materials
+/// and trees of the root module and the prelude), as trees of the root.
+fn material_trees(source: &str, name: &str) -> (Program, Vec<String>) {
+    let probe = Compiler::new().source(name, source).compile().unwrap();
+    let mut names: Vec<String> = probe
+        .checked()
+        .symbols
+        .iter()
+        .filter(|(_, s)| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree))
+        .filter(|(_, s)| match &probe.checked().loaded.modules[s.module].ast.items[s.item] {
+            Item::Material(d) => d.params.iter().all(|p| p.default.is_some()),
+            Item::MaterialTree(t) => t.params.is_none(),
+            _ => false,
+        })
+        .map(|(n, _)| n.clone())
+        .collect();
+    names.sort();
+    let mut text = source.to_string();
+    for (k, n) in names.iter().enumerate() {
+        text.push_str(&format!("\nmaterial hit_probe_{k} = {n};"));
+    }
+    let program = Compiler::new().source(name, &text).compile().unwrap();
+    (program, (0..names.len()).map(|k| format!("hit_probe_{k}")).collect())
+}
+
+fn args(rng: &mut Rng, params: &[(String, Ty)], model: ColorModel) -> Vec<u32> {
+    let mut words = Vec::new();
+    for (name, ty) in params {
+        match ty {
+            Ty::Float => words.push(rng.range(0.0, 1.0).to_bits()),
+            Ty::Vec2 => words.extend([rng.range(0.0, 1.0).to_bits(), rng.range(0.0, 1.0).to_bits()]),
+            Ty::Vector => words.extend(rng.unit().map(f32::to_bits)),
+            Ty::Color if name == "eta" => words.extend((0..model.lanes()).map(|_| rng.range(1.0, 2.0).to_bits())),
+            Ty::Color => words.extend((0..model.lanes()).map(|_| rng.range(0.0, 1.0).to_bits())),
+            other => panic!("no random {other:?}"),
+        }
+    }
+    words
+}
+
+/// The argument list a method takes on its own, given the hit inputs and
+/// its own arguments (the order of the interface, or of the fused entries).
+fn alone_args(method: HitMethod, wo: &[u32], eta: &[u32], own: &[u32]) -> Vec<u32> {
+    match method {
+        HitMethod::Interface("reflection") => [own, wo].concat(),
+        HitMethod::Interface("refraction") => [own, eta, wo].concat(),
+        HitMethod::Interface("emission") => wo.to_vec(),
+        HitMethod::Interface("sample") => [wo, eta, own].concat(),
+        HitMethod::Interface("pdf") | HitMethod::EvalPdf => [own, wo, eta].concat(),
+        HitMethod::DeltaLobes => [wo, eta].concat(),
+        HitMethod::ReflectionSum(_) => [own, wo].concat(),
+        other => panic!("{other:?}"),
+    }
+}
+
+fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u64) -> usize {
+    let checked = program.checked();
+    let bodies: Vec<(String, &tsl::syntax::ast::Expr)> = trees
+        .iter()
+        .map(|n| {
+            let s = &checked.symbols[n];
+            let Item::MaterialTree(t) = &checked.loaded.modules[s.module].ast.items[s.item] else { unreachable!() };
+            (n.clone(), &t.body)
+        })
+        .collect();
+    let (groups, diags) = lower_hit_groups(checked, model, &bodies, &METHODS);
+    assert!(diags.is_empty(), "{diags:?}");
+    // The methods lowered on their own.
+    let (alone, _, _) = lower_entries(checked, model, |n, _| trees.iter().any(|t| t == n));
+    let (eval_pdf, _, _) = lower_eval_pdf(checked, model, &bodies);
+    let (delta, _, _) = tsl::ir::lower::lower_delta_lobes(checked, model, &bodies);
+    let (sums, _, _) = tsl::ir::lower::lower_reflection_sums(checked, model, &bodies, 2);
+    let lanes = model.lanes();
+    let mut rng = Rng(seed);
+    for ((name, _), group) in bodies.iter().zip(&groups) {
+        let HitGroup { split, entries } = group;
+        for point in 0..POINTS {
+            let g = common::shading_point(&mut rng).words();
+            let wo = args(&mut rng, &[("wo".into(), Ty::Vector)], model);
+            let eta = args(&mut rng, &[("eta".into(), Ty::Color)], model);
+            let mut record = vec![0u32; split.record_words()];
+            tsl::interp::run(&split.prepare, &g, &[wo.clone(), eta.clone()].concat(), &mut record);
+            for ((method, params, _), f) in entries.iter().zip(&split.methods) {
+                let own = args(&mut rng, params, model);
+                let reference = match method {
+                    HitMethod::Interface(m) => alone.function(&format!("{name}.{m}")),
+                    HitMethod::EvalPdf => eval_pdf.function(&format!("{name}.eval_pdf")),
+                    HitMethod::DeltaLobes => delta.function(&format!("{name}.delta_lobes")),
+                    HitMethod::ReflectionSum(_) => sums.function(&format!("{name}.reflection_sum2")),
+                }
+                .unwrap_or_else(|| panic!("{name}: {method:?} lowered alone"));
+                let mut want = vec![0u32; reference.results.len()];
+                tsl::interp::run(reference, &g, &alone_args(*method, &wo, &eta, &own), &mut want);
+                let mut got = vec![0u32; f.results.len()];
+                tsl::interp::run(f, &g, &[record.clone(), own.clone()].concat(), &mut got);
+                for (k, ty) in f.results.iter().enumerate() {
+                    assert!(
+                        close(got[k], want[k], *ty),
+                        "{name} {method:?} ({} lanes) word {k} at point {point}: prepared {:?}, alone {:?}",
+                        lanes,
+                        f32::from_bits(got[k]),
+                        f32::from_bits(want[k]),
+                    );
+                }
+            }
+        }
+    }
+    groups.len()
+}
+
+const MODELS: [ColorModel; 2] = [ColorModel::Rgb, ColorModel::Spectral { samples: 16 }];
+
+#[test]
+fn prepared_methods_agree_with_methods_alone_on_the_stdlib() {
+    for model in MODELS {
+        let (program, trees) = material_trees("const float UNUSED = 0;", "empty.tsl");
+        assert!(trees.len() >= 12, "{} stdlib materials", trees.len());
+        check_program(&program, &trees, model, 7);
+    }
+}
+
+#[test]
+fn prepared_methods_agree_with_methods_alone_on_examples_and_fixtures() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    for dir in ["examples", "examples/techniques", "tests/check/ok"] {
+        for entry in std::fs::read_dir(root.join(dir)).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "tsl") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    let mut groups = 0;
+    for (k, path) in files.iter().enumerate() {
+        let text = std::fs::read_to_string(path).unwrap();
+        // Compiled from its own path, so imports and images resolve.
+        let name = path.to_string_lossy().to_string();
+        let (program, trees) = material_trees(&text, &name);
+        groups += check_program(&program, &trees, MODELS[k % 2], k as u64);
+    }
+    assert!(groups > 50, "{groups} materials");
+}
+
+/// What the split is for: in a bumped, noise-textured material, the
+/// per-direction methods call no generator; `prepare` does, once.
+#[test]
+fn per_direction_methods_of_a_bumped_texture_call_no_noise() {
+    let source = "
+        float height() { return fbm(P * 4, 4); }
+        material bumpy = bump(height(), 0.05, mix(noise(P * 3) * 0.5 + 0.5, lambert, phong));
+    ";
+    let (program, trees) = material_trees(source, "bumpy.tsl");
+    let checked = program.checked();
+    let k = trees.iter().position(|t| {
+        let s = &checked.symbols[t];
+        matches!(&checked.loaded.modules[s.module].ast.items[s.item], Item::MaterialTree(m) if matches!(&m.body.kind, tsl::syntax::ast::ExprKind::Name(n) if n == "bumpy"))
+    });
+    let name = &trees[k.expect("the probe of `bumpy`")];
+    let s = &checked.symbols[name];
+    let Item::MaterialTree(t) = &checked.loaded.modules[s.module].ast.items[s.item] else { unreachable!() };
+    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS);
+    let noise_calls = |f: &tsl::ir::Function| {
+        let mut n = 0;
+        tsl::ir::for_each_op(&f.body, &mut |op| {
+            if matches!(op, tsl::ir::Op::Call { native, .. } if native.contains("noise"))
+                || matches!(op, tsl::ir::Op::Table { .. })
+            {
+                n += 1;
+            }
+        });
+        n
+    };
+    let split = &groups[0].split;
+    assert!(noise_calls(&split.prepare) > 0, "prepare evaluates the noise:\n{}", split.prepare);
+    for f in &split.methods {
+        assert_eq!(noise_calls(f), 0, "{} evaluates noise again:\n{f}", f.name);
+    }
+}
