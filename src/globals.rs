@@ -61,6 +61,19 @@ pub fn word_of(name: &str) -> Option<(u32, Ty)> {
     None
 }
 
+/// The type of the global that word `word` belongs to (`face` is the one
+/// `int`; every other word is a float lane), or `None` past the record.
+pub fn word_type(word: u32) -> Option<Ty> {
+    let mut first = 0;
+    for (_, ty, _) in GLOBALS {
+        first += lanes(ty);
+        if word < first {
+            return Some(ty.clone());
+        }
+    }
+    None
+}
+
 impl ShadingGlobals {
     /// The record as words, for the interpreter.
     pub fn words(&self) -> [u32; GLOBAL_WORDS as usize] {
@@ -104,5 +117,8 @@ mod tests {
         let g = ShadingGlobals { face: 7, u: 0.5, ..Default::default() };
         assert_eq!(g.words()[20], 7);
         assert_eq!(f32::from_bits(g.words()[12]), 0.5);
+        assert_eq!(word_type(20), Some(Ty::Int));
+        assert_eq!((word_type(2), word_type(GLOBAL_WORDS - 1)), (Some(Ty::Point), Some(Ty::Float)));
+        assert_eq!(word_type(GLOBAL_WORDS), None);
     }
 }

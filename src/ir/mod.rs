@@ -12,13 +12,22 @@
 //!   only used where its definition dominates the use; values that cross
 //!   control flow go through [`Var`]s.
 //! - Every operation is total: integer division by zero gives 0, array
-//!   indices are clamped, a loop runs at most `MAX_LOOP_ITERATIONS` times
-//!   and a call at most `MAX_CALL_ITERATIONS` loop iterations in all,
+//!   indices are clamped, a loop runs at most [`MAX_LOOP_ITERATIONS`] times
+//!   and a call at most [`MAX_CALL_ITERATIONS`] loop iterations in all,
 //!   float to int conversion saturates. No IR program can trap or hang.
+//!   [`semantics`] defines these answers; the back ends import them from
+//!   here, never from the front end.
+//! - Every function that lowering and [`opt`] produce passes [`verify`]
+//!   (checked in debug builds, so in every test).
 
 mod builder;
 pub mod lower;
 pub mod opt;
+pub mod semantics;
+pub mod verify;
+
+pub use semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
+pub use verify::{VerifyError, verify_function, verify_module};
 
 use std::fmt::{self, Write};
 
@@ -274,7 +283,9 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
     for inst in body {
         let _ = match inst {
             Inst::Def(v, op) => {
-                writeln!(out, "{pad}v{}: {} = {}", v.0, scalar_name(func.value_type(*v)), print_op(op))
+                // `?` for a value without a type: the verifier prints invalid functions too.
+                let ty = func.values.get(v.0 as usize).map_or("?", |t| scalar_name(*t));
+                writeln!(out, "{pad}v{}: {ty} = {}", v.0, print_op(op))
             }
             Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
             Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
@@ -306,6 +317,22 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
             Inst::Continue(l) => writeln!(out, "{pad}continue L{}", l.0),
         };
     }
+}
+
+/// One instruction on one line, without the bodies it holds: how the
+/// verifier names the instruction it complains about.
+fn inst_line(func: &Function, inst: &Inst) -> String {
+    let mut out = String::new();
+    let header = match inst {
+        Inst::If { cond, .. } => Inst::If { cond: *cond, then_body: vec![], else_body: vec![] },
+        Inst::Block { label, .. } => Inst::Block { label: *label, body: vec![] },
+        Inst::Loop { label, counter, start, end, .. } => {
+            Inst::Loop { label: *label, counter: *counter, start: *start, end: *end, body: vec![] }
+        }
+        other => other.clone(),
+    };
+    print_body(&mut out, func, std::slice::from_ref(&header), 0);
+    out.lines().next().unwrap_or_default().trim_end_matches(" {").to_string()
 }
 
 fn print_op(op: &Op) -> String {

@@ -131,7 +131,7 @@ impl<'p> Lowerer<'p> {
                 let Ty::Array(elem, len) = base_ty else { return Val::Unit };
                 let lanes = self.lanes_of(elem);
                 if let Some(Const::I(k)) = b.konst(i) {
-                    let k = crate::interp::clamp_index(k, *len as usize) as u32;
+                    let k = crate::ir::semantics::clamp_index(k, *len as usize) as u32;
                     return Val::Lanes(self.array_elem_const(b, &a, k, lanes));
                 }
                 let a = match a {
