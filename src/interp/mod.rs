@@ -7,7 +7,9 @@
 //! this module calls rather than restates. It depends on `ir`, the runtime
 //! natives and textures only, never on the front end.
 
-use crate::ir::semantics::{MAX_CALL_ITERATIONS, clamp_index, float_to_int, fmax, fmin, int_div, int_rem, loop_trips};
+use crate::ir::semantics::{
+    MAX_CALL_ITERATIONS, clamp_index, float_to_int, fmax, fmin, int_div, int_rem, loop_trips, table_index,
+};
 use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
 use crate::runtime::{NativeFn, native};
 use crate::texture::Lookup;
@@ -140,7 +142,7 @@ impl Machine<'_, '_> {
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
-            Op::Table { table, index } => table[self.v(*index) as usize & (table.len() - 1)],
+            Op::Table { table, index } => table[table_index(i(self.v(*index)), table.len())],
             Op::Load { array, index } => {
                 let a = &self.arrays[array.0 as usize];
                 a[clamp_index(i(self.v(*index)), a.len())]

@@ -56,6 +56,13 @@ pub fn clamp_index(index: i32, len: usize) -> usize {
     (index.max(0) as usize).min(len.saturating_sub(1))
 }
 
+/// The word an [`Op::Table`](super::Op::Table) lookup reads: the index
+/// masked to the table's length, a power of two (which the verifier
+/// checks), so negative and large indices wrap around the table.
+pub fn table_index(index: i32, len: usize) -> usize {
+    index as u32 as usize & (len - 1)
+}
+
 /// How many times a loop from `start` to `end` runs before the call's
 /// budget is considered: `end - start` (computed without overflow), at
 /// least 0 and at most [`MAX_LOOP_ITERATIONS`].
@@ -77,6 +84,7 @@ mod tests {
         assert!(fmin(f32::NAN, 1.0) == 1.0 && fmin(1.0, f32::NAN).is_nan());
         assert!(fmax(f32::NAN, 1.0) == 1.0 && fmax(1.0, f32::NAN).is_nan());
         assert_eq!([clamp_index(-5, 4), clamp_index(2, 4), clamp_index(9, 4)], [0, 2, 3]);
+        assert_eq!([table_index(-1, 256), table_index(256, 256), table_index(300, 256)], [255, 0, 44]);
         assert_eq!([loop_trips(3, 1), loop_trips(i32::MIN, i32::MAX)], [0, MAX_LOOP_ITERATIONS]);
     }
 }

@@ -18,8 +18,9 @@
 //!   `Loop`;
 //! - `Param`, `Global` and `Output` words exist (the function's parameters,
 //!   the [`ShadingGlobals`](crate::ShadingGlobals) record, its results) and
-//!   have the value's type; natives exist and get as many arguments as
-//!   they take;
+//!   have the value's type, and every result word is written (a back end
+//!   would otherwise leave the host's word as it was); natives exist and
+//!   get as many arguments as they take;
 //! - operands have the scalar types their operation takes (f32 arithmetic
 //!   on f32 values, bool conditions, i32 indices and loop bounds) and each
 //!   definition has the type its operation gives.
@@ -63,6 +64,7 @@ pub fn verify_function(func: &Function) -> Result<(), VerifyError> {
         enclosing: Vec::new(),
         path: Vec::new(),
         current: None,
+        written: vec![false; func.results.len()],
         problems: Vec::new(),
     };
     for (k, (_, len)) in func.arrays.iter().enumerate() {
@@ -71,6 +73,11 @@ pub fn verify_function(func: &Function) -> Result<(), VerifyError> {
         }
     }
     v.body(&func.body, "body");
+    for k in 0..func.results.len() {
+        if !v.written[k] {
+            v.report(format!("out[{k}] is never written (the function has {} result words)", func.results.len()));
+        }
+    }
     if v.problems.is_empty() { Ok(()) } else { Err(VerifyError { function: func.name.clone(), problems: v.problems }) }
 }
 
@@ -98,7 +105,23 @@ pub fn verify_module(module: &Module) -> Result<(), Vec<VerifyError>> {
 pub(crate) fn debug_verify(func: &Function, stage: &str) {
     if cfg!(debug_assertions) {
         let result = verify_function(func);
-        debug_assert!(result.is_ok(), "after {stage}: {}\n{func}", result.as_ref().err().map(|e| e.to_string()).unwrap_or_default());
+        debug_assert!(
+            result.is_ok(),
+            "after {stage}: {}\n{func}",
+            result.as_ref().err().map(|e| e.to_string()).unwrap_or_default()
+        );
+    }
+}
+
+/// Verifies a whole module in debug builds: each function (again, cheap
+/// next to lowering) and that entry names are unique.
+#[inline]
+pub(crate) fn debug_verify_module(module: &Module, stage: &str) {
+    if cfg!(debug_assertions)
+        && let Err(errors) = verify_module(module)
+    {
+        let text: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
+        debug_assert!(false, "after {stage}: {}", text.join("\n"));
     }
 }
 
@@ -116,6 +139,8 @@ struct Verifier<'f> {
     path: Vec<(&'static str, usize)>,
     /// The instruction being checked.
     current: Option<&'f Inst>,
+    /// Whether each result word has an `Output`.
+    written: Vec<bool>,
     problems: Vec<String>,
 }
 
@@ -156,7 +181,11 @@ impl<'f> Verifier<'f> {
             Inst::Def(v, op) => {
                 let ty = self.func.values.get(v.0 as usize).copied();
                 if ty.is_none() {
-                    self.report(format!("v{} is not a value of this function (it has {})", v.0, self.func.values.len()));
+                    self.report(format!(
+                        "v{} is not a value of this function (it has {})",
+                        v.0,
+                        self.func.values.len()
+                    ));
                 }
                 self.op(op, ty);
                 // Defined after its operands are checked: `v1 = f(v1)` is an error.
@@ -180,8 +209,14 @@ impl<'f> Verifier<'f> {
             }
             Inst::Output(k, v) => {
                 let want = self.func.results.get(*k as usize).copied();
+                if let Some(w) = self.written.get_mut(*k as usize) {
+                    *w = true;
+                }
                 if want.is_none() {
-                    self.report(format!("out[{k}] is not a result word (the function has {})", self.func.results.len()));
+                    self.report(format!(
+                        "out[{k}] is not a result word (the function has {})",
+                        self.func.results.len()
+                    ));
                 }
                 self.operand(*v, want, "the result");
             }
@@ -191,7 +226,11 @@ impl<'f> Verifier<'f> {
                 }
                 if let Some(&(elem, len)) = self.func.arrays.get(out.0 as usize) {
                     if elem != Scalar::F32 || len < 4 {
-                        self.report(format!("a{} is {len} {} words; a texture writes 4 f32 words", out.0, scalar_name(elem)));
+                        self.report(format!(
+                            "a{} is {len} {} words; a texture writes 4 f32 words",
+                            out.0,
+                            scalar_name(elem)
+                        ));
                     }
                 } else {
                     self.array(*out);
@@ -245,14 +284,20 @@ impl<'f> Verifier<'f> {
             Op::Param(k) => {
                 let word = self.func.params.get(*k as usize).copied();
                 if word.is_none() {
-                    self.report(format!("args[{k}] is not a parameter word (the function has {})", self.func.params.len()));
+                    self.report(format!(
+                        "args[{k}] is not a parameter word (the function has {})",
+                        self.func.params.len()
+                    ));
                 }
                 word
             }
             Op::Global(k) => {
                 let word = crate::globals::word_type(*k).map(|t| if t == crate::check::Ty::Int { I32 } else { F32 });
                 if word.is_none() {
-                    self.report(format!("globals[{k}] is past the shading globals ({} words)", crate::globals::GLOBAL_WORDS));
+                    self.report(format!(
+                        "globals[{k}] is past the shading globals ({} words)",
+                        crate::globals::GLOBAL_WORDS
+                    ));
                 }
                 word
             }
@@ -389,20 +434,25 @@ mod tests {
     use crate::ir::{SamplerRef, Scalar::*};
     use crate::texture::{Filter, Level, MipMap, Sampler, Wrap};
 
-    /// A function with one f32 parameter and result, variables x0: f32 and
-    /// x1: i32, arrays a0: [f32; 4] and a1: [i32; 1], two labels, and
+    /// A function with one f32 parameter and no result, variables x0: f32
+    /// and x1: i32, arrays a0: [f32; 4] and a1: [i32; 1], two labels, and
     /// `values` as the value types.
     fn function(values: &[Scalar], body: Vec<Inst>) -> Function {
         Function {
             name: "t".into(),
             params: vec![F32],
-            results: vec![F32],
+            results: vec![],
             values: values.to_vec(),
             vars: vec![F32, I32],
             arrays: vec![(F32, 4), (I32, 1)],
             labels: 2,
             body,
         }
+    }
+
+    /// [`function`] with one f32 result word.
+    fn returning(values: &[Scalar], body: Vec<Inst>) -> Function {
+        Function { results: vec![F32], ..function(values, body) }
     }
 
     fn def(v: u32, op: Op) -> Inst {
@@ -435,7 +485,7 @@ mod tests {
 
     /// Every construct, used correctly: the rules accept what lowering makes.
     fn valid() -> Function {
-        function(
+        returning(
             &[F32, F32, Bool, I32, I32, F32, F32, F32, I32, F32],
             vec![
                 def(0, Op::Param(0)),
@@ -447,7 +497,10 @@ mod tests {
                 Inst::If {
                     cond: Value(2),
                     then_body: vec![def(5, add(0, 1)), Inst::Set(Var(0), Value(5))],
-                    else_body: vec![def(6, Op::Load { array: ArrayId(0), index: Value(3) }), Inst::Set(Var(0), Value(6))],
+                    else_body: vec![
+                        def(6, Op::Load { array: ArrayId(0), index: Value(3) }),
+                        Inst::Set(Var(0), Value(6)),
+                    ],
                 },
                 Inst::Loop {
                     label: Label(0),
@@ -459,7 +512,11 @@ mod tests {
                             label: Label(1),
                             body: vec![
                                 Inst::If { cond: Value(2), then_body: vec![Inst::Break(Label(1))], else_body: vec![] },
-                                Inst::If { cond: Value(2), then_body: vec![Inst::Continue(Label(0))], else_body: vec![] },
+                                Inst::If {
+                                    cond: Value(2),
+                                    then_body: vec![Inst::Continue(Label(0))],
+                                    else_body: vec![],
+                                },
                             ],
                         },
                         def(8, Op::Get(Var(1))),
@@ -481,18 +538,22 @@ mod tests {
 
     #[test]
     fn ids_must_be_declared() {
-        caught(function(&[F32], vec![def(0, Op::Param(0)), Inst::Output(0, Value(7))]), "v7 is not a value");
+        caught(returning(&[F32], vec![def(0, Op::Param(0)), Inst::Output(0, Value(7))]), "v7 is not a value");
         caught(function(&[F32], vec![def(3, Op::F32(1.0))]), "v3 is not a value");
         caught(function(&[F32], vec![def(0, Op::Get(Var(2)))]), "x2 is not a variable");
         caught(function(&[F32], vec![def(0, Op::Param(0)), Inst::Set(Var(5), Value(0))]), "x5 is not a variable");
-        let mut f = function(&[I32, F32], vec![def(0, Op::I32(0)), def(1, Op::Load { array: ArrayId(2), index: Value(0) })]);
+        let mut f =
+            function(&[I32, F32], vec![def(0, Op::I32(0)), def(1, Op::Load { array: ArrayId(2), index: Value(0) })]);
         caught(f.clone(), "a2 is not an array");
         f.arrays[0].1 = 0;
         f.body.truncate(1);
         caught(f, "a0 has no elements");
         caught(function(&[], vec![Inst::Block { label: Label(2), body: vec![] }]), "L2 is not a label");
         caught(
-            function(&[], vec![Inst::Block { label: Label(0), body: vec![] }, Inst::Block { label: Label(0), body: vec![] }]),
+            function(
+                &[],
+                vec![Inst::Block { label: Label(0), body: vec![] }, Inst::Block { label: Label(0), body: vec![] }],
+            ),
             "L0 is opened a second time",
         );
     }
@@ -510,15 +571,19 @@ mod tests {
         let cond = || def(1, Op::Bool(true));
         // After the `If` whose branch defines it.
         caught(
-            function(
+            returning(
                 &[F32, Bool],
-                vec![cond(), Inst::If { cond: Value(1), then_body: vec![def(0, Op::Param(0))], else_body: vec![] }, Inst::Output(0, Value(0))],
+                vec![
+                    cond(),
+                    Inst::If { cond: Value(1), then_body: vec![def(0, Op::Param(0))], else_body: vec![] },
+                    Inst::Output(0, Value(0)),
+                ],
             ),
             "v0 is defined in a body that does not enclose this use",
         );
         // In the sibling branch.
         caught(
-            function(
+            returning(
                 &[F32, Bool],
                 vec![
                     cond(),
@@ -533,28 +598,41 @@ mod tests {
         );
         // After a block, even before its first exit.
         caught(
-            function(&[F32], vec![Inst::Block { label: Label(0), body: vec![def(0, Op::Param(0))] }, Inst::Output(0, Value(0))]),
+            returning(
+                &[F32],
+                vec![Inst::Block { label: Label(0), body: vec![def(0, Op::Param(0))] }, Inst::Output(0, Value(0))],
+            ),
             "v0 is defined in a body",
         );
         // After a loop.
         caught(
-            function(
+            returning(
                 &[F32, I32],
                 vec![
                     def(1, Op::I32(0)),
-                    Inst::Loop { label: Label(0), counter: Var(1), start: Value(1), end: Value(1), body: vec![def(0, Op::Param(0))] },
+                    Inst::Loop {
+                        label: Label(0),
+                        counter: Var(1),
+                        start: Value(1),
+                        end: Value(1),
+                        body: vec![def(0, Op::Param(0))],
+                    },
                     Inst::Output(0, Value(0)),
                 ],
             ),
             "v0 is defined in a body",
         );
         // Nested bodies see the values around them.
-        let f = function(
+        let f = returning(
             &[F32, Bool],
             vec![
                 def(0, Op::Param(0)),
                 cond(),
-                Inst::If { cond: Value(1), then_body: vec![Inst::Block { label: Label(0), body: vec![Inst::Output(0, Value(0))] }], else_body: vec![] },
+                Inst::If {
+                    cond: Value(1),
+                    then_body: vec![Inst::Block { label: Label(0), body: vec![Inst::Output(0, Value(0))] }],
+                    else_body: vec![],
+                },
             ],
         );
         assert_eq!(problems(&f), Vec::<String>::new());
@@ -567,7 +645,10 @@ mod tests {
             function(&[], vec![Inst::Block { label: Label(0), body: vec![] }, Inst::Break(Label(0))]),
             "L0 is not a block or loop around",
         );
-        caught(function(&[], vec![Inst::Block { label: Label(0), body: vec![Inst::Continue(Label(0))] }]), "only a loop can be continued");
+        caught(
+            function(&[], vec![Inst::Block { label: Label(0), body: vec![Inst::Continue(Label(0))] }]),
+            "only a loop can be continued",
+        );
         caught(function(&[], vec![Inst::Continue(Label(1))]), "L1 is not a loop around this continue");
         // A continue may leave an inner block for the loop around it.
         let f = function(
@@ -593,8 +674,15 @@ mod tests {
         caught(function(&[F32], vec![def(0, Op::Global(32))]), "globals[32] is past the shading globals");
         // Word 20 is `face`, the one int.
         caught(function(&[F32], vec![def(0, Op::Global(20))]), "the value is f32, but the operation gives i32");
-        caught(function(&[F32], vec![def(0, Op::Param(0)), Inst::Output(1, Value(0))]), "out[1] is not a result word");
-        caught(function(&[I32], vec![def(0, Op::I32(1)), Inst::Output(0, Value(0))]), "the result v0 is i32, expected f32");
+        caught(
+            function(&[F32], vec![def(0, Op::Param(0)), Inst::Output(1, Value(0))]),
+            "out[1] is not a result word (the function has 0)",
+        );
+        caught(
+            returning(&[I32], vec![def(0, Op::I32(1)), Inst::Output(0, Value(0))]),
+            "the result v0 is i32, expected f32",
+        );
+        caught(returning(&[F32], vec![def(0, Op::Param(0))]), "out[0] is never written");
     }
 
     #[test]
@@ -603,10 +691,19 @@ mod tests {
             function(&[I32, F32, F32], vec![def(0, Op::I32(1)), def(1, Op::F32(1.0)), def(2, add(1, 0))]),
             "the second operand v0 is i32, expected f32",
         );
-        caught(function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Binary(BinOp::FLt, Value(0), Value(0)))]), "but the operation gives bool");
-        caught(function(&[F32, I32], vec![def(0, Op::F32(1.0)), def(1, Op::Unary(UnOp::IToF, Value(0)))]), "the operand v0 is f32, expected i32");
         caught(
-            function(&[F32], vec![def(0, Op::F32(1.0)), Inst::If { cond: Value(0), then_body: vec![], else_body: vec![] }]),
+            function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Binary(BinOp::FLt, Value(0), Value(0)))]),
+            "but the operation gives bool",
+        );
+        caught(
+            function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Unary(UnOp::IToF, Value(0)))]),
+            "the operand v0 is f32, expected i32",
+        );
+        caught(
+            function(
+                &[F32],
+                vec![def(0, Op::F32(1.0)), Inst::If { cond: Value(0), then_body: vec![], else_body: vec![] }],
+            ),
             "the condition v0 is f32, expected bool",
         );
         caught(
@@ -632,31 +729,62 @@ mod tests {
             ),
             "the start v0 is f32",
         );
-        let mut f = function(&[I32], vec![def(0, Op::I32(1)), Inst::Loop { label: Label(0), counter: Var(0), start: Value(0), end: Value(0), body: vec![] }]);
+        let mut f = function(
+            &[I32],
+            vec![
+                def(0, Op::I32(1)),
+                Inst::Loop { label: Label(0), counter: Var(0), start: Value(0), end: Value(0), body: vec![] },
+            ],
+        );
         caught(f.clone(), "the counter x0 is f32, not i32");
         f.body = vec![def(0, Op::F32(1.0)), Inst::Set(Var(1), Value(0))];
         f.values = vec![F32];
         caught(f, "the value v0 is f32, expected i32");
-        caught(function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Load { array: ArrayId(0), index: Value(0) })]), "the index v0 is f32");
         caught(
-            function(&[I32, F32], vec![def(0, Op::I32(0)), def(1, Op::F32(1.0)), Inst::Store { array: ArrayId(1), index: Value(0), value: Value(1) }]),
+            function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Load { array: ArrayId(0), index: Value(0) })]),
+            "the index v0 is f32",
+        );
+        caught(
+            function(
+                &[I32, F32],
+                vec![
+                    def(0, Op::I32(0)),
+                    def(1, Op::F32(1.0)),
+                    Inst::Store { array: ArrayId(1), index: Value(0), value: Value(1) },
+                ],
+            ),
             "the value v1 is f32, expected i32",
         );
         caught(
-            function(&[F32], vec![def(0, Op::F32(0.0)), Inst::Texture { sampler: sampler(), coords: [Value(0); 6], out: ArrayId(1) }]),
+            function(
+                &[F32],
+                vec![
+                    def(0, Op::F32(0.0)),
+                    Inst::Texture { sampler: sampler(), coords: [Value(0); 6], out: ArrayId(1) },
+                ],
+            ),
             "a1 is 1 i32 words; a texture writes 4 f32 words",
         );
     }
 
     #[test]
     fn natives_exist_and_get_their_arguments() {
-        caught(function(&[F32], vec![def(0, Op::Call { native: "tsl_nope", args: vec![] })]), "`tsl_nope` is not a native");
         caught(
-            function(&[F32, F32], vec![def(0, Op::F32(1.0)), def(1, Op::Call { native: "tsl_pow", args: vec![Value(0)] })]),
+            function(&[F32], vec![def(0, Op::Call { native: "tsl_nope", args: vec![] })]),
+            "`tsl_nope` is not a native",
+        );
+        caught(
+            function(
+                &[F32, F32],
+                vec![def(0, Op::F32(1.0)), def(1, Op::Call { native: "tsl_pow", args: vec![Value(0)] })],
+            ),
             "`tsl_pow` takes 2 arguments, given 1",
         );
         static ODD: [u32; 3] = [0; 3];
-        caught(function(&[I32, I32], vec![def(0, Op::I32(0)), def(1, Op::Table { table: &ODD, index: Value(0) })]), "a table of 3 words");
+        caught(
+            function(&[I32, I32], vec![def(0, Op::I32(0)), def(1, Op::Table { table: &ODD, index: Value(0) })]),
+            "a table of 3 words",
+        );
     }
 
     #[test]
@@ -665,11 +793,18 @@ mod tests {
             &[F32, Bool],
             vec![
                 def(1, Op::Bool(true)),
-                Inst::If { cond: Value(1), then_body: vec![def(0, Op::Param(0)), def(0, add(0, 0))], else_body: vec![] },
+                Inst::If {
+                    cond: Value(1),
+                    then_body: vec![def(0, Op::Param(0)), def(0, add(0, 0))],
+                    else_body: vec![],
+                },
             ],
         );
         let e = verify_function(&f).unwrap_err();
-        assert_eq!(e.to_string(), "invalid IR in `t`:\n  body[1].then[1] `v0: f32 = fadd(v0, v0)`: v0 is defined a second time");
+        assert_eq!(
+            e.to_string(),
+            "invalid IR in `t`:\n  body[1].then[1] `v0: f32 = fadd(v0, v0)`: v0 is defined a second time"
+        );
         let twice = Module { functions: vec![valid(), valid()] };
         let errors = verify_module(&twice).unwrap_err();
         assert_eq!(errors.len(), 1);

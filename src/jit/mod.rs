@@ -516,6 +516,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
             Op::Table { table, index } => {
                 // The table is a `'static` slice: its address is a constant.
+                // The index is masked, as `ir::semantics::table_index`.
                 let i = self.v(*index);
                 let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
                 let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);

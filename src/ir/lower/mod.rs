@@ -99,6 +99,7 @@ pub fn lower_entries(
             _ => {}
         }
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -147,6 +148,7 @@ pub fn lower_material_exprs(
             entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
         }
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -193,6 +195,7 @@ pub fn lower_reflection_sums(
         module.functions.push(b.finish());
         entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -233,6 +236,7 @@ pub fn lower_delta_lobes(
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -265,6 +269,7 @@ pub fn lower_eval_pdf(
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 

@@ -449,6 +449,8 @@ impl<'p> Lowerer<'p> {
         }
     }
 
+    /// `i` clamped into `0..n` in IR, for lanes and tree children chosen
+    /// at run time: what [`semantics::clamp_index`] gives an array index.
     pub(super) fn clamp_index(&mut self, b: &mut Builder, i: Value, n: i32) -> Value {
         let zero = b.i(0);
         let last = b.i(n - 1);
