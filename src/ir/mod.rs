@@ -341,10 +341,18 @@ fn print_op(op: &Op) -> String {
         Op::I32(x) => format!("{x}i"),
         Op::Bool(b) => format!("{b}"),
         Op::Param(i) => format!("args[{i}]"),
-        Op::Global(i) => format!("globals[{i}]"),
+        // By name: `global N.y` is word 7 (see `globals::word_name`).
+        Op::Global(i) => match crate::globals::word_name(*i) {
+            Some(name) => format!("global {name}"),
+            None => format!("globals[{i}]"),
+        },
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
-        Op::Table { table, index } => format!("table{}@{:p}[v{}]", table.len(), table.as_ptr(), index.0),
+        // By name, never by address, so printed IR is the same on every run.
+        Op::Table { table, index } => match crate::runtime::table_name(table) {
+            Some(name) => format!("{name}[v{}]", index.0),
+            None => format!("table{}[v{}]", table.len(), index.0),
+        },
         Op::Unary(u, a) => format!("{u:?}(v{})", a.0).to_lowercase(),
         Op::Binary(b, x, y) => format!("{}(v{}, v{})", format!("{b:?}").to_lowercase(), x.0, y.0),
         Op::Select { cond, then_value, else_value } => {
