@@ -7,6 +7,19 @@
 //! generator called again with the same arguments in the same coordinate
 //! context reuses the first result (the second paper's caching).
 
+/// Marks a state the checker rules out: lowering runs only on programs
+/// that checked without errors (`Compiler::compile` stops before it
+/// otherwise), so reaching one is a compiler bug. Debug builds, and so
+/// every test, stop here with the message; release builds go on with the
+/// caller's fallback (zeros, no value), so no input can make the library
+/// panic. A fallback that a valid program can reach is not marked: it is
+/// either lowered properly or documented where it is.
+macro_rules! ruled_out {
+    ($($what:tt)+) => {
+        debug_assert!(false, "lowering reached a state the checker rules out: {}", format_args!($($what)+))
+    };
+}
+
 mod builtins;
 mod context;
 mod expr;
@@ -167,7 +180,7 @@ pub fn lower_reflection_sums(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
+    let im = interface_method("reflection").expect("reflection is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.reflection_sum{lights}");
         let mut b = Builder::new(&fname);
@@ -214,10 +227,9 @@ pub fn lower_delta_lobes(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let methods = ["reflection_dir", "reflection", "refraction_dir", "refraction"].map(interface_method);
-    let [Some(reflection_dir), Some(reflection), Some(refraction_dir), Some(refraction)] = methods else {
-        return (module, entries, lw.diags);
-    };
+    let [reflection_dir, reflection, refraction_dir, refraction] =
+        ["reflection_dir", "reflection", "refraction_dir", "refraction"]
+            .map(|name| interface_method(name).expect("the delta lobes are interface methods"));
     for (name, expr) in materials {
         let fname = format!("{name}.delta_lobes");
         let mut b = Builder::new(&fname);
@@ -254,7 +266,7 @@ pub fn lower_eval_pdf(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let Some(pdf) = interface_method("pdf") else { return (module, entries, lw.diags) };
+    let pdf = interface_method("pdf").expect("pdf is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.eval_pdf");
         let mut b = Builder::new(&fname);
