@@ -90,7 +90,27 @@ impl<'p> Lowerer<'p> {
                     (Val::Lanes(a), Val::Lanes(z)) => {
                         Val::Lanes(a.iter().zip(&z).map(|(x, y)| b.select(c, *x, *y)).collect())
                     }
-                    (a, _) => a,
+                    // Arrays select element by element, lane by lane.
+                    (Val::Array(a), Val::Array(z)) => {
+                        let lanes = match &ty {
+                            Ty::Array(elem, _) => self.lanes_of(elem),
+                            other => {
+                                ruled_out!("arrays chosen as a `{other}`");
+                                1
+                            }
+                        };
+                        let (xs, ys) = (self.array_elems(b, &a, lanes), self.array_elems(b, &z, lanes));
+                        let elems = xs
+                            .iter()
+                            .zip(&ys)
+                            .map(|(x, y)| x.iter().zip(y).map(|(p, q)| b.select(c, *p, *q)).collect())
+                            .collect();
+                        Val::Array(ArrayVal::Elems(elems))
+                    }
+                    (a, z) => {
+                        ruled_out!("a choice between {a:?} and {z:?}");
+                        a
+                    }
                 }
             }
             ExprKind::Array(items) => {

@@ -76,8 +76,11 @@ impl<'p> Lowerer<'p> {
             Some(m) => {
                 let mut fr = self.new_frame(inst.in_prelude, assigned_names(&m.body));
                 fr.material = Some(inst.clone());
-                for (name, v) in &inst.params {
-                    fr.scopes[0].insert(name.clone(), Binding::Val(v.clone()));
+                // The method's own copy of the parameters: variables for
+                // those it assigns (`bind`).
+                for ((name, v), p) in inst.params.iter().zip(&inst.def.params) {
+                    let ty = Ty::from_ast(&p.ty);
+                    self.bind(b, &mut fr, name, v.clone(), &ty);
                 }
                 fr.scopes.push(HashMap::default());
                 for (p, a) in m.params.iter().zip(args) {
