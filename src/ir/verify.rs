@@ -785,6 +785,11 @@ mod tests {
             function(&[I32, I32], vec![def(0, Op::I32(0)), def(1, Op::Table { table: &ODD, index: Value(0) })]),
             "a table of 3 words",
         );
+        static WORDS: [u32; 4] = [0; 4];
+        caught(
+            function(&[I32, Bool], vec![def(0, Op::I32(0)), def(1, Op::Table { table: &WORDS, index: Value(0) })]),
+            "a table word read as a bool",
+        );
     }
 
     #[test]
