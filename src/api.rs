@@ -30,6 +30,9 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
+mod prepared;
+pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit};
+
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]
 pub struct Error {

@@ -61,6 +61,32 @@ pub fn word_of(name: &str) -> Option<(u32, Ty)> {
     None
 }
 
+/// The global that word `word` belongs to: its name, its type and the
+/// word's lane in it, or `None` past the record.
+pub fn word_global(word: u32) -> Option<(&'static str, Ty, u32)> {
+    let mut first = 0;
+    for (name, ty, _) in GLOBALS {
+        let n = lanes(ty);
+        if word < first + n {
+            return Some((*name, ty.clone(), word - first));
+        }
+        first += n;
+    }
+    None
+}
+
+/// The type of the global that word `word` belongs to (`face` is the one
+/// `int`; every other word is a float lane), or `None` past the record.
+pub fn word_type(word: u32) -> Option<Ty> {
+    word_global(word).map(|(_, ty, _)| ty)
+}
+
+/// How printed IR names word `word`: `u`, `N.y`; `None` past the record.
+pub fn word_name(word: u32) -> Option<String> {
+    let (name, ty, lane) = word_global(word)?;
+    Some(if lanes(&ty) == 1 { name.to_string() } else { format!("{name}.{}", ["x", "y", "z"][lane as usize]) })
+}
+
 impl ShadingGlobals {
     /// The record as words, for the interpreter.
     pub fn words(&self) -> [u32; GLOBAL_WORDS as usize] {
@@ -104,5 +130,12 @@ mod tests {
         let g = ShadingGlobals { face: 7, u: 0.5, ..Default::default() };
         assert_eq!(g.words()[20], 7);
         assert_eq!(f32::from_bits(g.words()[12]), 0.5);
+        assert_eq!(word_type(20), Some(Ty::Int));
+        assert_eq!((word_type(2), word_type(GLOBAL_WORDS - 1)), (Some(Ty::Point), Some(Ty::Float)));
+        assert_eq!(word_type(GLOBAL_WORDS), None);
+        assert_eq!(
+            [word_name(12), word_name(7), word_name(GLOBAL_WORDS)],
+            [Some("u".into()), Some("N.y".into()), None]
+        );
     }
 }

@@ -34,7 +34,10 @@ pub mod syntax;
 mod test_support;
 pub mod texture;
 
-pub use api::{Backend, BsdfSample, Color, Compiler, Error, Function, Material, Program, SampledDir};
+pub use api::{
+    Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
+    SampledDir,
+};
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;
 pub use load::LoadOptions;

@@ -302,6 +302,22 @@ pub static GRAD3_WORDS: [[u32; 16]; 3] = {
     w
 };
 
+/// The name of a table above, by identity, for printing IR: `perm`,
+/// `grad1`, `grad2.x`, `grad3.z`, ... (an address would differ between
+/// runs and machines).
+pub fn table_name(table: &[u32]) -> Option<&'static str> {
+    let named: [(&'static str, &[u32]); 7] = [
+        ("perm", &PERM_WORDS),
+        ("grad1", &GRAD1_WORDS),
+        ("grad2.x", &GRAD2_WORDS[0]),
+        ("grad2.y", &GRAD2_WORDS[1]),
+        ("grad3.x", &GRAD3_WORDS[0]),
+        ("grad3.y", &GRAD3_WORDS[1]),
+        ("grad3.z", &GRAD3_WORDS[2]),
+    ];
+    named.iter().find(|(_, t)| std::ptr::eq(*t, table)).map(|(name, _)| *name)
+}
+
 /// The output scales of 1D, 2D and 3D noise, as f32.
 pub const NOISE_SCALES: [f32; 3] = [SCALE1 as f32, SCALE2 as f32, SCALE3 as f32];
 

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 use tsl::check::{SymbolKind, Ty};
-use tsl::ir::lower::{HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups};
+use tsl::ir::lower::{HitEntry, HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups};
 use tsl::syntax::ast::Item;
 use tsl::{ColorModel, Compiler, Program};
 
@@ -82,6 +82,31 @@ fn alone_args(method: HitMethod, wo: &[u32], eta: &[u32], own: &[u32]) -> Vec<u3
     }
 }
 
+/// Agreement of a method in a group with the method lowered alone. Not
+/// bit for bit: lowering expands `noise` inline at the first sites of each
+/// function and calls the native after (they differ by about 1e-7), and
+/// in one function for the whole group the sites fall elsewhere; `bump`'s
+/// finite differences magnify that to about 1e-4 in a normal.
+fn near(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
+    if close(a, b, ty) {
+        return true;
+    }
+    let (x, y) = (f32::from_bits(a), f32::from_bits(b));
+    ty == tsl::ir::Scalar::F32 && (x - y).abs() <= 1e-3 * x.abs().max(y.abs()).max(1.0)
+}
+
+/// Where a method's results start among the combined function's.
+fn result_offset(entries: &[HitEntry], method: &HitMethod, model: ColorModel) -> usize {
+    let words = |t: &Ty| match t {
+        Ty::Color => model.lanes(),
+        Ty::Array(_, n) => *n as usize,
+        Ty::BsdfSample => 5 + model.lanes(),
+        Ty::Float => 1,
+        other => panic!("{other:?}"),
+    };
+    entries.iter().take_while(|e| e.method != *method).map(|e| words(&e.ret)).sum()
+}
+
 fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u64) -> usize {
     let checked = program.checked();
     let bodies: Vec<(String, &tsl::syntax::ast::Expr)> = trees
@@ -102,14 +127,14 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
     let lanes = model.lanes();
     let mut rng = Rng(seed);
     for ((name, _), group) in bodies.iter().zip(&groups) {
-        let HitGroup { split, entries } = group;
+        let HitGroup { split, entries, combined } = group;
         for point in 0..POINTS {
             let g = common::shading_point(&mut rng).words();
             let wo = args(&mut rng, &[("wo".into(), Ty::Vector)], model);
             let eta = args(&mut rng, &[("eta".into(), Ty::Color)], model);
             let mut record = vec![0u32; split.record_words()];
             tsl::interp::run(&split.prepare, &g, &[wo.clone(), eta.clone()].concat(), &mut record);
-            for ((method, params, _), f) in entries.iter().zip(&split.methods) {
+            for (HitEntry { method, params, .. }, f) in entries.iter().zip(&split.methods) {
                 let own = args(&mut rng, params, model);
                 let reference = match method {
                     HitMethod::Interface(m) => alone.function(&format!("{name}.{m}")),
@@ -122,9 +147,33 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
                 tsl::interp::run(reference, &g, &alone_args(*method, &wo, &eta, &own), &mut want);
                 let mut got = vec![0u32; f.results.len()];
                 tsl::interp::run(f, &g, &[record.clone(), own.clone()].concat(), &mut got);
+                // The split changes nothing of the combined function.
+                let mut all_args = [wo.clone(), eta.clone()].concat();
+                let mut first_result = 0;
+                for e in entries {
+                    let words = if e.method == *method {
+                        own.clone()
+                    } else {
+                        args(&mut Rng(point as u64 + 1), &e.params, model)
+                    };
+                    if e.method == *method {
+                        first_result = result_offset(entries, method, model);
+                    }
+                    all_args.extend(words);
+                }
+                let mut whole = vec![0u32; combined.results.len()];
+                tsl::interp::run(combined, &g, &all_args, &mut whole);
                 for (k, ty) in f.results.iter().enumerate() {
                     assert!(
-                        close(got[k], want[k], *ty),
+                        close(got[k], whole[first_result + k], *ty),
+                        "{name} {method:?} word {k} at point {point}: prepared {:?}, combined {:?}",
+                        f32::from_bits(got[k]),
+                        f32::from_bits(whole[first_result + k]),
+                    );
+                }
+                for (k, ty) in f.results.iter().enumerate() {
+                    assert!(
+                        near(got[k], want[k], *ty),
                         "{name} {method:?} ({} lanes) word {k} at point {point}: prepared {:?}, alone {:?}",
                         lanes,
                         f32::from_bits(got[k]),
@@ -167,7 +216,8 @@ fn prepared_methods_agree_with_methods_alone_on_examples_and_fixtures() {
         // Compiled from its own path, so imports and images resolve.
         let name = path.to_string_lossy().to_string();
         let (program, trees) = material_trees(&text, &name);
-        groups += check_program(&program, &trees, MODELS[k % 2], k as u64);
+        println!("{name}");
+        groups += check_program(&program, &trees, MODELS[k % 2], 1 + k as u64);
     }
     assert!(groups > 50, "{groups} materials");
 }

@@ -146,3 +146,54 @@ fn work_shared_out_of_a_dead_block_keeps_its_definition() {
         assert!(same, "{}: {jit:?} vs {int:?}", entry.name);
     }
 }
+
+// Found while marking the states lowering assumes the checker rules out
+// (`ruled_out!` in src/ir/lower); fixed. A `?:` between two arrays always
+// gave the first (the choice selected lanes, and kept its `then` side for
+// anything else), and a method that assigned one of its material's
+// parameters (`kd = kd * 2`) lost the assignment (parameters were bound as
+// values, so the store found no variable and did nothing). Each method
+// assigns its own copy: the other methods still see the parameter's value.
+#[test]
+fn array_choices_and_assigned_material_parameters() {
+    let p = compile(
+        r#"
+        float pick() { float[2] a = u > 0.5 ? [1.0, 2.0] : [3.0, 4.0]; return a[0] + a[1]; }
+        int ipick(int k) { int[2] a = k > 0 ? [1, 2] : [3, 4]; return a[k]; }
+        material q(color kd = gray(0.5), float[2] w = [1.0, 2.0]) {
+            color diffuse() { kd = kd * 2; w[0] = 3; return kd * w[0]; }
+            color emission(vector wo) { return kd * w[0]; }
+        }
+        "#,
+    );
+    assert_eq!(f32::from_bits(call(&p, "pick", &[])), 7.0);
+    assert_eq!(call(&p, "ipick", &[1]), 2);
+    assert_eq!(call(&p, "ipick", &[0]), 3);
+    let q = p.material("q").unwrap();
+    let g = ShadingGlobals::default();
+    assert_eq!(q.diffuse(&g).lanes(), [3.0; 3]);
+    assert_eq!(q.emission(&g, [0.0, 0.0, 1.0]).lanes(), [0.5; 3]);
+}
+
+// FIXME: the checker accepts template parameters of type `material[N]`,
+// but lowering does not support them: an element (`ms[0]`) or the whole
+// array given to `blend` or `select` lowers to the zero material (black,
+// and not opaque). Either lowering learns them or the checker refuses them;
+// until then this test pins today's output.
+#[test]
+fn material_array_parameters_are_not_lowered_yet() {
+    let p = compile(
+        r#"
+        material pair(material[2] ms) = mix(u, ms[0], ms[1]);
+        material picked(material[2] ms) = select(face, ms);
+        material a = pair([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
+        material b = picked([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
+        "#,
+    );
+    let g = ShadingGlobals::default();
+    for name in ["a", "b"] {
+        let m = p.material(name).unwrap();
+        assert_eq!(m.diffuse(&g).lanes(), [0.0; 3], "{name}: should be 0.2 (FIXME)");
+        assert!(!m.opaque(&g), "{name}: should be opaque (FIXME)");
+    }
+}

@@ -29,13 +29,9 @@ use std::sync::Arc;
 /// The most elements an array may have.
 pub const MAX_ARRAY_LEN: u32 = 4096;
 
-/// The most iterations one `for` loop runs.
-pub const MAX_LOOP_ITERATIONS: i64 = 1_000_000;
-
-/// The most loop iterations one call of a shader runs over all its loops
-/// together, so nested loops cannot multiply their caps; once it is spent,
-/// every loop ends. With the per-loop cap, no shader can hang its host.
-pub const MAX_CALL_ITERATIONS: i64 = 1 << 24;
+/// The most iterations one `for` loop runs: the IR's limit, which the
+/// checker reports when constant bounds exceed it.
+pub use crate::ir::MAX_LOOP_ITERATIONS;
 
 /// A checked program: the loaded modules, the global symbols and the type of
 /// every expression, keyed by its span.

@@ -2,10 +2,14 @@
 //! against. Small and direct on purpose; speed is the JIT's job.
 //!
 //! Every operation here must give the same bits as the JIT's: natives are
-//! the same Rust functions, and the semantics of `FMin`, integer division
-//! and conversions are spelled out in `ir`.
+//! the same Rust functions, and the semantics of `FMin`, integer division,
+//! index clamping, conversions and loop limits are `ir::semantics`'s, which
+//! this module calls rather than restates. It depends on `ir`, the runtime
+//! natives and textures only, never on the front end.
 
-use crate::check::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
+use crate::ir::semantics::{
+    MAX_CALL_ITERATIONS, clamp_index, float_to_int, fmax, fmin, int_div, int_rem, loop_trips, table_index,
+};
 use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
 use crate::runtime::{NativeFn, native};
 use crate::texture::Lookup;
@@ -69,20 +73,6 @@ fn bw(x: bool) -> u32 {
     u32::from(x)
 }
 
-/// Integer division as the IR defines it: wrapping, and 0 for a zero divisor.
-pub fn int_div(a: i32, b: i32) -> i32 {
-    if b == 0 { 0 } else { a.wrapping_div(b) }
-}
-
-pub fn int_rem(a: i32, b: i32) -> i32 {
-    if b == 0 { 0 } else { a.wrapping_rem(b) }
-}
-
-/// Clamps an array index into `0..len`.
-pub fn clamp_index(index: i32, len: usize) -> usize {
-    (index.max(0) as usize).min(len.saturating_sub(1))
-}
-
 impl Machine<'_, '_> {
     fn v(&self, v: crate::ir::Value) -> u32 {
         self.values[v.0 as usize]
@@ -122,7 +112,7 @@ impl Machine<'_, '_> {
                 },
                 Inst::Loop { label, counter, start, end, body } => {
                     let (start, end) = (i(self.v(*start)), i(self.v(*end)));
-                    let trips = (i64::from(end) - i64::from(start)).clamp(0, MAX_LOOP_ITERATIONS);
+                    let trips = loop_trips(start, end);
                     for k in 0..trips {
                         if self.budget <= 0 {
                             break;
@@ -152,7 +142,7 @@ impl Machine<'_, '_> {
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
-            Op::Table { table, index } => table[self.v(*index) as usize & (table.len() - 1)],
+            Op::Table { table, index } => table[table_index(i(self.v(*index)), table.len())],
             Op::Load { array, index } => {
                 let a = &self.arrays[array.0 as usize];
                 a[clamp_index(i(self.v(*index)), a.len())]
@@ -169,8 +159,7 @@ impl Machine<'_, '_> {
                     UnOp::INeg => iw(i(a).wrapping_neg()),
                     UnOp::Not => bw(a == 0),
                     UnOp::IToF => fw(i(a) as f32),
-                    // `as` saturates and maps NaN to 0, like fcvt_to_sint_sat.
-                    UnOp::FToI => iw(f(a) as i32),
+                    UnOp::FToI => iw(float_to_int(f(a))),
                     UnOp::BToI => a,
                 }
             }
@@ -181,8 +170,8 @@ impl Machine<'_, '_> {
                     BinOp::FSub => fw(f(x) - f(y)),
                     BinOp::FMul => fw(f(x) * f(y)),
                     BinOp::FDiv => fw(f(x) / f(y)),
-                    BinOp::FMin => fw(if f(x) < f(y) { f(x) } else { f(y) }),
-                    BinOp::FMax => fw(if f(x) > f(y) { f(x) } else { f(y) }),
+                    BinOp::FMin => fw(fmin(f(x), f(y))),
+                    BinOp::FMax => fw(fmax(f(x), f(y))),
                     BinOp::IAdd => iw(i(x).wrapping_add(i(y))),
                     BinOp::ISub => iw(i(x).wrapping_sub(i(y))),
                     BinOp::IMul => iw(i(x).wrapping_mul(i(y))),

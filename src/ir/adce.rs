@@ -213,7 +213,7 @@ mod tests {
         ];
         let mut plain = f.clone();
         crate::ir::opt::eliminate_dead_code(&mut plain);
-        assert_eq!(crate::ir::count_insts(&plain.body), 9, "the plain pass keeps the cycle");
+        assert_eq!(plain.body, f.body, "the plain pass keeps the cycle");
         eliminate_dead_code_aggressive(&mut f);
         assert_eq!(f.body, vec![Inst::Def(Value(0), Op::Param(0)), Inst::Output(0, Value(0))]);
     }

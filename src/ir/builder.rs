@@ -118,7 +118,9 @@ impl Builder {
         let body = self.stack.pop().unwrap_or_default();
         self.prologue.extend(body);
         self.func.body = self.prologue;
+        verify::debug_verify(&self.func, "lowering");
         super::opt::eliminate_dead_code(&mut self.func);
+        verify::debug_verify(&self.func, "dead code elimination");
         self.func
     }
 
@@ -242,7 +244,7 @@ impl Builder {
                     (UnOp::INeg, I(x)) => I(x.wrapping_neg()),
                     (UnOp::Not, B(x)) => B(!x),
                     (UnOp::IToF, I(x)) => F(x as f32),
-                    (UnOp::FToI, F(x)) => I(x as i32),
+                    (UnOp::FToI, F(x)) => I(semantics::float_to_int(x)),
                     (UnOp::BToI, B(x)) => I(i32::from(x)),
                     _ => return None,
                 })
@@ -254,13 +256,13 @@ impl Builder {
                     (BinOp::FSub, F(x), F(y)) => F(x - y),
                     (BinOp::FMul, F(x), F(y)) => F(x * y),
                     (BinOp::FDiv, F(x), F(y)) => F(x / y),
-                    (BinOp::FMin, F(x), F(y)) => F(if x < y { x } else { y }),
-                    (BinOp::FMax, F(x), F(y)) => F(if x > y { x } else { y }),
+                    (BinOp::FMin, F(x), F(y)) => F(semantics::fmin(x, y)),
+                    (BinOp::FMax, F(x), F(y)) => F(semantics::fmax(x, y)),
                     (BinOp::IAdd, I(x), I(y)) => I(x.wrapping_add(y)),
                     (BinOp::ISub, I(x), I(y)) => I(x.wrapping_sub(y)),
                     (BinOp::IMul, I(x), I(y)) => I(x.wrapping_mul(y)),
-                    (BinOp::IDiv, I(x), I(y)) => I(crate::interp::int_div(x, y)),
-                    (BinOp::IRem, I(x), I(y)) => I(crate::interp::int_rem(x, y)),
+                    (BinOp::IDiv, I(x), I(y)) => I(semantics::int_div(x, y)),
+                    (BinOp::IRem, I(x), I(y)) => I(semantics::int_rem(x, y)),
                     (BinOp::IAnd, I(x), I(y)) => I(x & y),
                     (BinOp::FLt, F(x), F(y)) => B(x < y),
                     (BinOp::FLe, F(x), F(y)) => B(x <= y),

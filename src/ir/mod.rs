@@ -12,17 +12,25 @@
 //!   only used where its definition dominates the use; values that cross
 //!   control flow go through [`Var`]s.
 //! - Every operation is total: integer division by zero gives 0, array
-//!   indices are clamped, a loop runs at most `MAX_LOOP_ITERATIONS` times
-//!   and a call at most `MAX_CALL_ITERATIONS` loop iterations in all,
+//!   indices are clamped, a loop runs at most [`MAX_LOOP_ITERATIONS`] times
+//!   and a call at most [`MAX_CALL_ITERATIONS`] loop iterations in all,
 //!   float to int conversion saturates. No IR program can trap or hang.
+//!   [`semantics`] defines these answers; the back ends import them from
+//!   here, never from the front end.
+//! - Every function that lowering and [`opt`] produce passes [`verify`]
+//!   (checked in debug builds, so in every test).
 
 mod adce;
 mod builder;
 pub mod lower;
 pub mod opt;
+pub mod semantics;
 pub mod split;
+pub mod verify;
 
 pub use adce::eliminate_dead_code_aggressive;
+pub use semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
+pub use verify::{VerifyError, verify_function, verify_module};
 
 use std::fmt::{self, Write};
 
@@ -272,7 +280,14 @@ impl fmt::Display for Function {
         if record.is_empty() {
             writeln!(f, "fn {}(args: [{}]) -> [{}] {{", self.name, list(args), list(&self.results))?;
         } else {
-            writeln!(f, "fn {}(hit: [{}], args: [{}]) -> [{}] {{", self.name, list(record), list(args), list(&self.results))?;
+            writeln!(
+                f,
+                "fn {}(hit: [{}], args: [{}]) -> [{}] {{",
+                self.name,
+                list(record),
+                list(args),
+                list(&self.results)
+            )?;
         }
         let mut out = String::new();
         print_body(&mut out, self, &self.body, 1);
@@ -286,7 +301,9 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
     for inst in body {
         let _ = match inst {
             Inst::Def(v, op) => {
-                writeln!(out, "{pad}v{}: {} = {}", v.0, scalar_name(func.value_type(*v)), print_op(func, op))
+                // `?` for a value without a type: the verifier prints invalid functions too.
+                let ty = func.values.get(v.0 as usize).map_or("?", |t| scalar_name(*t));
+                writeln!(out, "{pad}v{}: {ty} = {}", v.0, print_op(func, op))
             }
             Inst::Set(var, v) => writeln!(out, "{pad}x{} = v{}", var.0, v.0),
             Inst::Store { array, index, value } => writeln!(out, "{pad}a{}[v{}] = v{}", array.0, index.0, value.0),
@@ -320,6 +337,22 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
     }
 }
 
+/// One instruction on one line, without the bodies it holds: how the
+/// verifier names the instruction it complains about.
+fn inst_line(func: &Function, inst: &Inst) -> String {
+    let mut out = String::new();
+    let header = match inst {
+        Inst::If { cond, .. } => Inst::If { cond: *cond, then_body: vec![], else_body: vec![] },
+        Inst::Block { label, .. } => Inst::Block { label: *label, body: vec![] },
+        Inst::Loop { label, counter, start, end, .. } => {
+            Inst::Loop { label: *label, counter: *counter, start: *start, end: *end, body: vec![] }
+        }
+        other => other.clone(),
+    };
+    print_body(&mut out, func, std::slice::from_ref(&header), 0);
+    out.lines().next().unwrap_or_default().trim_end_matches(" {").to_string()
+}
+
 fn print_op(func: &Function, op: &Op) -> String {
     match op {
         Op::Param(i) if *i < func.record_words => format!("hit[{i}]"),
@@ -327,10 +360,18 @@ fn print_op(func: &Function, op: &Op) -> String {
         Op::F32(x) => format!("{x:?}"),
         Op::I32(x) => format!("{x}i"),
         Op::Bool(b) => format!("{b}"),
-        Op::Global(i) => format!("globals[{i}]"),
+        // By name: `global N.y` is word 7 (see `globals::word_name`).
+        Op::Global(i) => match crate::globals::word_name(*i) {
+            Some(name) => format!("global {name}"),
+            None => format!("globals[{i}]"),
+        },
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
-        Op::Table { table, index } => format!("table{}@{:p}[v{}]", table.len(), table.as_ptr(), index.0),
+        // By name, never by address, so printed IR is the same on every run.
+        Op::Table { table, index } => match crate::runtime::table_name(table) {
+            Some(name) => format!("{name}[v{}]", index.0),
+            None => format!("table{}[v{}]", table.len(), index.0),
+        },
         Op::Unary(u, a) => format!("{u:?}(v{})", a.0).to_lowercase(),
         Op::Binary(b, x, y) => format!("{}(v{}, v{})", format!("{b:?}").to_lowercase(), x.0, y.0),
         Op::Select { cond, then_value, else_value } => {

@@ -100,7 +100,8 @@ fn split_with(combined: &Function, hit_inputs: u32, parts: &[Part], hoist: Hoist
     let mut methods = Vec::with_capacity(parts.len());
     let mut used = vec![false; slot_values.len()];
     for part in parts {
-        let mut f = Function { name: part.name.clone(), body: only_outputs(&rewritten, &part.results), ..combined.clone() };
+        let mut f =
+            Function { name: part.name.clone(), body: only_outputs(&rewritten, &part.results), ..combined.clone() };
         f.results = combined.results[part.results.start as usize..part.results.end as usize].to_vec();
         eliminate_dead_code_aggressive(&mut f);
         super::for_each_op(&f.body, &mut |op| {
@@ -145,6 +146,10 @@ fn split_with(combined: &Function, hit_inputs: u32, parts: &[Part], hoist: Hoist
                 words + k - part.params.start
             }
         });
+    }
+    super::verify::debug_verify(&prepare, "the per-hit split");
+    for f in &methods {
+        super::verify::debug_verify(f, "the per-hit split");
     }
     Some(Split { prepare, methods })
 }
@@ -358,7 +363,9 @@ fn replace_by_slots(body: &[Inst], slot_of: &[Option<u32>], first_slot: u32) -> 
                 then_body: replace_by_slots(then_body, slot_of, first_slot),
                 else_body: replace_by_slots(else_body, slot_of, first_slot),
             },
-            Inst::Block { label, body } => Inst::Block { label: *label, body: replace_by_slots(body, slot_of, first_slot) },
+            Inst::Block { label, body } => {
+                Inst::Block { label: *label, body: replace_by_slots(body, slot_of, first_slot) }
+            }
             Inst::Loop { label, counter, start, end, body } => Inst::Loop {
                 label: *label,
                 counter: *counter,

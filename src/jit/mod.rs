@@ -6,8 +6,11 @@
 //! only the result words: IR operations are total (clamped indices, guarded
 //! integer division, saturating conversions, bounded loops), so the code
 //! cannot trap or hang. Its memory is freed when the [`Jit`] is dropped.
+//! Those answers are `ir::semantics`'s, emitted as Cranelift code; this
+//! module depends on `ir`, the runtime natives and textures only, never on
+//! the front end.
 
-use crate::check::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
+use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
 use crate::runtime::natives;
 use cranelift_codegen::control::ControlPlane;
@@ -376,7 +379,7 @@ impl<'a, 'b> Gen<'a, 'b> {
         self.b.ins().iadd(base, offset)
     }
 
-    /// Clamps an index into `0..len` (the IR's semantics).
+    /// Clamps an index into `0..len`, as `ir::semantics::clamp_index`.
     fn clamp_index(&mut self, index: ClValue, len: u32) -> ClValue {
         let zero = self.b.ins().iconst(types::I32, 0);
         let last = self.b.ins().iconst(types::I32, i64::from(len.max(1) - 1));
@@ -443,7 +446,8 @@ impl<'a, 'b> Gen<'a, 'b> {
             }
             Inst::Loop { label, counter, start, end, body } => {
                 // Trip count, computed in 64 bits so no bound can overflow:
-                // clamp(end - start, 0, MAX_LOOP_ITERATIONS).
+                // clamp(end - start, 0, MAX_LOOP_ITERATIONS), as
+                // `ir::semantics::loop_trips`.
                 let s = self.v(*start);
                 let e = self.v(*end);
                 let s64 = self.b.ins().sextend(types::I64, s);
@@ -512,6 +516,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
             Op::Table { table, index } => {
                 // The table is a `'static` slice: its address is a constant.
+                // The index is masked, as `ir::semantics::table_index`.
                 let i = self.v(*index);
                 let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
                 let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
@@ -542,6 +547,7 @@ impl<'a, 'b> Gen<'a, 'b> {
                     UnOp::INeg => ins.ineg(a),
                     UnOp::Not => ins.bxor_imm_u(a, 1),
                     UnOp::IToF => ins.fcvt_from_sint(types::F32, a),
+                    // Saturating, NaN to 0: `ir::semantics::float_to_int`.
                     UnOp::FToI => ins.fcvt_to_sint_sat(types::I32, a),
                     UnOp::BToI => ins.uextend(types::I32, a),
                 }
@@ -590,6 +596,8 @@ impl<'a, 'b> Gen<'a, 'b> {
             BinOp::FSub => ins.fsub(x, y),
             BinOp::FMul => ins.fmul(x, y),
             BinOp::FDiv => ins.fdiv(x, y),
+            // `ir::semantics::fmin` and `fmax`: a compare and a select, so
+            // NaN gives the second operand (Cranelift's fmin would give NaN).
             BinOp::FMin => {
                 let c = ins.fcmp(FloatCC::LessThan, x, y);
                 self.b.ins().select(c, x, y)
@@ -614,8 +622,8 @@ impl<'a, 'b> Gen<'a, 'b> {
         }
     }
 
-    /// Integer division without traps: a zero divisor gives 0, and
-    /// `MIN / -1` wraps (as the interpreter's `wrapping_div`).
+    /// Integer division without traps, as `ir::semantics::int_div` and
+    /// `int_rem`: a zero divisor gives 0, and `MIN / -1` wraps.
     fn safe_div(&mut self, op: BinOp, x: ClValue, y: ClValue) -> ClValue {
         let ins = self.b.ins();
         let zero = ins.iconst(types::I32, 0);

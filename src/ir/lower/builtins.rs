@@ -26,12 +26,12 @@ impl<'p> Lowerer<'p> {
             args.iter().map(|a| (self.expr(b, fr, ctx, &a.value), self.ty_of(&a.value))).collect();
         match base {
             B::Int => {
-                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                let (v, t) = only_arg(vals);
                 let x = self.scalar(b, v);
                 Val::Lanes(vec![if t == Ty::Int { x } else { b.un(UnOp::FToI, x) }])
             }
             B::Float => {
-                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                let (v, t) = only_arg(vals);
                 Val::Lanes(self.float_lanes(b, v, &t, 1))
             }
             B::Matrix if vals.is_empty() => Val::Lanes(identity(b)),
@@ -46,7 +46,7 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(lanes)
             }
             B::Matrix if vals.len() == 1 => {
-                let (v, t) = vals.into_iter().next().unwrap_or((Val::Unit, Ty::Error));
+                let (v, t) = only_arg(vals);
                 let s = self.float_lanes(b, v, &t, 1)[0];
                 Val::Lanes(diag(b, [s, s, s]))
             }
@@ -76,6 +76,7 @@ impl<'p> Lowerer<'p> {
         use BuiltinFn::*;
         let ty = self.ty_of(e);
         let spec = f.builtin();
+        // Only the names matter to `bind_args`.
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
         let bound = bind_args(&params, args);
         if matches!(f, Texture | TextureFloat) {
@@ -87,10 +88,15 @@ impl<'p> Lowerer<'p> {
         }
         let n = self.lanes_of(&ty);
         // Float lanes of argument k, broadcast to the result width.
+        // `arg` reads required parameters only (optional ones, such as
+        // `spline`, are read with their defaults below).
         let mut arg = |me: &mut Self, b: &mut Builder, k: usize, width: usize| -> Vec<Value> {
             match vals.get_mut(k).and_then(Option::take) {
                 Some((v, t)) => me.float_lanes(b, v, &t, width),
-                None => b.zeros(width),
+                None => {
+                    ruled_out!("`{}` without its argument {}", spec.name, spec.params.get(k).map_or("?", |p| p.name));
+                    b.zeros(width)
+                }
             }
         };
         let unary_native = |b: &mut Builder, native: &'static str, x: Vec<Value>| -> Val<'p> {
@@ -232,7 +238,7 @@ impl<'p> Lowerer<'p> {
                 )
             }
             Dot => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let x = arg(self, b, 0, w);
                 let y = arg(self, b, 1, w);
                 Val::Lanes(vec![b.dot(&x, &y)])
@@ -243,12 +249,12 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(b.cross(&x, &y))
             }
             Length | Normalize => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let x = arg(self, b, 0, w);
                 Val::Lanes(if f == Length { vec![b.length(&x)] } else { b.normalize(&x) })
             }
             Distance => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Vector));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let x = arg(self, b, 0, w);
                 let y = arg(self, b, 1, w);
                 let d = b.map2(BinOp::FSub, &x, &y);
@@ -285,7 +291,7 @@ impl<'p> Lowerer<'p> {
                 )
             }
             Noise => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let p = arg(self, b, 0, w);
                 let key = MemoKey::Noise(p.clone());
                 if let Some(v) = b.lookup(&key) {
@@ -300,13 +306,13 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(vec![v])
             }
             Cellnoise => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let p = arg(self, b, 0, w);
                 let native = native_name(f, w);
                 Val::Lanes(vec![b.call(native, p)])
             }
             Pnoise => {
-                let w = self.lanes_of(&bound[0].map(|a| self.ty_of(a)).unwrap_or(Ty::Float));
+                let w = self.lanes_of(&self.arg_ty(&bound, 0));
                 let mut p = arg(self, b, 0, w);
                 p.extend(arg(self, b, 1, w));
                 Val::Lanes(vec![b.call(native_name(f, w), p)])
@@ -365,7 +371,10 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(rotation(b, deg, &axis))
             }
             Scale => {
-                let (v, t) = vals[0].take().unwrap_or((Val::Unit, Ty::Float));
+                let (v, t) = vals[0].take().unwrap_or_else(|| {
+                    ruled_out!("`scale` without its argument");
+                    (Val::Unit, Ty::Float)
+                });
                 let s = self.float_lanes(b, v, &t, 3);
                 Val::Lanes(diag(b, [s[0], s[1], s[2]]))
             }
@@ -413,7 +422,10 @@ impl<'p> Lowerer<'p> {
                             elems
                         }
                     }
-                    _ => Vec::new(),
+                    other => {
+                        ruled_out!("`blend` of {other:?}");
+                        Vec::new()
+                    }
                 };
                 let w = blend_weights(b, t, spline, items.len());
                 let mut acc = b.zeros(n);
@@ -425,14 +437,19 @@ impl<'p> Lowerer<'p> {
             }
             Select => {
                 let i = self.scalar_arg(b, &bound, 0, fr, ctx);
-                let (items, elem) = match vals.get_mut(1).and_then(Option::take) {
+                let items = match vals.get_mut(1).and_then(Option::take) {
                     Some((Val::Array(a), Ty::Array(e, _))) => {
                         let lanes = self.lanes_of(&e);
-                        (self.array_elems(b, &a, lanes), *e)
+                        self.array_elems(b, &a, lanes)
                     }
-                    _ => (Vec::new(), Ty::Float),
+                    other => {
+                        ruled_out!("`select` of {other:?}");
+                        Vec::new()
+                    }
                 };
                 if items.is_empty() {
+                    // Arrays have at least one element.
+                    ruled_out!("`select` of no items");
                     return Val::Lanes(b.zeros(n));
                 }
                 let i = self.clamp_index(b, i, items.len() as i32);
@@ -442,12 +459,11 @@ impl<'p> Lowerer<'p> {
                     let hit = b.bin(BinOp::IEq, i, kv);
                     acc = acc.iter().zip(item).map(|(a, x)| b.select(hit, *x, *a)).collect();
                 }
-                let _ = elem;
                 Val::Lanes(acc)
             }
             // Only over materials: lowered by `tree_node`, never here.
             Texture | TextureFloat | Bump | Transform => {
-                debug_assert!(false, "`{}` reached the value builtins", f.name());
+                ruled_out!("`{}` reached the value builtins", f.name());
                 Val::Lanes(b.zeros(n))
             }
         }
@@ -466,7 +482,21 @@ impl<'p> Lowerer<'p> {
                 let v = self.expr(b, fr, ctx, e);
                 self.scalar(b, v)
             }
-            None => b.i(0),
+            None => {
+                ruled_out!("a required argument omitted");
+                b.i(0)
+            }
+        }
+    }
+
+    /// The type of argument `k`, which is required.
+    pub(super) fn arg_ty(&self, bound: &[Option<&'p Expr>], k: usize) -> Ty {
+        match bound.get(k).copied().flatten() {
+            Some(e) => self.ty_of(e),
+            None => {
+                ruled_out!("a required argument omitted");
+                Ty::Float
+            }
         }
     }
 
@@ -479,6 +509,7 @@ impl<'p> Lowerer<'p> {
         bound: &[Option<&'p Expr>],
     ) -> Val<'p> {
         let Some((Val::Array(a), _)) = vals.first_mut().and_then(Option::take) else {
+            ruled_out!("`spectrum` of something other than an array");
             return Val::Lanes(b.zeros(self.lanes));
         };
         let elems = self.array_elems(b, &a, 2);
@@ -516,6 +547,14 @@ impl<'p> Lowerer<'p> {
             })
             .collect()
     }
+}
+
+/// The one argument of a constructor that takes exactly one.
+fn only_arg<'p>(vals: Vec<(Val<'p>, Ty)>) -> (Val<'p>, Ty) {
+    if vals.len() != 1 {
+        ruled_out!("a one-argument constructor given {}", vals.len());
+    }
+    vals.into_iter().next().unwrap_or((Val::Unit, Ty::Float))
 }
 
 /// The native computing an elementwise builtin that Cranelift has no

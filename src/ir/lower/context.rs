@@ -91,19 +91,10 @@ impl<'p> Lowerer<'p> {
         Ctx { id, overrides: Rc::new(HashMap::default()) }
     }
 
-    /// Reads a method's parameters from the argument words, as lanes.
+    /// Reads parameters from the argument words, as lanes: each parameter
+    /// takes the next `lanes_of` words.
     pub(super) fn method_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Vec<Value>> {
-        self.params_from_args(b, params)
-            .into_iter()
-            .map(|v| match v {
-                Val::Lanes(l) => l,
-                _ => Vec::new(),
-            })
-            .collect()
-    }
-
-    /// Reads parameters from the argument words after those already read.
-    pub(super) fn params_from_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Val<'p>> {
+        // After the words already read: a hit group reads several lists.
         let mut word = b.func.params.len() as u32;
         let mut out = Vec::new();
         for (_, ty) in params {
@@ -115,9 +106,14 @@ impl<'p> Lowerer<'p> {
                     b.def(scalar, Op::Param(word - 1))
                 })
                 .collect();
-            out.push(Val::Lanes(lanes));
+            out.push(lanes);
         }
         out
+    }
+
+    /// [`Self::method_args`] as values.
+    pub(super) fn params_from_args(&self, b: &mut Builder, params: &[(String, Ty)]) -> Vec<Val<'p>> {
+        self.method_args(b, params).into_iter().map(Val::Lanes).collect()
     }
 
     pub(super) fn write_results(&self, b: &mut Builder, ret: &Ty, v: &[Value]) {

@@ -19,6 +19,15 @@ impl<'p> Lowerer<'p> {
         Some((0..self.lanes_of(&ty) as u32).map(|k| b.global(word + k, scalar)).collect())
     }
 
+    /// A shading global that lowering itself names (`N`, `u`, `dudx`, ...)
+    /// in the coordinate context `ctx`.
+    pub(super) fn shading_global(&mut self, b: &mut Builder, ctx: &Ctx, name: &str) -> Vec<Value> {
+        self.global(b, ctx, name).unwrap_or_else(|| {
+            debug_assert!(false, "lowering names `{name}`, which is not a shading global");
+            b.zeros(3)
+        })
+    }
+
     pub(super) fn expr(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, e: &'p Expr) -> Val<'p> {
         let ty = self.ty_of(e);
         match &e.kind {
@@ -39,7 +48,10 @@ impl<'p> Lowerer<'p> {
                         Val::Lanes(vec![b.flt(zero, l[range.start])])
                     }
                     Val::Lanes(l) if range.end <= l.len() => Val::Lanes(l[range].to_vec()),
-                    _ => self.zero_value(b, &ty),
+                    other => {
+                        ruled_out!("`.{}` of {other:?}, a `{base_ty}`", field.name);
+                        self.zero_value(b, &ty)
+                    }
                 }
             }
             ExprKind::Index { base, index } => {
@@ -78,10 +90,33 @@ impl<'p> Lowerer<'p> {
                     (Val::Lanes(a), Val::Lanes(z)) => {
                         Val::Lanes(a.iter().zip(&z).map(|(x, y)| b.select(c, *x, *y)).collect())
                     }
-                    (a, _) => a,
+                    // Arrays select element by element, lane by lane.
+                    (Val::Array(a), Val::Array(z)) => {
+                        let lanes = match &ty {
+                            Ty::Array(elem, _) => self.lanes_of(elem),
+                            other => {
+                                ruled_out!("arrays chosen as a `{other}`");
+                                1
+                            }
+                        };
+                        let (xs, ys) = (self.array_elems(b, &a, lanes), self.array_elems(b, &z, lanes));
+                        let elems = xs
+                            .iter()
+                            .zip(&ys)
+                            .map(|(x, y)| x.iter().zip(y).map(|(p, q)| b.select(c, *p, *q)).collect())
+                            .collect();
+                        Val::Array(ArrayVal::Elems(elems))
+                    }
+                    (a, z) => {
+                        ruled_out!("a choice between {a:?} and {z:?}");
+                        a
+                    }
                 }
             }
             ExprKind::Array(items) => {
+                // An array of materials is no value: tree nodes read the
+                // literal's items (`material_items`). FIXME: one bound to a
+                // `material[N]` template parameter arrives here and is lost.
                 if ty == Ty::Material || matches!(&ty, Ty::Array(e, _) if **e == Ty::Material) {
                     return Val::Unit;
                 }
@@ -128,17 +163,23 @@ impl<'p> Lowerer<'p> {
     pub(super) fn index(&mut self, b: &mut Builder, v: Val<'p>, base_ty: &Ty, i: Value) -> Val<'p> {
         match v {
             Val::Array(a) => {
-                let Ty::Array(elem, len) = base_ty else { return Val::Unit };
+                let Ty::Array(elem, len) = base_ty else {
+                    ruled_out!("an array value of type `{base_ty}` indexed");
+                    return Val::Unit;
+                };
                 let lanes = self.lanes_of(elem);
                 if let Some(Const::I(k)) = b.konst(i) {
-                    let k = crate::interp::clamp_index(k, *len as usize) as u32;
+                    let k = crate::ir::semantics::clamp_index(k, *len as usize) as u32;
                     return Val::Lanes(self.array_elem_const(b, &a, k, lanes));
                 }
                 let a = match a {
                     ArrayVal::Elems(_) => self.materialize(b, a, base_ty),
                     ir => ir,
                 };
-                let ArrayVal::Ir { arrays, .. } = a else { return Val::Unit };
+                let ArrayVal::Ir { arrays, .. } = a else {
+                    ruled_out!("an array that `materialize` left as elements");
+                    return Val::Unit;
+                };
                 Val::Lanes(
                     arrays
                         .iter()
@@ -159,7 +200,10 @@ impl<'p> Lowerer<'p> {
                 }
                 Val::Lanes(vec![acc])
             }
-            other => other,
+            other => {
+                ruled_out!("{other:?} indexed");
+                other
+            }
         }
     }
 
@@ -175,14 +219,20 @@ impl<'p> Lowerer<'p> {
         }
         match self.symbol(fr.in_prelude, n) {
             Some(sym) if sym.kind == SymbolKind::Const => {
-                let Item::Const(c) = self.item(sym) else { return Val::Unit };
+                let Item::Const(c) = self.item(sym) else {
+                    ruled_out!("the constant `{n}` is not a constant item");
+                    return Val::Unit;
+                };
                 // Constants fold, so lowering the value at each use is cheap.
                 let ty = Ty::from_ast(&c.ty);
                 let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::default());
                 self.expr_as(b, &mut cfr, ctx, &c.value, &ty)
             }
             Some(_) => Val::Material(Mat { expr: e, env: self.mat_env(fr), in_prelude: fr.in_prelude }),
-            None => Val::Unit,
+            None => {
+                ruled_out!("the name `{n}` resolves to nothing");
+                Val::Unit
+            }
         }
     }
 
@@ -238,7 +288,7 @@ impl<'p> Lowerer<'p> {
             };
         }
         let Some(f) = self.program.builtin_calls.get(&callee.span).copied() else {
-            debug_assert!(false, "the call of `{name}` resolved to nothing");
+            ruled_out!("the call of `{name}` resolved to nothing");
             return Val::Unit;
         };
         if f.tree_node().is_some() && self.ty_of(e) == Ty::Material {

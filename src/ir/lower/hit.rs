@@ -26,9 +26,21 @@ pub enum HitMethod {
 /// One material's hit group: `prepare`, and one function per method.
 #[derive(Debug, Clone)]
 pub struct HitGroup {
+    /// Every method in one function, before the split: arguments
+    /// `[wo, eta | each method's own]`, results each method's in turn.
+    pub combined: Function,
     pub split: Split,
-    /// Each method's own arguments (after the hit record) and result.
-    pub entries: Vec<(HitMethod, Vec<(String, Ty)>, Ty)>,
+    /// One per method of `split.methods`, in order.
+    pub entries: Vec<HitEntry>,
+}
+
+/// A method of a hit group: its own arguments (after the hit record) and
+/// its result.
+#[derive(Debug, Clone)]
+pub struct HitEntry {
+    pub method: HitMethod,
+    pub params: Vec<(String, Ty)>,
+    pub ret: Ty,
 }
 
 /// The hit inputs every method of a group shares: `prepare`'s arguments.
@@ -95,7 +107,8 @@ impl<'p> Lowerer<'p> {
                 HitMethod::DeltaLobes => {
                     let one = b.f(1.0);
                     let ones = vec![one; self.lanes];
-                    let dr = self.mat_method(&mut b, &mat, interface("reflection_dir"), std::slice::from_ref(&wo), &ctx);
+                    let dr =
+                        self.mat_method(&mut b, &mat, interface("reflection_dir"), std::slice::from_ref(&wo), &ctx);
                     let args = [dr.clone(), ones.clone(), wo.clone()];
                     let wr = self.mat_method(&mut b, &mat, interface("reflection"), &args, &ctx);
                     let args = [wo.clone(), eta.clone()];
@@ -130,14 +143,14 @@ impl<'p> Lowerer<'p> {
                 params: first_param..b.func.params.len() as u32,
                 results: first_result..outputs.len() as u32,
             });
-            entries.push((method, params, ret));
+            entries.push(HitEntry { method, params, ret });
         }
         b.func.results = outputs.iter().map(|(t, _)| *t).collect();
         for (k, (_, v)) in outputs.iter().enumerate() {
             b.push(Inst::Output(k as u32, *v));
         }
         let combined = b.finish();
-        HitGroup { split: split::split(&combined, hit_words, &parts), entries }
+        HitGroup { split: split::split(&combined, hit_words, &parts), combined, entries }
     }
 
     /// Appends `results` as float words; the array type hosts read them as.

@@ -17,6 +17,7 @@ impl<'p> Lowerer<'p> {
         env_prelude: bool,
     ) -> Rc<Instance<'p>> {
         let Item::Material(def) = self.item(sym) else {
+            ruled_out!("an instance of an item that is not a material definition");
             return Rc::new(Instance { id: 0, def: empty_def(), params: Vec::new(), in_prelude: false });
         };
         let params: Vec<(&str, Ty)> = def.params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
@@ -34,7 +35,14 @@ impl<'p> Lowerer<'p> {
                         let mut fr = self.new_frame(self.is_prelude(sym), HashSet::default());
                         self.expr_as(b, &mut fr, ctx, d, &ty)
                     }
-                    None => self.zero_value(b, &ty),
+                    None => {
+                        ruled_out!(
+                            "the parameter `{}` of `{}` has no argument and no default",
+                            p.name.name,
+                            def.name.name
+                        );
+                        self.zero_value(b, &ty)
+                    }
                 },
             };
             values.push((p.name.name.clone(), v));
@@ -68,8 +76,11 @@ impl<'p> Lowerer<'p> {
             Some(m) => {
                 let mut fr = self.new_frame(inst.in_prelude, assigned_names(&m.body));
                 fr.material = Some(inst.clone());
-                for (name, v) in &inst.params {
-                    fr.scopes[0].insert(name.clone(), Binding::Val(v.clone()));
+                // The method's own copy of the parameters: variables for
+                // those it assigns (`bind`).
+                for ((name, v), p) in inst.params.iter().zip(&inst.def.params) {
+                    let ty = Ty::from_ast(&p.ty);
+                    self.bind(b, &mut fr, name, v.clone(), &ty);
                 }
                 fr.scopes.push(HashMap::default());
                 for (p, a) in m.params.iter().zip(args) {
@@ -104,11 +115,18 @@ impl<'p> Lowerer<'p> {
                 b.map2(BinOp::FMul, &args[0], &d)
             }
             "absorption" => args[0].clone(),
-            "normal" => self.global(b, ctx, "N").unwrap_or_default(),
+            "normal" => self.shading_global(b, ctx, "N"),
             "opaque" => vec![b.b(true)],
             "sample" => self.default_sample(b, inst, args, ctx),
             "pdf" => self.default_pdf(b, inst, args, ctx),
-            _ => b.zeros(self.lanes_of(&im.ret)),
+            // Black, or no direction.
+            "reflection" | "refraction" | "reflection_dir" | "refraction_dir" | "emission" | "diffuse" => {
+                b.zeros(self.lanes_of(&im.ret))
+            }
+            other => {
+                ruled_out!("no default for the interface method `{other}`");
+                self.typed_zeros(b, &im.ret)
+            }
         }
     }
 
@@ -142,9 +160,15 @@ impl<'p> Lowerer<'p> {
                             let inst = self.instance_from_def(b, sym, &[], ctx, &mat.env, mat.in_prelude);
                             self.instance_method(b, &inst, im, args, ctx)
                         }
-                        _ => b.zeros(self.lanes_of(&im.ret)),
+                        _ => {
+                            ruled_out!("the material `{n}` names an item that is no material");
+                            self.typed_zeros(b, &im.ret)
+                        }
                     },
-                    None => b.zeros(self.lanes_of(&im.ret)),
+                    None => {
+                        ruled_out!("the material `{n}` resolves to nothing");
+                        self.typed_zeros(b, &im.ret)
+                    }
                 }
             }
             ExprKind::Ternary { cond, then_expr, else_expr } => {
@@ -176,18 +200,24 @@ impl<'p> Lowerer<'p> {
                             let m = Mat { expr: &t.body, env, in_prelude: self.is_prelude(sym) };
                             self.mat_method(b, &m, im, args, ctx)
                         }
-                        _ => b.zeros(self.lanes_of(&im.ret)),
+                        _ => {
+                            ruled_out!("`{}` is called as a material but is none", callee.name);
+                            self.typed_zeros(b, &im.ret)
+                        }
                     };
                 }
                 match self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node()) {
                     Some(node) => self.tree_node(b, mat, node, call_args, im, args, ctx),
                     None => {
-                        debug_assert!(false, "`{}` is a material but no tree node", callee.name);
-                        b.zeros(self.lanes_of(&im.ret))
+                        ruled_out!("`{}` is a material but no tree node", callee.name);
+                        self.typed_zeros(b, &im.ret)
                     }
                 }
             }
-            _ => b.zeros(self.lanes_of(&im.ret)),
+            // FIXME: an element of a `material[N]` template parameter
+            // (`ms[0]`) reaches here; the checker accepts such parameters
+            // but lowering does not support them, so the method is zero.
+            _ => self.typed_zeros(b, &im.ret),
         }
     }
 
@@ -344,11 +374,18 @@ impl<'p> Lowerer<'p> {
                 vec![one; self.lanes]
             }
             "absorption" => args[0].clone(),
-            "normal" => self.global(b, ctx, "N").unwrap_or_default(),
+            "normal" => self.shading_global(b, ctx, "N"),
             "opaque" => vec![b.b(true)],
             // These read the material's other methods.
             "ambient" | "sample" | "pdf" => return None,
-            _ => b.zeros(self.lanes_of(&im.ret)),
+            // Black, or no direction.
+            "reflection" | "refraction" | "reflection_dir" | "refraction_dir" | "emission" | "diffuse" => {
+                b.zeros(self.lanes_of(&im.ret))
+            }
+            other => {
+                ruled_out!("no default for the interface method `{other}`");
+                self.typed_zeros(b, &im.ret)
+            }
         })
     }
 }

@@ -7,6 +7,19 @@
 //! generator called again with the same arguments in the same coordinate
 //! context reuses the first result (the second paper's caching).
 
+/// Marks a state the checker rules out: lowering runs only on programs
+/// that checked without errors (`Compiler::compile` stops before it
+/// otherwise), so reaching one is a compiler bug. Debug builds, and so
+/// every test, stop here with the message; release builds go on with the
+/// caller's fallback (zeros, no value), so no input can make the library
+/// panic. A fallback that a valid program can reach is not marked: it is
+/// either lowered properly or documented where it is.
+macro_rules! ruled_out {
+    ($($what:tt)+) => {
+        debug_assert!(false, "lowering reached a state the checker rules out: {}", format_args!($($what)+))
+    };
+}
+
 mod builtins;
 mod context;
 mod expr;
@@ -23,7 +36,7 @@ use expr::{bind_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
 
-pub use hit::{HitGroup, HitMethod, hit_inputs, lower_hit_groups, method_name};
+pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, method_name};
 
 use super::builder::{Builder, Const, MemoKey};
 use super::*;
@@ -48,6 +61,8 @@ pub enum EntryKind {
     /// One interface method of a named material, or a combination of them
     /// (`reflection` for reflection sums, `delta_lobes`).
     Method(&'static str),
+    /// A method of a hit group, reading the record its `prepare` wrote.
+    Hit(HitMethod),
 }
 
 /// An entry point's name and its argument and result types, so hosts can
@@ -102,6 +117,7 @@ pub fn lower_entries(
             _ => {}
         }
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -150,6 +166,7 @@ pub fn lower_material_exprs(
             entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
         }
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -168,7 +185,7 @@ pub fn lower_reflection_sums(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let Some(im) = interface_method("reflection") else { return (module, entries, lw.diags) };
+    let im = interface_method("reflection").expect("reflection is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.reflection_sum{lights}");
         let mut b = Builder::new(&fname);
@@ -196,6 +213,7 @@ pub fn lower_reflection_sums(
         module.functions.push(b.finish());
         entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -214,10 +232,9 @@ pub fn lower_delta_lobes(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let methods = ["reflection_dir", "reflection", "refraction_dir", "refraction"].map(interface_method);
-    let [Some(reflection_dir), Some(reflection), Some(refraction_dir), Some(refraction)] = methods else {
-        return (module, entries, lw.diags);
-    };
+    let [reflection_dir, reflection, refraction_dir, refraction] =
+        ["reflection_dir", "reflection", "refraction_dir", "refraction"]
+            .map(|name| interface_method(name).expect("the delta lobes are interface methods"));
     for (name, expr) in materials {
         let fname = format!("{name}.delta_lobes");
         let mut b = Builder::new(&fname);
@@ -236,6 +253,7 @@ pub fn lower_delta_lobes(
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 
@@ -253,7 +271,7 @@ pub fn lower_eval_pdf(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let Some(pdf) = interface_method("pdf") else { return (module, entries, lw.diags) };
+    let pdf = interface_method("pdf").expect("pdf is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.eval_pdf");
         let mut b = Builder::new(&fname);
@@ -268,6 +286,7 @@ pub fn lower_eval_pdf(
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
     }
+    verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
 }
 

@@ -158,7 +158,7 @@ impl<'p> Lowerer<'p> {
     fn sampling_normal(&mut self, b: &mut Builder, inst: &Rc<Instance<'p>>, wo: &[Value], ctx: &Ctx) -> Vec<Value> {
         let own = self.instance_method(b, inst, method("normal"), &[], ctx);
         let own = b.normalize(&own);
-        let n = self.global(b, ctx, "N").unwrap_or_else(|| b.zeros(3));
+        let n = self.shading_global(b, ctx, "N");
         let zero = b.f(0.0);
         let len2 = b.dot(&own, &own);
         let degenerate = b.feq(len2, zero);
@@ -376,7 +376,7 @@ impl<'p> Lowerer<'p> {
 
     /// Whether `wi` and `wo` are on the same side of the geometric normal.
     fn same_side(&mut self, b: &mut Builder, wi: &[Value], wo: &[Value], ctx: &Ctx) -> Value {
-        let ng = self.global(b, ctx, "Ng").unwrap_or_else(|| b.zeros(3));
+        let ng = self.shading_global(b, ctx, "Ng");
         let (ci, co) = (b.dot(wi, &ng), b.dot(wo, &ng));
         let side = b.fmul(ci, co);
         let zero = b.f(0.0);

@@ -5,20 +5,35 @@
 use super::*;
 
 impl<'p> Lowerer<'p> {
+    /// The type the checker gave `e`: every expression of a program that
+    /// checked without errors has one, and none is `Ty::Error`.
     pub(super) fn ty_of(&self, e: &Expr) -> Ty {
-        self.program.expr_types.get(&e.span).cloned().unwrap_or(Ty::Error)
+        match self.program.expr_types.get(&e.span) {
+            Some(ty) => {
+                if *ty == Ty::Error {
+                    ruled_out!("an expression of type error at {:?}", e.span);
+                }
+                ty.clone()
+            }
+            None => {
+                ruled_out!("an expression the checker did not type at {:?}", e.span);
+                Ty::Error
+            }
+        }
     }
 
     pub(super) fn error(&mut self, span: Span, msg: impl Into<String>) {
         self.diags.push(Diagnostic::error(span, msg));
     }
 
-    /// The lanes of a plain value (anything else is a checker bug; it
-    /// lowers to nothing rather than panicking).
+    /// The lanes of a plain value.
     pub(super) fn lanes(&mut self, b: &mut Builder, v: Val<'p>, ty: &Ty) -> Vec<Value> {
         match v {
             Val::Lanes(l) => l,
-            _ => b.zeros(self.lanes_of(ty)),
+            other => {
+                ruled_out!("{other:?} where a `{ty}` is expected");
+                b.zeros(self.lanes_of(ty))
+            }
         }
     }
 
@@ -74,7 +89,10 @@ impl<'p> Lowerer<'p> {
 
     /// Copies an array into fresh IR arrays (arrays have value semantics).
     pub(super) fn materialize(&mut self, b: &mut Builder, a: ArrayVal, ty: &Ty) -> ArrayVal {
-        let Ty::Array(elem, len) = ty else { return a };
+        let Ty::Array(elem, len) = ty else {
+            ruled_out!("an array of type `{ty}`");
+            return a;
+        };
         let lanes = self.lanes_of(elem);
         let scalar = Self::scalar_of(elem);
         let arrays: Vec<ArrayId> = (0..lanes)
@@ -95,7 +113,10 @@ impl<'p> Lowerer<'p> {
 
     pub(super) fn array_elem_const(&mut self, b: &mut Builder, a: &ArrayVal, k: u32, lanes: usize) -> Vec<Value> {
         match a {
-            ArrayVal::Elems(es) => es.get(k as usize).cloned().unwrap_or_else(|| b.zeros(lanes)),
+            ArrayVal::Elems(es) => es.get(k as usize).cloned().unwrap_or_else(|| {
+                ruled_out!("element {k} of an array of {}", es.len());
+                b.zeros(lanes)
+            }),
             ArrayVal::Ir { arrays, .. } => {
                 let idx = b.i(k as i32);
                 arrays
@@ -275,10 +296,16 @@ impl<'p> Lowerer<'p> {
                 b.push(Inst::Loop { label, counter, start: lo, end: hi, body: inner });
                 false
             }
-            StmtKind::While { .. } => false,
+            StmtKind::While { .. } => {
+                ruled_out!("a `while` loop (parsed only to be refused)");
+                false
+            }
             StmtKind::Break | StmtKind::Continue => {
-                if let Some(l) = fr.loops.last() {
-                    b.push(if matches!(s.kind, StmtKind::Break) { Inst::Break(*l) } else { Inst::Continue(*l) });
+                match fr.loops.last() {
+                    Some(l) => {
+                        b.push(if matches!(s.kind, StmtKind::Break) { Inst::Break(*l) } else { Inst::Continue(*l) })
+                    }
+                    None => ruled_out!("`break` or `continue` outside a loop"),
                 }
                 true
             }
@@ -292,6 +319,11 @@ impl<'p> Lowerer<'p> {
                         }
                     }
                     b.push(Inst::Break(label));
+                } else {
+                    // A body whose one return is its last statement lowers
+                    // it itself (`body_with_return`); void bodies are not
+                    // lowered (a call's statements have no effects).
+                    ruled_out!("a `return` with nowhere to go");
                 }
                 true
             }
@@ -327,6 +359,13 @@ impl<'p> Lowerer<'p> {
         }
     }
 
+    /// Zero in every lane of a `ty` (false for a bool, 0 for an int): a
+    /// fallback that keeps the IR well typed.
+    pub(super) fn typed_zeros(&mut self, b: &mut Builder, ty: &Ty) -> Vec<Value> {
+        let n = self.lanes_of(ty);
+        self.zero_lanes(b, ty, n)
+    }
+
     pub(super) fn zero_lanes(&mut self, b: &mut Builder, ty: &Ty, n: usize) -> Vec<Value> {
         let z = match ty {
             Ty::Int => b.i(0),
@@ -339,7 +378,10 @@ impl<'p> Lowerer<'p> {
     pub(super) fn scalar(&mut self, b: &mut Builder, v: Val<'p>) -> Value {
         match v {
             Val::Lanes(l) if !l.is_empty() => l[0],
-            _ => b.f(0.0),
+            other => {
+                ruled_out!("{other:?} where a scalar is expected");
+                b.f(0.0)
+            }
         }
     }
 
@@ -366,6 +408,7 @@ impl<'p> Lowerer<'p> {
             Val::Lanes(l) => l,
             Val::Array(a) => {
                 // Whole-array assignment: copy element by element.
+                // (An assigned array is bound to IR arrays: see `bind`.)
                 if let ExprKind::Name(n) = &target.kind
                     && let Some(Binding::Val(Val::Array(ArrayVal::Ir { arrays, .. }))) = self.lookup(fr, n).cloned()
                 {
@@ -376,10 +419,15 @@ impl<'p> Lowerer<'p> {
                             b.push(Inst::Store { array: *arr, index: idx, value: v });
                         }
                     }
+                } else {
+                    ruled_out!("an array assigned to something other than an array variable");
                 }
                 return;
             }
-            _ => return,
+            other => {
+                ruled_out!("{other:?} assigned");
+                return;
+            }
         };
         self.store(b, fr, ctx, target, new_lanes);
     }
@@ -394,13 +442,15 @@ impl<'p> Lowerer<'p> {
         lanes: Vec<Value>,
     ) {
         match &target.kind {
-            ExprKind::Name(n) => {
-                if let Some(Binding::Vars(vars)) = self.lookup(fr, n).cloned() {
+            ExprKind::Name(n) => match self.lookup(fr, n).cloned() {
+                // Every name a body assigns is bound to variables (`bind`).
+                Some(Binding::Vars(vars)) => {
                     for (var, v) in vars.iter().zip(lanes) {
                         b.push(Inst::Set(*var, v));
                     }
                 }
-            }
+                _ => ruled_out!("an assignment to `{n}`, which has no variables"),
+            },
             ExprKind::Member { base, field } => {
                 let base_ty = self.ty_of(base);
                 let range = self.field_lanes(&base_ty, &field.name);
@@ -416,6 +466,8 @@ impl<'p> Lowerer<'p> {
                 {
                     l[range].copy_from_slice(&lanes);
                     self.store(b, fr, ctx, base, l);
+                } else {
+                    ruled_out!("an assignment to `.{}` of a `{base_ty}`", field.name);
                 }
             }
             ExprKind::Index { base, index } => {
@@ -442,13 +494,15 @@ impl<'p> Lowerer<'p> {
                             .collect();
                         self.store(b, fr, ctx, base, new);
                     }
-                    _ => {}
+                    other => ruled_out!("an element of {other:?} assigned"),
                 }
             }
-            _ => {}
+            _ => ruled_out!("an assignment to an expression that is not a place"),
         }
     }
 
+    /// `i` clamped into `0..n` in IR, for lanes and tree children chosen
+    /// at run time: what [`semantics::clamp_index`] gives an array index.
     pub(super) fn clamp_index(&mut self, b: &mut Builder, i: Value, n: i32) -> Value {
         let zero = b.i(0);
         let last = b.i(n - 1);

@@ -33,16 +33,16 @@ impl<'p> Lowerer<'p> {
                     me.lanes(b, v, &Ty::Vec2)
                 }
                 None => {
-                    let u = me.global(b, c, "u").unwrap_or_default();
-                    let v = me.global(b, c, "v").unwrap_or_default();
+                    let u = me.shading_global(b, c, "u");
+                    let v = me.shading_global(b, c, "v");
                     vec![u[0], v[0]]
                 }
             }
         };
         let st = eval_st(self, b, fr, ctx);
         let uv_footprint = |me: &mut Self, b: &mut Builder, axis: &str| -> Vec<Value> {
-            let du = me.global(b, ctx, &format!("dud{axis}")).unwrap_or_default();
-            let dv = me.global(b, ctx, &format!("dvd{axis}")).unwrap_or_default();
+            let du = me.shading_global(b, ctx, &format!("dud{axis}"));
+            let dv = me.shading_global(b, ctx, &format!("dvd{axis}"));
             vec![du[0], dv[0]]
         };
         let mut derivs = Vec::new();
@@ -92,7 +92,7 @@ impl<'p> Lowerer<'p> {
     /// The coordinate context of the next pixel in `axis` ("x" or "y"):
     /// P and Pl moved by dP/d`axis`, u and v by their derivatives.
     pub(super) fn pixel_neighbour(&mut self, b: &mut Builder, ctx: &Ctx, axis: &str) -> Ctx {
-        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.shading_global(b, ctx, name);
         let dp = g(self, b, &format!("dPd{axis}"));
         let mut changes = Vec::new();
         for name in ["P", "Pl"] {

@@ -33,25 +33,34 @@ impl<'p> Lowerer<'p> {
                 return b.map2(BinOp::FMul, &args[0], &d);
             }
         }
+        // Only the names matter to `bind_args`.
         let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
         let bound = bind_args(&params, call_args);
         let child = |k: usize| {
             bound.get(k).copied().flatten().map(|e| Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude })
         };
         let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+        // A required float argument.
         let mut scalar = |me: &mut Self, b: &mut Builder, k: usize, ctx: &Ctx| -> Value {
             match bound.get(k).copied().flatten() {
                 Some(e) => {
                     let v = me.expr_as(b, &mut fr, ctx, e, &Ty::Float);
                     me.scalar(b, v)
                 }
-                None => b.f(0.0),
+                None => {
+                    ruled_out!("`{}` without its argument {}", spec.name, spec.params.get(k).map_or("?", |p| p.name));
+                    b.f(0.0)
+                }
             }
         };
-        let tys = self.words(&im.ret);
+        // What a node without a required child gives (never, once checked).
+        let missing = |me: &mut Self, b: &mut Builder| -> Vec<Value> {
+            ruled_out!("`{}` without a material child", spec.name);
+            me.typed_zeros(b, &im.ret)
+        };
         match node {
             TreeNode::Mix => {
-                let (Some(a), Some(c)) = (child(1), child(2)) else { return b.zeros(tys.len()) };
+                let (Some(a), Some(c)) = (child(1), child(2)) else { return missing(self, b) };
                 if let Some(ExprKind::Str(only)) = bound.get(3).copied().flatten().map(|e| &e.kind) {
                     // A partial blend samples as its first child.
                     if im.name == "sample" {
@@ -99,24 +108,30 @@ impl<'p> Lowerer<'p> {
                         let v = self.expr(b, &mut fr, ctx, e);
                         self.scalar(b, v)
                     }
-                    None => b.i(0),
+                    None => {
+                        ruled_out!("`select` without its index");
+                        b.i(0)
+                    }
                 };
                 let items = self.material_items(bound.get(1).copied().flatten(), mat);
                 if items.is_empty() {
-                    return b.zeros(tys.len());
+                    // FIXME: a `material[N]` template parameter (`select(i,
+                    // ms)`) is accepted by the checker but not supported:
+                    // `material_items` sees no array literal.
+                    return self.typed_zeros(b, &im.ret);
                 }
                 let i = self.clamp_index(b, i, items.len() as i32);
                 self.select_child(b, i, &items, 0, im, args, ctx)
             }
             TreeNode::Bump => {
-                let Some(m) = child(2) else { return b.zeros(tys.len()) };
+                let Some(m) = child(2) else { return missing(self, b) };
                 let amount = scalar(self, b, 1, ctx);
-                let Some(height) = bound.first().copied().flatten() else { return b.zeros(tys.len()) };
+                let Some(height) = bound.first().copied().flatten() else { return missing(self, b) };
                 let bumped = self.bump_ctx(b, height, mat, amount, ctx);
                 self.mat_method(b, &m, im, args, &bumped)
             }
             TreeNode::Scale => {
-                let Some(m) = child(1) else { return b.zeros(tys.len()) };
+                let Some(m) = child(1) else { return missing(self, b) };
                 let inner = self.mat_method(b, &m, im, args, ctx);
                 if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse" | "sample") {
                     return inner;
@@ -127,7 +142,10 @@ impl<'p> Lowerer<'p> {
                         let v = self.expr(b, &mut fr, ctx, e);
                         self.lanes(b, v, &Ty::Color)
                     }
-                    None => return inner,
+                    None => {
+                        ruled_out!("`scale` without its color");
+                        return inner;
+                    }
                 };
                 if im.name == "sample" {
                     return self.scale_sample(b, &inner, &c);
@@ -135,14 +153,17 @@ impl<'p> Lowerer<'p> {
                 b.map2(BinOp::FMul, &inner, &c)
             }
             TreeNode::Transform => {
-                let Some(m) = child(1) else { return b.zeros(tys.len()) };
+                let Some(m) = child(1) else { return missing(self, b) };
                 let xf = match bound.first().copied().flatten() {
                     Some(e) => {
                         let mut fr = self.env_frame(&mat.env, mat.in_prelude);
                         let v = self.expr(b, &mut fr, ctx, e);
                         self.lanes(b, v, &Ty::Matrix)
                     }
-                    None => identity(b),
+                    None => {
+                        ruled_out!("`transform` without its matrix");
+                        identity(b)
+                    }
                 };
                 let moved = self.transform_ctx(b, &xf, ctx);
                 self.mat_method(b, &m, im, args, &moved)
@@ -275,15 +296,15 @@ impl<'p> Lowerer<'p> {
     pub(super) fn transform_ctx(&mut self, b: &mut Builder, m: &[Value], ctx: &Ctx) -> Ctx {
         let mut changes = Vec::new();
         for name in ["P", "Pl"] {
-            let p = self.global(b, ctx, name).unwrap_or_default();
+            let p = self.shading_global(b, ctx, name);
             changes.push((name, transform_point(b, m, &p, true)));
         }
         for name in ["dPdu", "dPdv"] {
-            let d = self.global(b, ctx, name).unwrap_or_default();
+            let d = self.shading_global(b, ctx, name);
             changes.push((name, transform_point(b, m, &d, false)));
         }
-        let u = self.global(b, ctx, "u").unwrap_or_default();
-        let v = self.global(b, ctx, "v").unwrap_or_default();
+        let u = self.shading_global(b, ctx, "u");
+        let v = self.shading_global(b, ctx, "v");
         let zero = b.f(0.0);
         let uv = transform_point(b, m, &[u[0], v[0], zero], true);
         changes.push(("u", vec![uv[0]]));
@@ -306,7 +327,7 @@ impl<'p> Lowerer<'p> {
             let v = me.expr_as(b, &mut fr, c, height, &Ty::Float);
             me.scalar(b, v)
         };
-        let g = |me: &mut Self, b: &mut Builder, name: &str| me.global(b, ctx, name).unwrap_or_default();
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.shading_global(b, ctx, name);
         let (p, pl, u, v) = (g(self, b, "P"), g(self, b, "Pl"), g(self, b, "u"), g(self, b, "v"));
         let (dpdu, dpdv, n) = (g(self, b, "dPdu"), g(self, b, "dPdv"), g(self, b, "N"));
         let delta = b.f(BUMP_DELTA);

@@ -1,0 +1,259 @@
+//! Prepared hits: a material's methods split into one per-hit stage and
+//! per-direction calls that read what it computed (see `ir::split`).
+//!
+//! A renderer calls several methods at each hit (`sample`, `eval_pdf` per
+//! light sample, the delta lobes, `emission`); without a split, each one
+//! evaluates the whole texture tree again. A [`HitMaterial`] runs the tree
+//! once, in [`HitMaterial::prepare`], and the [`PreparedHit`] it returns
+//! answers every method from that. The hit borrows its material, so it can
+//! be used with no other and cannot outlive the compiled code.
+
+use super::{Backend, BsdfSample, Color, Entry, Error, Function, Part, Program, SAMPLE_WORDS};
+use crate::check::Ty;
+use crate::globals::ShadingGlobals;
+use crate::ir::Module as IrModule;
+use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups};
+use crate::syntax::ast::{Expr, ExprKind};
+use std::sync::Arc;
+
+/// The methods [`Program::hit_materials`] compiles when a host asks for
+/// none in particular: what a path tracer calls at a hit.
+pub const PATH_METHODS: &[HitMethod] = &[
+    HitMethod::Interface("emission"),
+    HitMethod::Interface("sample"),
+    HitMethod::EvalPdf,
+    HitMethod::DeltaLobes,
+    HitMethod::Interface("reflection"),
+];
+
+/// A material compiled for prepared hits: its `prepare` stage and the
+/// methods of one hit group.
+#[derive(Clone)]
+pub struct HitMaterial {
+    program: Program,
+    prepare: Function,
+    methods: Vec<(HitMethod, Function)>,
+    record_words: usize,
+}
+
+impl std::fmt::Debug for HitMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HitMaterial")
+            .field("name", &self.prepare.ir().name)
+            .field("record_words", &self.record_words)
+            .finish()
+    }
+}
+
+impl Program {
+    /// Compiles named materials (as [`Program::material`] accepts) for
+    /// prepared hits with the given methods ([`PATH_METHODS`] is what a path
+    /// tracer needs).
+    ///
+    /// ```
+    /// use tsl::{Backend, Compiler, ShadingGlobals};
+    /// use tsl::PATH_METHODS;
+    /// let program = Compiler::new()
+    ///     .source("m.tsl", "material m = mix(noise(P) * 0.5 + 0.5, lambert, phong);")
+    ///     .compile()
+    ///     .unwrap();
+    /// let m = &program.hit_materials(&["m"], PATH_METHODS).unwrap()[0];
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+    /// let eta = program.rgb(1.0, 1.0, 1.0);
+    /// let mut hit = m.prepare(Backend::Jit, &g, [0.0, 0.0, 1.0], &eta);
+    /// let s = hit.sample(0.3, [0.4, 0.6]).unwrap();
+    /// let (f, pdf) = hit.eval_pdf(s.wi).unwrap();
+    /// assert!((pdf - s.pdf).abs() < 1e-4 && f.brightness() > 0.0);
+    /// ```
+    pub fn hit_materials(&self, names: &[&str], methods: &[HitMethod]) -> Result<Vec<HitMaterial>, Error> {
+        let exprs: Vec<Expr> = names
+            .iter()
+            .map(|n| {
+                self.material(n)?;
+                Ok(Expr { kind: ExprKind::Name(n.to_string()), span: Default::default(), depth: 1 })
+            })
+            .collect::<Result<_, Error>>()?;
+        let materials: Vec<(String, &Expr)> = names.iter().map(|n| n.to_string()).zip(&exprs).collect();
+        self.compile_hit_groups(&materials, methods)
+    }
+
+    /// Compiles material expressions of the root program for prepared hits.
+    pub(crate) fn compile_hit_groups(
+        &self,
+        materials: &[(String, &Expr)],
+        methods: &[HitMethod],
+    ) -> Result<Vec<HitMaterial>, Error> {
+        let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, materials, methods);
+        if !diags.is_empty() {
+            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
+        }
+        let mut ir = IrModule::default();
+        let mut entries = Vec::new();
+        for ((name, _), HitGroup { split, entries: methods, .. }) in materials.iter().zip(&groups) {
+            let record = ("hit".to_string(), Ty::Array(Box::new(Ty::Int), split.record_words() as u32));
+            ir.functions.push(split.prepare.clone());
+            entries.push(Entry {
+                name: split.prepare.name.clone(),
+                kind: EntryKind::Method("prepare"),
+                params: hit_inputs(),
+                ret: record.1.clone(),
+            });
+            for (HitEntry { method, params, ret }, f) in methods.iter().zip(&split.methods) {
+                ir.functions.push(f.clone());
+                let params = std::iter::once(record.clone()).chain(params.iter().cloned()).collect();
+                entries.push(Entry { name: f.name.clone(), kind: EntryKind::Hit(*method), params, ret: ret.clone() });
+            }
+            debug_assert!(split.methods.iter().all(|f| f.name.starts_with(name.as_str())));
+        }
+        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
+        let part = Arc::new(Part { ir, entries, jit });
+        let mut out = Vec::with_capacity(groups.len());
+        let mut index = 0;
+        let handle = |index: &mut usize| -> Result<Function, Error> {
+            let f = &part.ir.functions[*index];
+            let native = part
+                .jit
+                .function(&f.name)
+                .ok_or_else(|| Error::plain(format!("internal error: `{}` was not compiled", f.name)))?;
+            *index += 1;
+            Ok(Function::new(part.clone(), *index - 1, native))
+        };
+        for HitGroup { split, entries: methods, .. } in &groups {
+            let prepare = handle(&mut index)?;
+            let mut compiled = Vec::with_capacity(methods.len());
+            for e in methods {
+                compiled.push((e.method, handle(&mut index)?));
+            }
+            out.push(HitMaterial {
+                program: self.clone(),
+                prepare,
+                methods: compiled,
+                record_words: split.record_words(),
+            });
+        }
+        if let Ok(mut parts) = self.inner.parts.write() {
+            parts.push(part);
+        }
+        Ok(out)
+    }
+}
+
+impl HitMaterial {
+    /// The words of this material's hit record.
+    pub fn record_words(&self) -> usize {
+        self.record_words
+    }
+
+    /// The compiled `prepare` stage (arguments `wo`, `eta`; results the record).
+    pub fn prepare_function(&self) -> &Function {
+        &self.prepare
+    }
+
+    /// The compiled method, if the group has it (arguments `[record | own]`).
+    pub fn method_function(&self, method: HitMethod) -> Option<&Function> {
+        self.methods.iter().find(|(m, _)| *m == method).map(|(_, f)| f)
+    }
+
+    /// Runs the per-hit stage for the view direction `wo` and the relative
+    /// index `eta` at `g`.
+    pub fn prepare(&self, backend: Backend, g: &ShadingGlobals, wo: [f32; 3], eta: &Color) -> PreparedHit<'_> {
+        let mut words = vec![0u32; self.record_words];
+        let inputs: Vec<u32> = wo.iter().chain(eta.lanes()).map(|x| x.to_bits()).collect();
+        // The argument and result lengths are this function's own.
+        let _ = self.prepare.call_words(backend, g, &inputs, &mut words);
+        PreparedHit { material: self, backend, globals: *g, words }
+    }
+
+    /// [`HitMaterial::prepare`] into a reused buffer, for renderers:
+    /// `words` becomes the record, to be passed to [`HitMaterial::call_words`].
+    pub fn prepare_words(&self, backend: Backend, g: &ShadingGlobals, inputs: &[u32], words: &mut Vec<u32>) {
+        words.clear();
+        words.resize(self.record_words, 0);
+        let _ = self.prepare.call_words(backend, g, inputs, words);
+    }
+
+    /// Calls `method` with the record `words` (from [`HitMaterial::prepare_words`])
+    /// and its own argument words; `words` keeps the record in front.
+    pub fn call_words(
+        &self,
+        backend: Backend,
+        method: HitMethod,
+        g: &ShadingGlobals,
+        words: &mut Vec<u32>,
+        own: &[u32],
+        out: &mut [u32],
+    ) -> Result<(), String> {
+        let f = self
+            .method_function(method)
+            .ok_or_else(|| format!("`{}` was compiled without {method:?}", self.prepare.ir().name))?;
+        if words.len() < self.record_words {
+            return Err("the record is shorter than the material's: prepare it first".into());
+        }
+        words.truncate(self.record_words);
+        words.extend_from_slice(own);
+        f.call_words(backend, g, words, out)
+    }
+}
+
+/// One hit, prepared: every method of the material's group, answered from
+/// the record `prepare` wrote.
+pub struct PreparedHit<'m> {
+    material: &'m HitMaterial,
+    backend: Backend,
+    globals: ShadingGlobals,
+    words: Vec<u32>,
+}
+
+impl PreparedHit<'_> {
+    /// Calls `method` with its own argument words.
+    pub fn call_words(&mut self, method: HitMethod, own: &[u32], out: &mut [u32]) -> Result<(), String> {
+        self.material.call_words(self.backend, method, &self.globals, &mut self.words, own, out)
+    }
+
+    fn color(&mut self, method: HitMethod, own: &[u32]) -> Result<Color, String> {
+        let model = self.material.program.color_model();
+        let mut out = vec![0u32; model.lanes()];
+        self.call_words(method, own, &mut out)?;
+        let lanes: Vec<f32> = out.iter().map(|w| f32::from_bits(*w)).collect();
+        Ok(Color::from_lanes(model, &lanes))
+    }
+
+    /// `reflection(wi, light, wo)` at this hit.
+    pub fn reflection(&mut self, wi: [f32; 3], light: &Color) -> Result<Color, String> {
+        let own: Vec<u32> = wi.iter().chain(light.lanes()).map(|x| x.to_bits()).collect();
+        self.color(HitMethod::Interface("reflection"), &own)
+    }
+
+    /// `emission(wo)` at this hit.
+    pub fn emission(&mut self) -> Result<Color, String> {
+        self.color(HitMethod::Interface("emission"), &[])
+    }
+
+    /// `sample(wo, eta, u1, u2)` at this hit.
+    pub fn sample(&mut self, u1: f32, u2: [f32; 2]) -> Result<BsdfSample, String> {
+        let mut out = [0u32; SAMPLE_WORDS];
+        let own = [u1, u2[0], u2[1]].map(f32::to_bits);
+        self.call_words(HitMethod::Interface("sample"), &own, &mut out)?;
+        let model = self.material.program.color_model();
+        let lanes = model.lanes();
+        let word = |k: usize| f32::from_bits(out[k]);
+        let weight: Vec<f32> = (0..lanes).map(|k| word(3 + k)).collect();
+        Ok(BsdfSample {
+            wi: [word(0), word(1), word(2)],
+            weight: Color::from_lanes(model, &weight),
+            pdf: word(3 + lanes),
+            delta: word(4 + lanes) > 0.0,
+        })
+    }
+
+    /// `f · cos` for unit light from `wi` and the pdf of sampling `wi`, in
+    /// one call (Mitsuba's `eval_pdf`).
+    pub fn eval_pdf(&mut self, wi: [f32; 3]) -> Result<(Color, f32), String> {
+        let model = self.material.program.color_model();
+        let lanes = model.lanes();
+        let mut out = vec![0u32; lanes + 1];
+        self.call_words(HitMethod::EvalPdf, &wi.map(f32::to_bits), &mut out)?;
+        let f: Vec<f32> = out[..lanes].iter().map(|w| f32::from_bits(*w)).collect();
+        Ok((Color::from_lanes(model, &f), f32::from_bits(out[lanes])))
+    }
+}
