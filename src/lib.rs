@@ -23,6 +23,7 @@ pub mod check;
 pub mod color;
 pub mod diag;
 pub mod globals;
+pub mod image_io;
 pub mod interp;
 pub mod ir;
 pub mod jit;

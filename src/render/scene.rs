@@ -10,13 +10,13 @@
 use super::camera::Camera;
 use super::environment::{Environment, EnvironmentMap, EnvironmentSource};
 use super::geometry::{Geometry, ObjectGeometry};
-use super::image_io;
 use super::light::{Light, LightKind, LightSampler};
 use super::mesh::Mesh;
 use super::shape::{Shape, ShapeKind};
 use super::{Mat4, Vec3};
 use crate::check::{SymbolKind, Ty};
 use crate::diag::{Diagnostic, Span};
+use crate::image_io;
 use crate::syntax::ast::{Expr, ExprKind, Item, SceneBlock, SceneEntry, SceneProp};
 use crate::{Color, ColorModel, Error, Material, Program};
 use std::path::{Path, PathBuf};
