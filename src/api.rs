@@ -17,7 +17,7 @@
 //! # Ok::<(), tsl::Error>(())
 //! ```
 
-use crate::check::{self, SymbolKind};
+use crate::check::{self, MaterialRef, SymbolKind};
 use crate::color::{self, ColorModel, MAX_SAMPLES};
 use crate::diag::{Colors, Diagnostic, SourceMap, render_text};
 use crate::globals::ShadingGlobals;
@@ -25,6 +25,8 @@ use crate::ir::lower::{Entry, lower_entries};
 use crate::ir::{Function as IrFunction, Module as IrModule};
 use crate::jit::{EntryFn, Jit, JitOptions};
 use crate::load::LoadOptions;
+use crate::scene::SceneDesc;
+use crate::syntax::ast::{Expr, Item};
 use std::collections::HashSet;
 use std::fmt;
 use std::path::PathBuf;
@@ -151,6 +153,18 @@ impl Compiler {
         if !checked.is_ok() {
             return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
         }
+        // Checking described the scene in RGB; another model evaluates its
+        // colors again (the files it read are reused).
+        let scene = match self.model {
+            ColorModel::Rgb => checked.scene,
+            model => {
+                let (scene, diags) = crate::scene::describe(&checked.program, model, checked.scene.as_ref());
+                if diags.iter().any(Diagnostic::is_error) {
+                    return Err(Error { diagnostics: diags, sources: checked.program.loaded.sources });
+                }
+                scene
+            }
+        };
         let program = checked.program;
         let eager = self.eager_prelude;
         let jit_options = JitOptions { keep_clif: self.keep_clif };
@@ -161,6 +175,7 @@ impl Compiler {
             inner: Arc::new(Inner {
                 model: self.model,
                 program,
+                scene,
                 jit_options,
                 parts: RwLock::new(vec![Arc::new(first)]),
                 tried: Mutex::new(HashSet::new()),
@@ -195,6 +210,8 @@ struct Inner {
     model: ColorModel,
     /// The checked program, kept to compile prelude entries on first use.
     program: check::Program,
+    /// The program's scene, described in the program's color model.
+    scene: Option<SceneDesc>,
     jit_options: JitOptions,
     /// The program's own entries first, then prelude entries as requested.
     parts: RwLock<Vec<Arc<Part>>>,
@@ -262,28 +279,30 @@ impl Program {
         Error { diagnostics: vec![diagnostic], sources: self.inner.program.loaded.sources.clone() }
     }
 
-    /// Evaluates an expression of the root program that reads no shading
-    /// global (a scene property) to its words, converted to `to`.
-    pub(crate) fn eval_value(&self, expr: &crate::syntax::ast::Expr, to: &check::Ty) -> Result<Vec<u32>, Error> {
-        let (f, diags) = crate::ir::lower::lower_value(&self.inner.program, self.inner.model, "value", expr, to);
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
-        }
-        let globals = ShadingGlobals::default().words();
-        let mut out = vec![0u32; f.results.len()];
-        crate::interp::run(&f, &globals, &[], &mut out);
-        Ok(out)
+    /// The program's `scene { }` block as checked plain data, its colors in
+    /// the program's color model; `None` without a scene.
+    pub fn scene(&self) -> Option<&SceneDesc> {
+        self.inner.scene.as_ref()
     }
 
-    /// Compiles material expressions of the root program (scene objects'
-    /// `material` values) together, one [`Material`] per expression. `name`s
-    /// must be unique and not TSL identifiers (for example `@object3`).
-    pub(crate) fn compile_material_exprs(
-        &self,
-        materials: &[(String, &crate::syntax::ast::Expr)],
-    ) -> Result<Vec<Material>, Error> {
+    /// The expressions `materials` name, with their entry names.
+    fn material_exprs<'p>(&'p self, materials: &[(String, MaterialRef)]) -> Result<Vec<(String, &'p Expr)>, Error> {
+        materials
+            .iter()
+            .map(|(name, r)| match self.inner.program.material_expr(*r) {
+                Some(e) => Ok((name.clone(), e)),
+                None => Err(Error::plain(format!("internal error: `{name}` names no material of the program"))),
+            })
+            .collect()
+    }
+
+    /// Compiles materials of the program (scene objects' `material`
+    /// values) together, one [`Material`] per reference. `name`s must be
+    /// unique and not TSL identifiers (for example `@object3`).
+    pub(crate) fn compile_material_exprs(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Material>, Error> {
+        let exprs = self.material_exprs(materials)?;
         let (ir, entries, diags) =
-            crate::ir::lower::lower_material_exprs(&self.inner.program, self.inner.model, materials);
+            crate::ir::lower::lower_material_exprs(&self.inner.program, self.inner.model, &exprs);
         if !diags.is_empty() {
             return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
         }
@@ -315,13 +334,14 @@ impl Program {
     /// (parameters `wi_1, light_1, ..., wi_K, light_K, wo`).
     pub(crate) fn compile_reflection_sums(
         &self,
-        materials: &[(String, &crate::syntax::ast::Expr)],
+        materials: &[(String, MaterialRef)],
         lights: usize,
     ) -> Result<Vec<Function>, Error> {
+        let exprs = self.material_exprs(materials)?;
         self.compile_lowered(crate::ir::lower::lower_reflection_sums(
             &self.inner.program,
             self.inner.model,
-            materials,
+            &exprs,
             lights,
         ))
     }
@@ -329,11 +349,9 @@ impl Program {
     /// Compiles, for each material expression of the root program, the
     /// entry `NAME.delta_lobes`: both perfect directions and their weights
     /// in one call (see `ir::lower::lower_delta_lobes`).
-    pub(crate) fn compile_delta_lobes(
-        &self,
-        materials: &[(String, &crate::syntax::ast::Expr)],
-    ) -> Result<Vec<Function>, Error> {
-        self.compile_lowered(crate::ir::lower::lower_delta_lobes(&self.inner.program, self.inner.model, materials))
+    pub(crate) fn compile_delta_lobes(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
+        let exprs = self.material_exprs(materials)?;
+        self.compile_lowered(crate::ir::lower::lower_delta_lobes(&self.inner.program, self.inner.model, &exprs))
     }
 
     /// Compiles lowered entries into a part of the program, one
@@ -370,11 +388,9 @@ impl Program {
     /// Compiles, for each material expression of the root program, the
     /// entry `NAME.eval_pdf`: `f · cos` and `pdf` of a light direction in
     /// one call (see `ir::lower::lower_eval_pdf`).
-    pub(crate) fn compile_eval_pdf(
-        &self,
-        materials: &[(String, &crate::syntax::ast::Expr)],
-    ) -> Result<Vec<Function>, Error> {
-        self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, materials))
+    pub(crate) fn compile_eval_pdf(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
+        let exprs = self.material_exprs(materials)?;
+        self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, &exprs))
     }
 
     /// [`Program::compile_eval_pdf`] for named materials of the program,
@@ -390,8 +406,8 @@ impl Program {
     }
 
     /// The bodies of material trees without parameters, by name.
-    fn material_tree_bodies(&self, names: &[&str]) -> Result<Vec<(String, &crate::syntax::ast::Expr)>, Error> {
-        let mut exprs = Vec::new();
+    fn material_tree_bodies(&self, names: &[&str]) -> Result<Vec<(String, MaterialRef)>, Error> {
+        let mut refs = Vec::new();
         for name in names {
             let sym = self
                 .inner
@@ -401,13 +417,13 @@ impl Program {
                 .ok_or_else(|| Error::plain(format!("no material named `{name}`")))?;
             let item = &self.inner.program.loaded.modules[sym.module].ast.items[sym.item];
             match item {
-                crate::syntax::ast::Item::MaterialTree(t) if t.params.is_none() => {
-                    exprs.push((name.to_string(), &t.body))
+                Item::MaterialTree(t) if t.params.is_none() => {
+                    refs.push((name.to_string(), MaterialRef::TreeBody { module: sym.module, item: sym.item }))
                 }
                 _ => return Err(Error::plain(format!("`{name}` is not a material tree without parameters"))),
             }
         }
-        Ok(exprs)
+        Ok(refs)
     }
 
     /// A material defined in the program (a material tree, or a material

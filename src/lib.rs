@@ -4,7 +4,8 @@
 //! The front end turns source text into a checked [`check::Program`]:
 //! [`load`] reads the root file, its imports and the prelude (the standard
 //! library), [`syntax`] parses each into a spanned AST, and [`check`] resolves
-//! names and types against the generic color and material interface. Every
+//! names and types against the generic color and material interface, and
+//! [`scene`] describes the `scene { }` block as checked plain data. Every
 //! stage returns diagnostics as data ([`diag::Diagnostic`]); nothing here
 //! prints or panics on bad input.
 //!
@@ -23,12 +24,14 @@ pub mod check;
 pub mod color;
 pub mod diag;
 pub mod globals;
+pub mod image_io;
 pub mod interp;
 pub mod ir;
 pub mod jit;
 pub mod load;
 pub mod render;
 pub mod runtime;
+pub mod scene;
 pub mod syntax;
 #[cfg(test)]
 mod test_support;
@@ -45,11 +48,15 @@ pub use load::LoadOptions;
 use diag::{Colors, Diagnostic, Severity};
 use std::path::Path;
 
-/// The result of checking a program: the checked program and every
-/// diagnostic, sorted by file and position.
+/// The result of checking a program: the checked program, its scene
+/// described (colors in RGB), and every diagnostic, sorted by file and
+/// position.
 #[derive(Debug, Clone)]
 pub struct Checked {
     pub program: check::Program,
+    /// The program's `scene { }` block as plain data; `None` without a
+    /// scene, or when it (or the rest of the program) has errors.
+    pub scene: Option<scene::SceneDesc>,
     pub diagnostics: Vec<Diagnostic>,
 }
 
@@ -84,15 +91,24 @@ pub fn check_file(path: &Path, options: &LoadOptions) -> Checked {
 fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>, options: &LoadOptions) -> Checked {
     // Type checking a file that did not parse would only add noise.
     let parsed = !diagnostics.iter().any(Diagnostic::is_error);
-    let program = if parsed {
+    let (program, scene) = if parsed {
         let (mut program, more) = check::check(loaded);
         diagnostics.extend(more);
         diagnostics.extend(load::load_images(&mut program, options));
-        program
+        // The scene's values are evaluated, which needs a well-typed
+        // program; its files are read once here.
+        let scene = if diagnostics.iter().any(Diagnostic::is_error) {
+            None
+        } else {
+            let (scene, more) = scene::describe(&program, ColorModel::Rgb, None);
+            diagnostics.extend(more);
+            scene
+        };
+        (program, scene)
     } else {
-        check::Program { loaded, ..Default::default() }
+        (check::Program { loaded, ..Default::default() }, None)
     };
     diagnostics.sort_by_key(|d| (d.span.file, d.span.start, d.span.end));
     diagnostics.dedup();
-    Checked { program, diagnostics }
+    Checked { program, scene, diagnostics }
 }

@@ -1,7 +1,8 @@
 //! Loading a program: the root source, everything it imports, and the
 //! prelude (the standard library in `stdlib/`, embedded in the binary).
 //!
-//! All file-system access of the front end happens here. Every failure (a
+//! All file-system access of the front end happens here (the scene's
+//! meshes and environment images are read by `crate::scene`). Every failure (a
 //! missing or unreadable file, a directory, invalid UTF-8, an empty file, an
 //! import cycle) becomes a located diagnostic; loading itself never fails.
 

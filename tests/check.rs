@@ -33,6 +33,18 @@ fn assert_clean(dir: &str) {
     let mut failures = String::new();
     for f in &files {
         let checked = tsl::check_file(f, &LoadOptions::default());
+        // The heavy example's mesh is generated (`tslc make-mesh heavy`),
+        // not stored; checking reads it, so without it the one error is
+        // that it is missing.
+        let generated = Path::new("examples/gen/heavy.obj");
+        if f == Path::new("examples/heavy.tsl") && !generated.exists() {
+            let text = checked.render_diagnostics();
+            assert!(
+                checked.diagnostics.len() == 1 && text.contains("cannot open the mesh examples/gen/heavy.obj"),
+                "{text}"
+            );
+            continue;
+        }
         if !checked.diagnostics.is_empty() {
             failures.push_str(&checked.render_diagnostics());
         }

@@ -78,6 +78,40 @@ pub struct TextureCall {
     pub wrap: [Wrap; 2],
 }
 
+/// A material written in the checked program, named by where it is: a
+/// handle that later stages (the scene description, the embedding API)
+/// pass around instead of syntax; [`Program::material_expr`] finds the
+/// expression.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MaterialRef {
+    /// The body of material tree `item` of `module`.
+    TreeBody { module: usize, item: usize },
+    /// The value of property `prop` of block `entry` of the scene that is
+    /// item `item` of `module` (a scene object's `material`).
+    SceneValue { module: usize, item: usize, entry: usize, prop: usize },
+}
+
+impl Program {
+    /// The expression `r` names, if it names one of this program.
+    pub fn material_expr(&self, r: MaterialRef) -> Option<&Expr> {
+        match r {
+            MaterialRef::TreeBody { module, item } => match self.loaded.modules.get(module)?.ast.items.get(item)? {
+                Item::MaterialTree(t) => Some(&t.body),
+                _ => None,
+            },
+            MaterialRef::SceneValue { module, item, entry, prop } => {
+                match self.loaded.modules.get(module)?.ast.items.get(item)? {
+                    Item::Scene(scene) => match scene.entries.get(entry)? {
+                        SceneEntry::Block(b) => b.props.get(prop)?.value.as_ref(),
+                        SceneEntry::Prop(_) => None,
+                    },
+                    _ => None,
+                }
+            }
+        }
+    }
+}
+
 /// A global name and the item that defines it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Symbol {

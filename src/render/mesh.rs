@@ -1,14 +1,17 @@
-//! Triangle meshes: loaded from Wavefront OBJ (tobj), validated, moved to
-//! world space once, and intersected triangle by triangle.
+//! Triangle meshes: the scene's checked [`MeshData`] (read from OBJ files
+//! by `crate::scene`) moved to world space once, and intersected triangle
+//! by triangle.
 //!
 //! Invariant: a `Mesh` holds only finite numbers and in-range indices
-//! (checked at load), so intersection never meets NaN input. Triangles are
+//! (its `MeshData` was checked when it was made, and the transform is
+//! checked here), so intersection never meets NaN input. Triangles are
 //! counter-clockwise seen from their front: `ng = normalize((v1 - v0) x
 //! (v2 - v0))`.
 
 use super::sampling::Frame;
 use super::shape::SurfaceHit;
 use super::{Mat4, Ray, Vec3};
+use crate::scene::{MeshData, mesh_transform_error};
 use std::path::Path;
 
 #[derive(Debug, Clone)]
@@ -24,45 +27,10 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Loads an OBJ file (all its objects and groups together; polygons
-    /// triangulated; materials in `.mtl` files are ignored: TSL materials
-    /// come from the scene).
+    /// Loads an OBJ file (see [`MeshData::load_obj`]) and places it with
+    /// `to_world`.
     pub fn load_obj(path: &Path, to_world: Mat4) -> Result<Mesh, String> {
-        let file = std::fs::File::open(path).map_err(|e| format!("cannot open the mesh {}: {e}", path.display()))?;
-        let mut reader = std::io::BufReader::new(file);
-        let options = tobj::LoadOptions { single_index: true, triangulate: true, ..tobj::LoadOptions::default() };
-        let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
-            .map_err(|e| format!("cannot read the mesh {}: {e}", path.display()))?;
-        let mut positions = Vec::new();
-        let mut normals = Vec::new();
-        let mut uvs = Vec::new();
-        let mut triangles = Vec::new();
-        let all_normals = models.iter().all(|m| !m.mesh.normals.is_empty());
-        let all_uvs = models.iter().all(|m| !m.mesh.texcoords.is_empty());
-        for model in &models {
-            let m = &model.mesh;
-            let base = positions.len() as u32;
-            let count = m.positions.len() / 3;
-            positions.extend(m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])));
-            if all_normals {
-                normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
-            }
-            if all_uvs {
-                uvs.extend(m.texcoords.chunks_exact(2).map(|t| [t[0], t[1]]));
-            }
-            for f in m.indices.chunks_exact(3) {
-                if f.iter().any(|i| *i as usize >= count) {
-                    return Err(format!(
-                        "the mesh {} has a face with vertex index {} but only {count} vertices",
-                        path.display(),
-                        f.iter().max().copied().unwrap_or(0) + 1
-                    ));
-                }
-                triangles.push([base + f[0], base + f[1], base + f[2]]);
-            }
-        }
-        Mesh::from_parts(positions, all_normals.then_some(normals), all_uvs.then_some(uvs), triangles, to_world)
-            .map_err(|e| format!("the mesh {}: {e}", path.display()))
+        Mesh::from_data(&MeshData::load_obj(path)?, to_world).map_err(|e| format!("the mesh {}: {e}", path.display()))
     }
 
     /// A mesh from arrays in object space; checks every number and index.
@@ -73,42 +41,26 @@ impl Mesh {
         triangles: Vec<[u32; 3]>,
         to_world: Mat4,
     ) -> Result<Mesh, String> {
-        if triangles.is_empty() {
-            return Err("it has no triangles".into());
+        Mesh::from_data(&MeshData::new(positions, normals, uvs, triangles)?, to_world)
+    }
+
+    /// A checked mesh moved to world space by `to_world`, which must be
+    /// finite and invertible.
+    pub fn from_data(data: &MeshData, to_world: Mat4) -> Result<Mesh, String> {
+        if let Some(e) = mesh_transform_error(&to_world) {
+            return Err(e.into());
         }
-        if let Some(k) = positions.iter().position(|p| !p.is_finite()) {
-            return Err(format!(
-                "vertex {} has a position that is not a number (NaN or infinite): {}",
-                k + 1,
-                positions[k]
-            ));
-        }
-        if let Some(n) = &normals {
-            if n.len() != positions.len() {
-                return Err(format!("it has {} normals for {} vertices", n.len(), positions.len()));
-            }
-            if let Some(k) = n.iter().position(|v| !v.is_finite()) {
-                return Err(format!("vertex {} has a normal that is not a number (NaN or infinite)", k + 1));
-            }
-        }
-        if let Some(t) = &uvs {
-            if t.len() != positions.len() {
-                return Err(format!("it has {} texture coordinates for {} vertices", t.len(), positions.len()));
-            }
-            if let Some(k) = t.iter().position(|v| !v[0].is_finite() || !v[1].is_finite()) {
-                return Err(format!("vertex {} has texture coordinates that are not numbers (NaN or infinite)", k + 1));
-            }
-        }
-        if let Some(t) = triangles.iter().find(|t| t.iter().any(|i| *i as usize >= positions.len())) {
-            return Err(format!("a triangle {t:?} refers to a vertex beyond the {} there are", positions.len()));
-        }
-        if !to_world.is_finite() || to_world.determinant().abs() < 1e-12 {
-            return Err("the object's transform is singular or not finite".into());
-        }
-        let positions: Vec<Vec3> = positions.into_iter().map(|p| to_world.transform_point3a(p)).collect();
+        let positions: Vec<Vec3> = data.positions.iter().map(|p| to_world.transform_point3a(*p)).collect();
         let normal_matrix = glam::Mat3A::from_mat4(to_world).inverse().transpose();
-        let normals = normals.map(|n| n.into_iter().map(|v| (normal_matrix * v).normalize_or_zero()).collect());
-        Ok(Mesh { positions, normals, uvs, triangles, to_object: to_world.inverse() })
+        let normals =
+            data.normals.as_ref().map(|n| n.iter().map(|v| (normal_matrix * *v).normalize_or_zero()).collect());
+        Ok(Mesh {
+            positions,
+            normals,
+            uvs: data.uvs.clone(),
+            triangles: data.triangles.clone(),
+            to_object: to_world.inverse(),
+        })
     }
 
     fn vertices(&self, tri: u32) -> [Vec3; 3] {
@@ -297,20 +249,11 @@ mod tests {
     }
 
     #[test]
-    fn bad_obj_files_are_clear_errors() {
+    fn bad_obj_files_and_transforms_are_clear_errors() {
         let missing = Mesh::load_obj(Path::new("/no/such/dir/mesh.obj"), Mat4::IDENTITY).unwrap_err();
         assert!(missing.contains("cannot open") && missing.contains("mesh.obj"), "{missing}");
-        let nan = temp_obj("nan", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
-        let e = Mesh::load_obj(&nan, Mat4::IDENTITY).unwrap_err();
-        let _ = std::fs::remove_file(&nan);
-        assert!(e.contains("vertex 2") && e.contains("NaN"), "{e}");
-        let range = temp_obj("range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
-        let e = Mesh::load_obj(&range, Mat4::IDENTITY).unwrap_err();
-        let _ = std::fs::remove_file(&range);
-        assert!(e.contains("mesh"), "{e}");
-        let empty = temp_obj("empty", "# nothing\nv 0 0 0\n");
-        let e = Mesh::load_obj(&empty, Mat4::IDENTITY).unwrap_err();
-        let _ = std::fs::remove_file(&empty);
-        assert!(e.contains("no triangles"), "{e}");
+        let e =
+            Mesh::from_parts(vec![Vec3::ZERO, Vec3::X, Vec3::Y], None, None, vec![[0, 1, 2]], Mat4::ZERO).unwrap_err();
+        assert!(e.contains("singular"), "{e}");
     }
 }

@@ -8,7 +8,7 @@
 //! let program = tsl::Compiler::new().file("examples/cornell.tsl").compile()?;
 //! let scene = Scene::build(&program, &Overrides { spp: Some(4), ..Default::default() })?;
 //! let (image, stats) = render::render(&scene, &RenderOptions::default())?;
-//! render::image_io::write_image("cornell.exr".as_ref(), &image)?;
+//! tsl::image_io::write_image("cornell.exr".as_ref(), &image)?;
 //! println!("{} samples in {:.2} s", stats.samples, stats.seconds);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -23,7 +23,6 @@ pub mod chi2;
 pub mod environment;
 pub mod geometry;
 pub mod heightfield;
-pub mod image_io;
 pub mod integrator;
 pub mod light;
 pub mod mesh;
@@ -37,7 +36,11 @@ pub use glam::Mat4;
 /// instruction per operation, and a vector is always loaded and stored
 /// whole, so a load never straddles two smaller stores (which stalls).
 pub type Vec3 = glam::Vec3A;
-pub use image_io::RenderedImage;
+/// Image output lives in the crate's leaf module [`crate::image_io`]
+/// (textures read pictures there too); it is re-exported here, where
+/// renderers look for it.
+pub use crate::image_io;
+pub use crate::image_io::{NO_OBJECT, RenderedImage};
 pub use integrator::Counters;
 pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 
@@ -259,9 +262,6 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     }
     TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped }
 }
-
-/// The object layer's value where the pixel centre's ray leaves the scene.
-pub const NO_OBJECT: i32 = -1;
 
 /// The index (in [`Scene::objects`], scene order) of the first surface the
 /// ray through the centre of pixel `(px, py)` and the centre of the lens

@@ -44,16 +44,8 @@ pub struct SurfaceHit {
     pub face: i32,
 }
 
-/// A shape as written in the scene, in its own frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ShapeKind {
-    Sphere { center: Vec3, radius: f32 },
-    Plane { point: Vec3, normal: Vec3, tile: f32 },
-    Quad { corner: Vec3, edge1: Vec3, edge2: Vec3 },
-    Disk { center: Vec3, normal: Vec3, radius: f32 },
-    Box { min: Vec3, max: Vec3 },
-    Cylinder { base: Vec3, axis: Vec3, radius: f32, height: f32 },
-}
+/// Shapes as written in the scene are plain data of the scene description.
+pub use crate::scene::ShapeKind;
 
 /// A shape placed in the world.
 #[derive(Debug, Clone)]
@@ -84,70 +76,16 @@ impl Shape {
     /// Checks the shape's numbers and places it with `to_world` (an affine
     /// map).
     pub fn new(kind: ShapeKind, to_world: Mat4) -> Result<Shape, String> {
-        if !to_world.is_finite() {
-            return Err("the object's transform is not finite".into());
+        if let Some(e) = crate::scene::shape_transform_error(&to_world) {
+            return Err(e.into());
         }
-        let det = to_world.determinant();
-        if det.abs() < 1e-12 || !det.is_finite() {
-            return Err("the object's transform is singular (a scale of 0?)".into());
-        }
-        let finite = |v: Vec3, what: &str| {
-            if v.is_finite() { Ok(()) } else { Err(format!("the {what} is not finite: {v}")) }
-        };
-        let positive = |x: f32, what: &str| {
-            if x > 0.0 && x.is_finite() { Ok(()) } else { Err(format!("the {what} must be positive, found {x}")) }
-        };
-        let unit = |v: Vec3, what: &str| {
-            finite(v, what)?;
-            let u = v.normalize_or_zero();
-            if u == Vec3::ZERO { Err(format!("the {what} must not be the zero vector")) } else { Ok(u) }
-        };
-        let (kind, frame) = match kind {
-            ShapeKind::Sphere { center, radius } => {
-                finite(center, "centre")?;
-                positive(radius, "radius")?;
-                (kind, Frame::new(Vec3::Y))
-            }
-            ShapeKind::Plane { point, normal, tile } => {
-                finite(point, "point")?;
-                positive(tile, "tile size")?;
-                let n = unit(normal, "normal")?;
-                (ShapeKind::Plane { point, normal: n, tile }, plane_frame(n))
-            }
-            ShapeKind::Quad { corner, edge1, edge2 } => {
-                finite(corner, "corner")?;
-                finite(edge1, "edge1")?;
-                finite(edge2, "edge2")?;
-                let n = edge1.cross(edge2);
-                if n.length() <= 1e-12 * edge1.length().max(1.0) * edge2.length().max(1.0) {
-                    return Err("a quad's edges must not be zero or parallel".into());
-                }
-                (kind, plane_frame(n.normalize()))
-            }
-            ShapeKind::Disk { center, normal, radius } => {
-                finite(center, "centre")?;
-                positive(radius, "radius")?;
-                let n = unit(normal, "normal")?;
-                (ShapeKind::Disk { center, normal: n, radius }, plane_frame(n))
-            }
-            ShapeKind::Box { min, max } => {
-                finite(min, "minimum")?;
-                finite(max, "maximum")?;
-                if min.cmpgt(max).any() {
-                    return Err(format!("a box's `min` {min} must not exceed its `max` {max} on any axis"));
-                }
-                if (max - min).min_element() <= 0.0 {
-                    return Err(format!("a box must have volume: `min` {min} and `max` {max} share a coordinate"));
-                }
-                (kind, Frame::new(Vec3::Y))
-            }
-            ShapeKind::Cylinder { base, axis, radius, height } => {
-                finite(base, "base")?;
-                positive(radius, "radius")?;
-                positive(height, "height")?;
-                let a = unit(axis, "axis")?;
-                (ShapeKind::Cylinder { base, axis: a, radius, height }, plane_frame(a))
-            }
+        // The scene description checks shapes with the same rules.
+        let kind = kind.validated().map_err(|e| e.message)?;
+        let frame = match kind {
+            ShapeKind::Sphere { .. } | ShapeKind::Box { .. } => Frame::new(Vec3::Y),
+            ShapeKind::Plane { normal, .. } | ShapeKind::Disk { normal, .. } => plane_frame(normal),
+            ShapeKind::Quad { edge1, edge2, .. } => plane_frame(edge1.cross(edge2).normalize()),
+            ShapeKind::Cylinder { axis, .. } => plane_frame(axis),
         };
         let to_object = to_world.inverse();
         let linear = Mat3::from_mat4(to_world);

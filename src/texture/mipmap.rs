@@ -1,17 +1,8 @@
-//! Images as RGBA float texels and their mip-map pyramids.
+//! Images as RGBA float texels and their mip-map pyramids. Decoding files
+//! is `crate::image_io`'s.
 
+use crate::image_io::{self, Encoding};
 use std::path::Path;
-
-/// How the stored values of an image become the values shaders see.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Encoding {
-    /// Decode the sRGB transfer curve: 8- and 16-bit color pictures
-    /// (PNG, JPEG) hold display-referred values. Alpha stays linear.
-    Srgb,
-    /// The values as stored (for 8-bit files, `value / 255`): HDR and EXR
-    /// images, and data such as height maps and masks.
-    Raw,
-}
 
 /// One level of a pyramid: `width` x `height` RGBA texels, row by row,
 /// the first row at the top of the picture.
@@ -26,31 +17,8 @@ impl Level {
     /// Reads an image file at full resolution, without a pyramid, and
     /// whether it has an alpha channel.
     pub fn load(path: &Path, encoding: Encoding) -> Result<(Level, bool), String> {
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-        let (mut base, has_alpha, linear_file) = match ext.as_str() {
-            "exr" => {
-                let (level, alpha) = read_exr(path)?;
-                (level, alpha, true)
-            }
-            "png" | "jpg" | "jpeg" | "hdr" => {
-                let (level, alpha) = read_with_image_crate(path)?;
-                (level, alpha, ext == "hdr")
-            }
-            _ => {
-                return Err(format!(
-                    "`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)",
-                    path.display()
-                ));
-            }
-        };
-        if encoding == Encoding::Srgb && !linear_file {
-            for t in &mut base.texels {
-                for c in &mut t[..3] {
-                    *c = srgb_to_linear(*c);
-                }
-            }
-        }
-        Ok((base, has_alpha))
+        let p = image_io::read_picture(path, encoding)?;
+        Ok((Level { width: p.width, height: p.height, texels: p.texels }, p.has_alpha))
     }
 
     pub fn texel(&self, x: u32, y: u32) -> [f32; 4] {
@@ -80,9 +48,6 @@ pub struct MipMap {
     pub levels: Vec<Level>,
 }
 
-/// The largest image edge accepted: bigger pictures would take gigabytes.
-pub const MAX_IMAGE_SIZE: u32 = 16384;
-
 impl MipMap {
     /// Builds the pyramid of a level-0 image.
     pub fn new(name: impl Into<String>, base: Level, has_alpha: bool) -> MipMap {
@@ -110,52 +75,6 @@ impl MipMap {
         let (base, has_alpha) = Level::load(path, encoding)?;
         Ok(MipMap::new(path.display().to_string(), base, has_alpha))
     }
-}
-
-fn check_size(width: u32, height: u32) -> Result<(), String> {
-    if width == 0 || height == 0 {
-        return Err("the image is empty".into());
-    }
-    if width > MAX_IMAGE_SIZE || height > MAX_IMAGE_SIZE {
-        return Err(format!("the image is {width} x {height}; at most {MAX_IMAGE_SIZE} pixels a side are accepted"));
-    }
-    Ok(())
-}
-
-fn read_with_image_crate(path: &Path) -> Result<(Level, bool), String> {
-    let mut reader =
-        image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
-    // Refuse oversized pictures before decoding them.
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIZE);
-    limits.max_image_height = Some(MAX_IMAGE_SIZE);
-    reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| e.to_string())?;
-    let (width, height) = (decoded.width(), decoded.height());
-    check_size(width, height)?;
-    let has_alpha = decoded.color().has_alpha();
-    let rgba = decoded.into_rgba32f();
-    let texels = rgba.pixels().map(|p| p.0).collect();
-    Ok((Level { width, height, texels }, has_alpha))
-}
-
-fn read_exr(path: &Path) -> Result<(Level, bool), String> {
-    let layer = crate::render::image_io::ExrLayer::read(path)?;
-    let (width, height) = (layer.width as u32, layer.height as u32);
-    check_size(width, height)?;
-    let (r, g, b) = match (layer.channel("R"), layer.channel("G"), layer.channel("B"), layer.channel("Y")) {
-        (Some(r), Some(g), Some(b), _) => (r, g, b),
-        (_, _, _, Some(y)) => (y, y, y),
-        _ => return Err("it has neither R, G, B nor Y channels".into()),
-    };
-    let a = layer.channel("A");
-    let texels = (0..r.len()).map(|k| [r[k], g[k], b[k], a.map_or(1.0, |a| a[k])]).collect();
-    Ok((Level { width, height, texels }, a.is_some()))
-}
-
-/// The sRGB transfer curve, decoded.
-pub fn srgb_to_linear(v: f32) -> f32 {
-    if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }
 
 /// The next level: each new texel is the area-weighted mean of the texels
@@ -280,12 +199,5 @@ mod tests {
                 assert!((p - to as f32 / from as f32).abs() < 1e-6);
             }
         }
-    }
-
-    #[test]
-    fn srgb_decoding_known_values() {
-        assert_eq!(srgb_to_linear(0.0), 0.0);
-        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
-        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
     }
 }

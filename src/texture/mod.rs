@@ -21,7 +21,9 @@
 mod mipmap;
 mod sampler;
 
-pub use mipmap::{Encoding, Level, MAX_IMAGE_SIZE, MipMap, srgb_to_linear};
+// Decoding lives in the leaf `image_io`, which the renderer shares.
+pub use crate::image_io::{Encoding, MAX_IMAGE_SIZE, srgb_to_linear};
+pub use mipmap::{Level, MipMap};
 pub use sampler::{Filter, Lookup, Sampler, Wrap, tsl_texture};
 
 use std::collections::HashMap;
@@ -141,7 +143,7 @@ mod tests {
         let exr = dir.join("linear.exr");
         let level = Level { width: 2, height: 1, texels: vec![[0.25, 2.0, 8.0, 1.0], [0.5, 0.5, 0.5, 1.0]] };
         let rgb = vec![[0.25, 2.0, 8.0], [0.5, 0.5, 0.5]];
-        let image = crate::render::image_io::RenderedImage {
+        let image = crate::image_io::RenderedImage {
             full_width: 2,
             full_height: 1,
             x0: 0,
@@ -154,7 +156,7 @@ mod tests {
             depth: None,
             object: None,
         };
-        crate::render::image_io::write_image(&exr, &image).unwrap();
+        crate::image_io::write_image(&exr, &image).unwrap();
         let e = m.load(&exr, Encoding::Srgb).unwrap();
         assert_eq!(e.levels[0].texels, level.texels, "EXR is linear whatever the encoding asked");
     }

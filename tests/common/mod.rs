@@ -6,9 +6,14 @@
 
 use tsl::ShadingGlobals;
 
-/// The message of building a scene from `src` that must fail.
+/// The message of a scene from `src` that must not render: the compile
+/// error (checking describes the scene and finds most problems), or, for
+/// what only building it shows, `Scene::build`'s.
 pub fn build_error(src: &str) -> String {
-    let program = tsl::Compiler::new().source("bad.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
+    let program = match tsl::Compiler::new().source("bad.tsl", src).compile() {
+        Ok(program) => program,
+        Err(e) => return e.to_string(),
+    };
     match tsl::render::Scene::build(&program, &tsl::render::Overrides::default()) {
         Ok(_) => panic!("the scene built"),
         Err(e) => e.to_string(),

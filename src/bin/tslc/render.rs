@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::time::Instant;
-use tsl::render::{self, IntegratorKind, LightSampling, Overrides, RenderOptions, Scene, image_io};
+use tsl::image_io;
+use tsl::render::{self, IntegratorKind, LightSampling, Overrides, RenderOptions, Scene};
 
 #[derive(clap::Args)]
 pub struct RenderArgs {

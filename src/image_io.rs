@@ -1,6 +1,13 @@
-//! Reading and writing pictures: rendered images out (PNG, 8-bit sRGB; or
-//! OpenEXR, linear float with optional AOV layers), tiles back in and
-//! merged, environment images in, and the windows of crops and farm tiles.
+//! Reading and writing pictures, for every part of the crate that needs
+//! them: image files decoded to linear RGBA floats (PNG, JPEG, Radiance HDR,
+//! OpenEXR; textures and environment maps both read them here), rendered
+//! images out (PNG, 8-bit sRGB; or OpenEXR, linear float with optional AOV
+//! layers), tiles back in and merged, and the windows of crops and farm
+//! tiles.
+//!
+//! Architecture invariant: this is a leaf. It imports neither `texture`
+//! nor `render` (both import it), so image decoding has one home and no
+//! module cycle runs through it.
 //!
 //! Invariants: a write is atomic (a temporary file in the target's
 //! directory, synced, then renamed over the target), so a crash or Ctrl-C
@@ -14,12 +21,111 @@
 //! left the scene), the names OpenImageDenoise front ends and Blender read,
 //! and `object`: the index of the object the pixel centre's camera ray hits
 //! first (scene order of `object`, `light rect` and `light sphere` blocks,
-//! from 0; -1 where it leaves the scene), a whole number stored as float so
-//! any EXR reader takes it, for masks that compare images object by object.
+//! from 0; [`NO_OBJECT`] where it leaves the scene), a whole number stored
+//! as float so any EXR reader takes it, for masks that compare images
+//! object by object.
 
 use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// How the stored values of an image become linear values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Encoding {
+    /// Decode the sRGB transfer curve: 8- and 16-bit color pictures
+    /// (PNG, JPEG) hold display-referred values. Alpha stays linear.
+    Srgb,
+    /// The values as stored (for 8-bit files, `value / 255`): HDR and EXR
+    /// images, and data such as height maps and masks.
+    Raw,
+}
+
+/// A decoded picture: `width` x `height` RGBA texels, row by row, the
+/// first row at the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Picture {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 4]>,
+    /// Whether the file had an alpha channel (alpha is 1 otherwise).
+    pub has_alpha: bool,
+}
+
+/// The largest image edge accepted: bigger pictures would take gigabytes.
+pub const MAX_IMAGE_SIZE: u32 = 16384;
+
+/// Reads an image file at full resolution: PNG, JPEG, Radiance HDR or
+/// OpenEXR, chosen by extension. The error says what is wrong in words.
+pub fn read_picture(path: &Path, encoding: Encoding) -> Result<Picture, String> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    let (mut picture, linear_file) = match ext.as_str() {
+        "exr" => (read_exr_picture(path)?, true),
+        "png" | "jpg" | "jpeg" | "hdr" => (read_with_image_crate(path)?, ext == "hdr"),
+        _ => {
+            return Err(format!(
+                "`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)",
+                path.display()
+            ));
+        }
+    };
+    if encoding == Encoding::Srgb && !linear_file {
+        for t in &mut picture.texels {
+            for c in &mut t[..3] {
+                *c = srgb_to_linear(*c);
+            }
+        }
+    }
+    Ok(picture)
+}
+
+fn check_size(width: u32, height: u32) -> Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err("the image is empty".into());
+    }
+    if width > MAX_IMAGE_SIZE || height > MAX_IMAGE_SIZE {
+        return Err(format!("the image is {width} x {height}; at most {MAX_IMAGE_SIZE} pixels a side are accepted"));
+    }
+    Ok(())
+}
+
+fn read_with_image_crate(path: &Path) -> Result<Picture, String> {
+    let mut reader =
+        image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
+    // Refuse oversized pictures before decoding them.
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIZE);
+    limits.max_image_height = Some(MAX_IMAGE_SIZE);
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(|e| e.to_string())?;
+    let (width, height) = (decoded.width(), decoded.height());
+    check_size(width, height)?;
+    let has_alpha = decoded.color().has_alpha();
+    let rgba = decoded.into_rgba32f();
+    let texels = rgba.pixels().map(|p| p.0).collect();
+    Ok(Picture { width, height, texels, has_alpha })
+}
+
+fn read_exr_picture(path: &Path) -> Result<Picture, String> {
+    let layer = ExrLayer::read(path)?;
+    let (width, height) = (layer.width as u32, layer.height as u32);
+    check_size(width, height)?;
+    let (r, g, b) = match (layer.channel("R"), layer.channel("G"), layer.channel("B"), layer.channel("Y")) {
+        (Some(r), Some(g), Some(b), _) => (r, g, b),
+        (_, _, _, Some(y)) => (y, y, y),
+        _ => return Err("it has neither R, G, B nor Y channels".into()),
+    };
+    let a = layer.channel("A");
+    let texels = (0..r.len()).map(|k| [r[k], g[k], b[k], a.map_or(1.0, |a| a[k])]).collect();
+    Ok(Picture { width, height, texels, has_alpha: a.is_some() })
+}
+
+/// The sRGB transfer curve, decoded.
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+}
+
+/// The `object` layer's value where a pixel's ray hits nothing.
+pub const NO_OBJECT: i32 = -1;
 
 /// A rendered image, or a window of one: pixels `[x0, x0 + width) x
 /// [y0, y0 + height)` of a `full_width x full_height` frame, row-major.
@@ -36,7 +142,7 @@ pub struct RenderedImage {
     pub albedo: Option<Vec<[f32; 3]>>,
     pub normal: Option<Vec<[f32; 3]>>,
     pub depth: Option<Vec<f32>>,
-    /// The object index per pixel ([`crate::render::NO_OBJECT`] for none).
+    /// The object index per pixel ([`NO_OBJECT`] for none).
     pub object: Option<Vec<i32>>,
 }
 
@@ -175,7 +281,7 @@ fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
 
 /// The first layer of an EXR file: its channels by name, its size, and
 /// where it sits in the display window.
-pub(crate) struct ExrLayer {
+struct ExrLayer {
     pub width: usize,
     pub height: usize,
     pub display_size: (usize, usize),
@@ -185,7 +291,7 @@ pub(crate) struct ExrLayer {
 }
 
 impl ExrLayer {
-    pub fn read(path: &Path) -> Result<ExrLayer, String> {
+    fn read(path: &Path) -> Result<ExrLayer, String> {
         let image = exrp::read()
             .no_deep_data()
             .largest_resolution_level()
@@ -213,7 +319,7 @@ impl ExrLayer {
     }
 
     /// The samples of channel `name`, row by row.
-    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+    fn channel(&self, name: &str) -> Option<&[f32]> {
         self.channels.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
     }
 }
@@ -270,7 +376,7 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
         albedo: aovs.then(|| vec![[0.0; 3]; n]),
         normal: aovs.then(|| vec![[0.0; 3]; n]),
         depth: aovs.then(|| vec![0.0; n]),
-        object: first.object.is_some().then(|| vec![crate::render::NO_OBJECT; n]),
+        object: first.object.is_some().then(|| vec![NO_OBJECT; n]),
     };
     let mut owner: Vec<Option<usize>> = vec![None; n];
     for (k, part) in parts.iter().enumerate() {
@@ -338,9 +444,9 @@ pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
 /// stored, PNG and JPEG decoded from sRGB.
 pub fn load_environment(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
     // The renderer filters the full-resolution image itself: no pyramid.
-    let (base, _) = crate::texture::Level::load(path, crate::texture::Encoding::Srgb)
+    let picture = read_picture(path, Encoding::Srgb)
         .map_err(|e| format!("cannot read the environment image {}: {e}", path.display()))?;
-    Ok((base.width, base.height, base.texels.iter().map(|t| [t[0], t[1], t[2]]).collect()))
+    Ok((picture.width, picture.height, picture.texels.iter().map(|t| [t[0], t[1], t[2]]).collect()))
 }
 
 /// The window of tile `index` of `count` (0-based): horizontal bands of
@@ -427,7 +533,10 @@ mod tests {
         assert_eq!(srgb_encode(f32::NAN), 0);
         assert_eq!(srgb_encode(0.5), 188);
         assert_eq!(srgb_encode(0.003_130_8), 10);
-        assert!((crate::texture::srgb_to_linear(188.0 / 255.0) - 0.5).abs() < 0.003);
+        assert!((srgb_to_linear(188.0 / 255.0) - 0.5).abs() < 0.003);
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
     }
 
     #[test]
