@@ -14,7 +14,10 @@ use tsl::{ColorModel, Compiler, Program};
 mod common;
 use common::{Rng, close};
 
+/// Shading points per material: many for the stdlib, fewer for the
+/// examples, whose trees are large for the interpreter.
 const POINTS: usize = 200;
+const EXAMPLE_POINTS: usize = 40;
 
 const METHODS: [HitMethod; 8] = [
     HitMethod::Interface("reflection"),
@@ -107,7 +110,7 @@ fn result_offset(entries: &[HitEntry], method: &HitMethod, model: ColorModel) ->
     entries.iter().take_while(|e| e.method != *method).map(|e| words(&e.ret)).sum()
 }
 
-fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u64) -> usize {
+fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u64, points: usize) -> usize {
     let checked = program.checked();
     let bodies: Vec<(String, &tsl::syntax::ast::Expr)> = trees
         .iter()
@@ -128,7 +131,7 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
     let mut rng = Rng(seed);
     for ((name, _), group) in bodies.iter().zip(&groups) {
         let HitGroup { split, entries, combined } = group;
-        for point in 0..POINTS {
+        for point in 0..points {
             let g = common::shading_point(&mut rng).words();
             let wo = args(&mut rng, &[("wo".into(), Ty::Vector)], model);
             let eta = args(&mut rng, &[("eta".into(), Ty::Color)], model);
@@ -193,7 +196,7 @@ fn prepared_methods_agree_with_methods_alone_on_the_stdlib() {
     for model in MODELS {
         let (program, trees) = material_trees("const float UNUSED = 0;", "empty.tsl");
         assert!(trees.len() >= 12, "{} stdlib materials", trees.len());
-        check_program(&program, &trees, model, 7);
+        check_program(&program, &trees, model, 7, POINTS);
     }
 }
 
@@ -221,7 +224,7 @@ fn prepared_methods_agree_with_methods_alone_on_examples_and_fixtures() {
         let name = path.to_string_lossy().to_string();
         let (program, trees) = material_trees(&text, &name);
         println!("{name}");
-        groups += check_program(&program, &trees, MODELS[k % 2], 1 + k as u64);
+        groups += check_program(&program, &trees, MODELS[k % 2], 1 + k as u64, EXAMPLE_POINTS);
     }
     assert!(groups > 50, "{groups} materials");
 }
@@ -259,5 +262,43 @@ fn per_direction_methods_of_a_bumped_texture_call_no_noise() {
     assert!(noise_calls(&split.prepare) > 0, "prepare evaluates the noise:\n{}", split.prepare);
     for f in &split.methods {
         assert_eq!(noise_calls(f), 0, "{} evaluates noise again:\n{f}", f.name);
+    }
+}
+
+/// The embedding API's prepared hits agree between the JIT and the
+/// interpreter (both run the same split), and with the methods alone.
+#[test]
+fn prepared_hits_agree_on_both_back_ends() {
+    for model in MODELS {
+        let (program, trees) = material_trees("const float UNUSED = 0;", "empty.tsl");
+        let names: Vec<&str> = trees.iter().map(String::as_str).collect();
+        let hits = program.hit_materials(&names, tsl::PATH_METHODS).unwrap();
+        let mut rng = Rng(11);
+        for (name, hit) in names.iter().zip(&hits) {
+            let material = program.material(name).unwrap();
+            for _ in 0..100 {
+                let g = common::shading_point(&mut rng);
+                let wo = rng.unit();
+                let eta = program.rgb(1.0, 1.0, 1.0);
+                let eta = tsl::Color::from_lanes(model, &vec![eta.lanes()[0]; model.lanes()]);
+                let (u1, u2) = (rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+                let wi = rng.unit();
+                let mut jit = hit.prepare(tsl::Backend::Jit, &g, wo, &eta);
+                let mut int = hit.prepare(tsl::Backend::Interpreter, &g, wo, &eta);
+                let (sj, si) = (jit.sample(u1, u2).unwrap(), int.sample(u1, u2).unwrap());
+                let alone = material.sample(&g, wo, &eta, u1, u2);
+                for (k, (a, b)) in sj.wi.iter().zip(&si.wi).enumerate() {
+                    assert!((a - b).abs() <= 1e-5, "{name}: sample wi[{k}] jit {a} vs interpreter {b}");
+                    assert!((a - alone.wi[k]).abs() <= 1e-3, "{name}: sample wi[{k}] {a} vs alone {}", alone.wi[k]);
+                }
+                let ((fj, pj), (fi, pi)) = (jit.eval_pdf(wi).unwrap(), int.eval_pdf(wi).unwrap());
+                assert!((pj - pi).abs() <= 1e-5 * pj.abs().max(1.0), "{name}: pdf jit {pj} vs interpreter {pi}");
+                let pdf_alone = material.pdf(&g, wi, wo, &eta);
+                assert!((pj - pdf_alone).abs() <= 1e-3 * pj.abs().max(1.0), "{name}: pdf {pj} vs alone {pdf_alone}");
+                for (a, b) in fj.lanes().iter().zip(fi.lanes()) {
+                    assert!((a - b).abs() <= 1e-5 * a.abs().max(1.0), "{name}: f jit {a} vs interpreter {b}");
+                }
+            }
+        }
     }
 }

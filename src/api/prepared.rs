@@ -9,7 +9,7 @@
 //! be used with no other and cannot outlive the compiled code.
 
 use super::{Backend, BsdfSample, Color, Entry, Error, Function, Part, Program, SAMPLE_WORDS};
-use crate::check::Ty;
+use crate::check::{MaterialRef, Ty};
 use crate::globals::ShadingGlobals;
 use crate::ir::Module as IrModule;
 use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups};
@@ -75,6 +75,17 @@ impl Program {
             .collect::<Result<_, Error>>()?;
         let materials: Vec<(String, &Expr)> = names.iter().map(|n| n.to_string()).zip(&exprs).collect();
         self.compile_hit_groups(&materials, methods)
+    }
+
+    /// Compiles materials of the program (scene objects' `material`
+    /// values) for prepared hits, one [`HitMaterial`] per reference.
+    pub(crate) fn compile_hit_group_refs(
+        &self,
+        materials: &[(String, MaterialRef)],
+        methods: &[HitMethod],
+    ) -> Result<Vec<HitMaterial>, Error> {
+        let exprs = self.material_exprs(materials)?;
+        self.compile_hit_groups(&exprs, methods)
     }
 
     /// Compiles material expressions of the root program for prepared hits.

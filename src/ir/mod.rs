@@ -22,6 +22,7 @@
 
 mod adce;
 mod builder;
+mod gvn;
 pub mod lower;
 pub mod opt;
 pub mod semantics;
@@ -29,6 +30,7 @@ pub mod split;
 pub mod verify;
 
 pub use adce::eliminate_dead_code_aggressive;
+pub use gvn::value_number;
 pub use semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 pub use verify::{VerifyError, verify_function, verify_module};
 
@@ -408,6 +410,25 @@ impl Function {
         }
         out.into_iter().collect()
     }
+}
+
+/// For each array of `f`, whether it is written once, by a texture lookup:
+/// such an array is a pure value, like a definition.
+pub(crate) fn lookup_arrays(f: &Function) -> Vec<bool> {
+    let mut writes = vec![0u32; f.arrays.len()];
+    let mut lookup = vec![false; f.arrays.len()];
+    for_each_inst(&f.body, &mut |inst| match inst {
+        Inst::Store { array, .. } => writes[array.0 as usize] += 1,
+        Inst::Texture { out, .. } => {
+            writes[out.0 as usize] += 1;
+            lookup[out.0 as usize] = true;
+        }
+        _ => {}
+    });
+    for (l, w) in lookup.iter_mut().zip(&writes) {
+        *l &= *w == 1;
+    }
+    lookup
 }
 
 /// The number of instructions in `body`, nested bodies included.

@@ -133,6 +133,8 @@ fn split_with(combined: &Function, hit_inputs: u32, parts: &[Part], hoist: Hoist
         body: renumber_outputs(prepare_body, &record_slot),
         ..combined.clone()
     };
+    // Flattened branches leave copies of one computation side by side.
+    super::gvn::value_number(&mut prepare);
     eliminate_dead_code_aggressive(&mut prepare);
     for (f, part) in methods.iter_mut().zip(parts) {
         let own = &combined.params[part.params.start as usize..part.params.end as usize];
@@ -172,19 +174,7 @@ struct PointOnly {
 
 impl PointOnly {
     fn analyse(f: &Function, hit_inputs: u32) -> PointOnly {
-        let mut writes = vec![0u32; f.arrays.len()];
-        let mut lookups = vec![false; f.arrays.len()];
-        super::for_each_inst(&f.body, &mut |inst| match inst {
-            Inst::Store { array, .. } => writes[array.0 as usize] += 1,
-            Inst::Texture { out, .. } => {
-                writes[out.0 as usize] += 1;
-                lookups[out.0 as usize] = true;
-            }
-            _ => {}
-        });
-        for (l, w) in lookups.iter_mut().zip(&writes) {
-            *l &= *w == 1;
-        }
+        let lookups = super::lookup_arrays(f);
         let mut p = PointOnly {
             hit_inputs,
             defs: vec![None; f.values.len()],

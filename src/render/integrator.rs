@@ -27,6 +27,7 @@ use super::shape::SurfaceHit;
 use super::spectrum::Spectrum;
 use super::{Ray, Vec3};
 use crate::ShadingGlobals;
+use crate::ir::lower::HitMethod;
 
 /// Per-sample auxiliary outputs of the first surface seen (for denoisers).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -147,6 +148,9 @@ pub struct Tracer<'s, const N: usize> {
     /// kept likewise.
     lobe_args: Vec<u32>,
     lobe_out: Vec<u32>,
+    /// The hit record of the current path vertex (its material's
+    /// `prepare`), then each call's own words after it.
+    hit_words: Vec<u32>,
     /// The globals where the current camera sample's rays entered media.
     entered: Vec<ShadingGlobals>,
     pub counters: Counters,
@@ -188,6 +192,9 @@ struct Depth {
 /// changes by less than this fraction of the light.
 pub const BAILOUT: f32 = 1e-6;
 
+/// Renders call compiled code.
+const JIT: crate::Backend = crate::Backend::Jit;
+
 fn v3(v: Vec3) -> [f32; 3] {
     v.to_array()
 }
@@ -217,6 +224,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             gathered: Vec::new(),
             lobe_args: Vec::new(),
             lobe_out: vec![0; 2 * (3 + lanes)],
+            hit_words: Vec::new(),
             entered: Vec::new(),
             counters: Counters::default(),
         }
@@ -347,11 +355,21 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// from one `delta_lobes` call; `eta` and `entering` from [`Self::crossing`].
     fn lobes(&mut self, sh: &Shading, eta: &Spectrum<N>, entering: bool) -> Lobes<N> {
         let mut lobes = Lobes { reflect: None, refract: None };
-        let Some(f) = &sh.object.delta_lobes else { return lobes };
-        self.lobe_args.clear();
-        self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
-        if f.call_words(crate::Backend::Jit, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
-            return lobes;
+        if let Some(hit) = &sh.object.hit {
+            if !(sh.object.reflects || sh.object.refracts)
+                || hit
+                    .call_words(JIT, HitMethod::DeltaLobes, &sh.g, &mut self.hit_words, &[], &mut self.lobe_out)
+                    .is_err()
+            {
+                return lobes;
+            }
+        } else {
+            let Some(f) = &sh.object.delta_lobes else { return lobes };
+            self.lobe_args.clear();
+            self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
+            if f.call_words(JIT, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
+                return lobes;
+            }
         }
         let (out, lanes) = (&self.lobe_out, self.lanes);
         let dir = |at: usize| [0, 1, 2].map(|k| f32::from_bits(out[at + k]));
@@ -371,6 +389,15 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// material's pdf of drawing `wi`, from one `eval_pdf` call.
     fn eval_pdf(&mut self, sh: &Shading, wi: Vec3, eta: &Spectrum<N>) -> (Spectrum<N>, f32) {
         let lanes = self.lanes;
+        if let Some(hit) = &sh.object.hit {
+            let own = v3(wi).map(f32::to_bits);
+            if hit.call_words(JIT, HitMethod::EvalPdf, &sh.g, &mut self.hit_words, &own, &mut self.lobe_out).is_err() {
+                return (Spectrum::ZERO, 0.0);
+            }
+            let out = &self.lobe_out;
+            let f = Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[k]) } else { 0.0 }));
+            return (f, f32::from_bits(out[lanes]));
+        }
         let Some(f) = &sh.object.eval_pdf else {
             // An emitter of `light rect`/`light sphere`: the interface itself.
             let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
@@ -382,7 +409,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         push_words(args, &v3(wi));
         push_words(args, &v3(sh.wo));
         push_words(args, &eta.0[..lanes]);
-        if f.call_words(crate::Backend::Jit, &sh.g, args, &mut self.lobe_out).is_err() {
+        if f.call_words(JIT, &sh.g, args, &mut self.lobe_out).is_err() {
             return (Spectrum::ZERO, 0.0);
         }
         let out = &self.lobe_out;
@@ -393,12 +420,18 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// The material's `sample` at `sh`, through the tracer's buffers.
     fn sample(&mut self, sh: &Shading, eta: &Spectrum<N>, u1: f32, u2: [f32; 2]) -> Option<Drawn<N>> {
         let lanes = self.lanes;
-        let args = &mut self.lobe_args;
-        args.clear();
-        push_words(args, &v3(sh.wo));
-        push_words(args, &eta.0[..lanes]);
-        push_words(args, &[u1, u2[0], u2[1]]);
-        sh.object.sample.call_words(crate::Backend::Jit, &sh.g, args, &mut self.lobe_out).ok()?;
+        if let Some(hit) = &sh.object.hit {
+            let own = [u1, u2[0], u2[1]].map(f32::to_bits);
+            let sample = HitMethod::Interface("sample");
+            hit.call_words(JIT, sample, &sh.g, &mut self.hit_words, &own, &mut self.lobe_out).ok()?;
+        } else {
+            let args = &mut self.lobe_args;
+            args.clear();
+            push_words(args, &v3(sh.wo));
+            push_words(args, &eta.0[..lanes]);
+            push_words(args, &[u1, u2[0], u2[1]]);
+            sh.object.sample.call_words(JIT, &sh.g, args, &mut self.lobe_out).ok()?;
+        }
         let word = |k: usize| f32::from_bits(self.lobe_out[k]);
         Some(Drawn {
             wi: Vec3::new(word(0), word(1), word(2)).normalize_or_zero(),
@@ -524,7 +557,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             push(&mut gathered, sh.wo, &[]);
             let mut out = Spectrum::<N>::ZERO;
             let mut words = [0u32; N];
-            if f.call_words(crate::Backend::Jit, &sh.g, &gathered, &mut words).is_ok() {
+            if f.call_words(JIT, &sh.g, &gathered, &mut words).is_ok() {
                 for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
                     *o = f32::from_bits(*w);
                 }
@@ -761,8 +794,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 break;
             }
             let (eta, entering) = self.crossing(&sh, &media);
+            // The per-hit stage once; every call below reads its record.
+            if let Some(hit) = &sh.object.hit {
+                self.lobe_args.clear();
+                push_words(&mut self.lobe_args, &v3(sh.wo));
+                push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
+                hit.prepare_words(JIT, &sh.g, &self.lobe_args, &mut self.hit_words);
+            }
             // Light samples near a perfect direction are not the smooth part.
-            let deltas = if sh.object.delta_lobes.is_some() {
+            let deltas = if sh.object.delta_lobes.is_some()
+                || (sh.object.hit.is_some() && (sh.object.reflects || sh.object.refracts))
+            {
                 let lobes = self.lobes(&sh, &eta, entering);
                 [lobes.reflect.map(|r| r.0), lobes.refract.map(|r| r.dir)]
             } else {

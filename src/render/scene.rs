@@ -81,7 +81,21 @@ pub struct Overrides {
     pub seed: Option<u64>,
     pub integrator: Option<IntegratorKind>,
     pub light_sampling: Option<LightSampling>,
+    /// Compiles each method on its own instead of splitting materials into
+    /// a per-hit stage and per-direction calls (`ir::split`): the code
+    /// before the split, kept for `cargo bench --bench render`.
+    #[doc(hidden)]
+    pub unsplit: bool,
 }
+
+/// What the path tracer calls at a hit, after `prepare` (see
+/// `Object::hit`); `emission` stays a call of its own, since only emitters
+/// need it and at the last vertex nothing else is called.
+const PATH_HIT_METHODS: &[crate::ir::lower::HitMethod] = &[
+    crate::ir::lower::HitMethod::Interface("sample"),
+    crate::ir::lower::HitMethod::EvalPdf,
+    crate::ir::lower::HitMethod::DeltaLobes,
+];
 
 /// Scenes with more delta lights than this shade them one call each.
 pub const MAX_SUMMED_LIGHTS: usize = 8;
@@ -110,6 +124,11 @@ pub struct Object {
     pub emissive: bool,
     /// `opaque()` is the constant `true`: shadow rays need not ask.
     pub always_opaque: bool,
+    /// For the path tracer: the material's hit group (`sample`,
+    /// `eval_pdf`, the delta lobes) split into a per-hit stage and
+    /// per-direction calls, used instead of `sample`, `eval_pdf` and
+    /// `delta_lobes`.
+    pub hit: Option<crate::HitMaterial>,
     /// `reflection_dir` / `refraction_dir` are not the default zero.
     pub reflects: bool,
     pub refracts: bool,
@@ -362,6 +381,7 @@ impl<'a> Builder<'a> {
                 // u, v, dPdu, dPdv are consecutive, and the footprint needs them.
                 let uv_words = (!0u32 << word("u")) & !(!0u32 << (word("dPdv") + 3)) | footprint_words;
                 Some(Object {
+                    hit: None,
                     reflection_sum: None,
                     delta_lobes: None,
                     eval_pdf: None,
@@ -386,9 +406,13 @@ impl<'a> Builder<'a> {
         if settings.integrator == IntegratorKind::Whitted || settings.light_sampling == LightSampling::All {
             self.reflection_sums(&mut objects, &materials, &lights)?;
         }
-        self.delta_lobes(&mut objects, &materials)?;
-        if settings.integrator == IntegratorKind::Path {
-            self.eval_pdfs(&mut objects, &materials)?;
+        if settings.integrator == IntegratorKind::Path && !overrides.unsplit {
+            self.hit_groups(&mut objects, &materials)?;
+        } else {
+            self.delta_lobes(&mut objects, &materials)?;
+            if settings.integrator == IntegratorKind::Path {
+                self.eval_pdfs(&mut objects, &materials)?;
+            }
         }
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
@@ -471,6 +495,22 @@ impl<'a> Builder<'a> {
         let functions = self.program.compile_delta_lobes(&items)?;
         for ((k, _), f) in wanted.iter().zip(functions) {
             objects[*k].delta_lobes = Some(f);
+        }
+        Ok(())
+    }
+
+    /// Compiles for each object with a material its hit group for the path
+    /// tracer: `prepare`, `sample`, `eval_pdf` and the delta lobes.
+    fn hit_groups(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
+        let wanted: Vec<(usize, (String, MaterialRef))> =
+            materials.iter().enumerate().filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?)))).collect();
+        if wanted.is_empty() {
+            return Ok(());
+        }
+        let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
+        let groups = self.program.compile_hit_group_refs(&items, PATH_HIT_METHODS)?;
+        for ((k, _), h) in wanted.iter().zip(groups) {
+            objects[*k].hit = Some(h);
         }
         Ok(())
     }

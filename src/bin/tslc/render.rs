@@ -145,6 +145,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         seed: args.seed,
         integrator: args.integrator,
         light_sampling: args.light_sampling,
+        ..Default::default()
     };
     let scene = match Scene::build(&program, &overrides) {
         Ok(s) => s,
