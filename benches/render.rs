@@ -147,6 +147,9 @@ fn main() {
     bench_split("bump_procedural", &examples.join("techniques/bump_procedural.tsl"));
     bench_split("room", &examples.join("room.tsl"));
     bench_split("texture_tree", &examples.join("texture_tree.tsl"));
+    // No slowdown where the trees are plain: the comparison scenes.
+    bench_split("cornell", &examples.join("cornell.tsl"));
+    bench_split("glossy", &examples.join("glossy.tsl"));
     if std::env::args().any(|a| a == "split") {
         return;
     }

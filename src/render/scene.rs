@@ -408,11 +408,11 @@ impl<'a> Builder<'a> {
         }
         if settings.integrator == IntegratorKind::Path && !overrides.unsplit {
             self.hit_groups(&mut objects, &materials)?;
-        } else {
-            self.delta_lobes(&mut objects, &materials)?;
-            if settings.integrator == IntegratorKind::Path {
-                self.eval_pdfs(&mut objects, &materials)?;
-            }
+        }
+        // Objects without a hit group call these on their own.
+        self.delta_lobes(&mut objects, &materials)?;
+        if settings.integrator == IntegratorKind::Path {
+            self.eval_pdfs(&mut objects, &materials)?;
         }
         let geometry = Geometry::new(geometry);
         for (k, o) in objects.iter().enumerate() {
@@ -480,7 +480,7 @@ impl<'a> Builder<'a> {
     fn delta_lobes(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
         let mut wanted = Vec::new();
         for (k, (o, m)) in objects.iter().zip(materials).enumerate() {
-            if !o.reflects && !o.refracts {
+            if (!o.reflects && !o.refracts) || o.hit.is_some() {
                 continue;
             }
             // Only area lights have no expression, and their emitter has
@@ -510,7 +510,7 @@ impl<'a> Builder<'a> {
         let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
         let groups = self.program.compile_hit_group_refs(&items, PATH_HIT_METHODS)?;
         for ((k, _), h) in wanted.iter().zip(groups) {
-            objects[*k].hit = Some(h);
+            objects[*k].hit = h;
         }
         Ok(())
     }
@@ -518,8 +518,12 @@ impl<'a> Builder<'a> {
     /// Compiles for each object with a material expression `f · cos` and
     /// `pdf` of a light direction as one function.
     fn eval_pdfs(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
-        let wanted: Vec<(usize, (String, MaterialRef))> =
-            materials.iter().enumerate().filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?)))).collect();
+        let wanted: Vec<(usize, (String, MaterialRef))> = materials
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| objects[*k].hit.is_none())
+            .filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?))))
+            .collect();
         if wanted.is_empty() {
             return Ok(());
         }
