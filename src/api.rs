@@ -33,7 +33,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
 mod prepared;
-pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit};
+pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, worth_preparing};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]

@@ -208,3 +208,16 @@ fn check_and_render_report_every_scene_error_at_once() {
     assert_eq!(rendered, checked.trim_end_matches("error: could not check due to 8 errors\n"));
     assert!(!out.exists());
 }
+
+#[test]
+fn emit_hit_prints_each_material_split() {
+    let dir = scratch("emit_hit");
+    let file = write(&dir, "m.tsl", "material bumpy = bump(fbm(P * 4), 0.1, lambert);\nmaterial plain = lambert;\n");
+    let out = tslc(&["emit", &file, "--emit", "hit"], None);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("// bumpy: a ") && text.contains("the renderer prepares it"), "{text}");
+    assert!(text.contains("fn bumpy.hit.prepare(") && text.contains("fn bumpy.hit.sample(hit: ["), "{text}");
+    assert!(text.contains("hit[0]"), "the methods read the record:\n{text}");
+    assert!(text.contains("// plain: a ") && text.contains("calls each method on its own"), "{text}");
+}

@@ -16,15 +16,10 @@ use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, low
 use crate::syntax::ast::{Expr, ExprKind};
 use std::sync::Arc;
 
-/// The methods [`Program::hit_materials`] compiles when a host asks for
-/// none in particular: what a path tracer calls at a hit.
-pub const PATH_METHODS: &[HitMethod] = &[
-    HitMethod::Interface("emission"),
-    HitMethod::Interface("sample"),
-    HitMethod::EvalPdf,
-    HitMethod::DeltaLobes,
-    HitMethod::Interface("reflection"),
-];
+/// What a path tracer calls at a hit after `prepare`: the hit group the
+/// renderer compiles (`emission`, needed only by emitters, stays a call of
+/// its own).
+pub const PATH_METHODS: &[HitMethod] = &[HitMethod::Interface("sample"), HitMethod::EvalPdf, HitMethod::DeltaLobes];
 
 /// A material compiled for prepared hits: its `prepare` stage and the
 /// methods of one hit group.

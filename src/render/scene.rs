@@ -88,15 +88,6 @@ pub struct Overrides {
     pub unsplit: bool,
 }
 
-/// What the path tracer calls at a hit, after `prepare` (see
-/// `Object::hit`); `emission` stays a call of its own, since only emitters
-/// need it and at the last vertex nothing else is called.
-const PATH_HIT_METHODS: &[crate::ir::lower::HitMethod] = &[
-    crate::ir::lower::HitMethod::Interface("sample"),
-    crate::ir::lower::HitMethod::EvalPdf,
-    crate::ir::lower::HitMethod::DeltaLobes,
-];
-
 /// Scenes with more delta lights than this shade them one call each.
 pub const MAX_SUMMED_LIGHTS: usize = 8;
 
@@ -508,7 +499,7 @@ impl<'a> Builder<'a> {
             return Ok(());
         }
         let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
-        let groups = self.program.compile_hit_group_refs(&items, PATH_HIT_METHODS)?;
+        let groups = self.program.compile_hit_group_refs(&items, crate::PATH_METHODS)?;
         for ((k, _), h) in wanted.iter().zip(groups) {
             objects[*k].hit = h;
         }

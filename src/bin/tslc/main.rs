@@ -59,6 +59,9 @@ struct EmitArgs {
 enum EmitKind {
     Ast,
     Ir,
+    /// Each material's hit group for the path tracer, split: `prepare`
+    /// and the methods reading its record (`hit[k]`).
+    Hit,
     Clif,
 }
 
@@ -199,6 +202,33 @@ fn emit(args: EmitArgs) -> ExitCode {
                 let _ = writeln!(out, "{f}");
             }
         }
+        EmitKind::Hit => {
+            let names = root_materials(&program);
+            let names: Vec<&str> = names.iter().map(String::as_str).filter(|n| wanted(n)).collect();
+            match program.hit_materials(&names, tsl::PATH_METHODS) {
+                Ok(hits) => {
+                    for (name, hit) in names.iter().zip(&hits) {
+                        let worth = tsl::worth_preparing(hit.prepare_function().ir());
+                        let _ = writeln!(
+                            out,
+                            "// {name}: a {}-word hit record; the renderer {} it",
+                            hit.record_words(),
+                            if worth { "prepares" } else { "calls each method on its own for" }
+                        );
+                        let _ = writeln!(out, "{}", hit.prepare_function().ir());
+                        for m in tsl::PATH_METHODS {
+                            if let Some(f) = hit.method_function(*m) {
+                                let _ = writeln!(out, "{}", f.ir());
+                            }
+                        }
+                    }
+                }
+                Err(e) => {
+                    eprint!("{e}");
+                    return ExitCode::from(1);
+                }
+            }
+        }
         _ => {
             for (name, text) in program.clif().iter().filter(|(n, _)| wanted(n)) {
                 let _ = writeln!(out, "; {name}\n{text}");
@@ -206,6 +236,24 @@ fn emit(args: EmitArgs) -> ExitCode {
         }
     }
     ExitCode::SUCCESS
+}
+
+/// The materials of the root file without parameters, in source order.
+fn root_materials(program: &tsl::Program) -> Vec<String> {
+    let checked = program.checked();
+    let mut names: Vec<((usize, usize), String)> = checked
+        .symbols
+        .iter()
+        .filter(|(_, s)| !checked.loaded.modules[s.module].is_prelude)
+        .filter(|(_, s)| match &checked.loaded.modules[s.module].ast.items[s.item] {
+            tsl::syntax::ast::Item::MaterialTree(t) => t.params.is_none(),
+            tsl::syntax::ast::Item::Material(d) => d.params.iter().all(|p| p.default.is_some()),
+            _ => false,
+        })
+        .map(|(n, s)| ((s.module, s.item), n.clone()))
+        .collect();
+    names.sort();
+    names.into_iter().map(|(_, n)| n).collect()
 }
 
 /// Prints the diagnostics of one file; returns whether it failed.
