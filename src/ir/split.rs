@@ -411,3 +411,128 @@ fn map_body(body: Vec<Inst>, f: &mut impl FnMut(Inst) -> Option<Inst>) -> Vec<In
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::{BinOp, Label, Scalar, Var};
+
+    /// `fbm`-like: a loop over a global accumulates noise (point-only, so
+    /// `prepare` runs it whole), and the method multiplies the sum by its
+    /// own argument.
+    fn fbm_times_arg() -> Function {
+        use Scalar::{F32, I32};
+        Function {
+            name: "m".into(),
+            params: vec![F32, F32],
+            results: vec![F32],
+            values: vec![F32, I32, I32, F32, F32, F32, F32, F32, F32],
+            vars: vec![F32, I32],
+            labels: 1,
+            body: vec![
+                Inst::Def(Value(0), Op::Global(0)),
+                Inst::Def(Value(1), Op::I32(0)),
+                Inst::Def(Value(2), Op::I32(4)),
+                Inst::Set(Var(0), Value(0)),
+                Inst::Loop {
+                    label: Label(0),
+                    counter: Var(1),
+                    start: Value(1),
+                    end: Value(2),
+                    body: vec![
+                        Inst::Def(Value(3), Op::Get(Var(0))),
+                        Inst::Def(Value(4), Op::Call { native: "tsl_noise1", args: vec![Value(3)] }),
+                        Inst::Def(Value(5), Op::Binary(BinOp::FAdd, Value(3), Value(4))),
+                        Inst::Set(Var(0), Value(5)),
+                    ],
+                },
+                Inst::Def(Value(6), Op::Get(Var(0))),
+                Inst::Def(Value(7), Op::Param(1)),
+                Inst::Def(Value(8), Op::Binary(BinOp::FMul, Value(6), Value(7))),
+                Inst::Output(0, Value(8)),
+            ],
+            ..Function::default()
+        }
+    }
+
+    #[test]
+    fn a_point_only_loop_moves_to_prepare_and_the_method_reads_its_result() {
+        let f = fbm_times_arg();
+        let part = Part { name: "m.alone".into(), params: 1..2, results: 0..1 };
+        let split = split(&f, 1, std::slice::from_ref(&part));
+        let loops = |f: &Function| {
+            let mut n = 0;
+            crate::ir::for_each_inst(&f.body, &mut |i| n += usize::from(matches!(i, Inst::Loop { .. })));
+            n
+        };
+        assert_eq!(
+            (loops(&split.prepare), loops(&split.methods[0])),
+            (1, 0),
+            "{}\n{}",
+            split.prepare,
+            split.methods[0]
+        );
+        assert_eq!(split.record_words(), 1, "only the sum crosses:\n{}", split.prepare);
+        let mut globals = vec![0u32; crate::globals::GLOBAL_WORDS as usize];
+        for x in [0.3f32, -1.7, 5.25] {
+            globals[0] = x.to_bits();
+            let args = [0.0f32.to_bits(), 2.5f32.to_bits()];
+            let mut want = [0u32];
+            crate::interp::run(&f, &globals, &args, &mut want);
+            let mut record = [0u32];
+            crate::interp::run(&split.prepare, &globals, &args[..1], &mut record);
+            let mut got = [0u32];
+            crate::interp::run(&split.methods[0], &globals, &[record[0], args[1]], &mut got);
+            assert_eq!(got, want, "at P.x = {x}");
+        }
+    }
+
+    /// Work under a per-call condition is computed by `prepare` anyway;
+    /// a variable written there stays the method's.
+    #[test]
+    fn per_call_branches_are_flattened_and_their_writes_stay() {
+        use Scalar::{Bool, F32};
+        let f = Function {
+            name: "m".into(),
+            params: vec![F32],
+            results: vec![F32],
+            values: vec![F32, F32, Bool, F32, F32, F32],
+            vars: vec![F32],
+            body: vec![
+                Inst::Def(Value(0), Op::Global(0)),
+                Inst::Def(Value(1), Op::Param(0)),
+                Inst::Def(Value(2), Op::Binary(BinOp::FLt, Value(1), Value(0))),
+                Inst::Set(Var(0), Value(1)),
+                Inst::If {
+                    cond: Value(2),
+                    then_body: vec![
+                        Inst::Def(Value(3), Op::Call { native: "tsl_noise1", args: vec![Value(0)] }),
+                        Inst::Set(Var(0), Value(3)),
+                    ],
+                    else_body: vec![],
+                },
+                Inst::Def(Value(4), Op::Get(Var(0))),
+                Inst::Def(Value(5), Op::Binary(BinOp::FMul, Value(4), Value(4))),
+                Inst::Output(0, Value(5)),
+            ],
+            ..Function::default()
+        };
+        let part = Part { name: "m.alone".into(), params: 0..1, results: 0..1 };
+        let split = split(&f, 0, std::slice::from_ref(&part));
+        let method = &split.methods[0];
+        let mut calls = 0;
+        crate::ir::for_each_op(&method.body, &mut |op| calls += usize::from(matches!(op, Op::Call { .. })));
+        assert_eq!(calls, 0, "the noise is prepared:\n{}\n{method}", split.prepare);
+        let mut globals = vec![0u32; crate::globals::GLOBAL_WORDS as usize];
+        for (p, a) in [(0.5f32, 0.25f32), (0.5, 0.75), (-2.0, -3.0)] {
+            globals[0] = p.to_bits();
+            let mut want = [0u32];
+            crate::interp::run(&f, &globals, &[a.to_bits()], &mut want);
+            let mut record = vec![0u32; split.record_words()];
+            crate::interp::run(&split.prepare, &globals, &[], &mut record);
+            let mut got = [0u32];
+            crate::interp::run(method, &globals, &[record, vec![a.to_bits()]].concat(), &mut got);
+            assert_eq!(got, want, "at P.x = {p}, argument {a}");
+        }
+    }
+}

@@ -493,8 +493,20 @@ impl<'a> Builder<'a> {
     /// Compiles for each object with a material its hit group for the path
     /// tracer: `prepare`, `sample`, `eval_pdf` and the delta lobes.
     fn hit_groups(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
-        let wanted: Vec<(usize, (String, MaterialRef))> =
-            materials.iter().enumerate().filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?)))).collect();
+        // A tree without lookups or noise in its methods has none in its
+        // `prepare` either: not worth lowering a group for.
+        let textured = |o: &Object| {
+            ["sample", "pdf", "reflection"]
+                .iter()
+                .filter_map(|m| o.material.method(m))
+                .any(|f| crate::worth_preparing(f.ir()))
+        };
+        let wanted: Vec<(usize, (String, MaterialRef))> = materials
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| textured(&objects[*k]))
+            .filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?))))
+            .collect();
         if wanted.is_empty() {
             return Ok(());
         }
