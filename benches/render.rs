@@ -110,6 +110,8 @@ fn bench_split(name: &str, file: &Path) {
     figure(&format!("{label} render per method"), before, "s");
     figure(&format!("{label} render split"), after, "s");
     figure(&format!("{label} split speed-up"), before / after, "x");
+    let prepared = scenes[1].objects.iter().filter(|o| o.hit.is_some()).count();
+    figure(&format!("{label} objects prepared (of {})", scenes[1].objects.len()), prepared as f64, "");
     // Per vertex: sample, eval_pdf and the delta lobes, on their own or
     // after prepare (the first object with a texture counts).
     for (unsplit, scene) in [true, false].into_iter().zip(&scenes) {

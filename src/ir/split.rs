@@ -33,8 +33,10 @@ use super::adce::eliminate_dead_code_aggressive;
 use super::{Function, Inst, Op, Value};
 use std::ops::Range;
 
-/// The most words a hit record holds.
-pub const MAX_RECORD_WORDS: usize = 512;
+/// The most words a hit record holds (16 KiB). A `select` over several
+/// textured trees needs the slots of all of them (only the chosen one's
+/// are written at a hit): `texture_tree`'s cube uses about 800.
+pub const MAX_RECORD_WORDS: usize = 4096;
 
 /// One method's share of a combined function.
 #[derive(Debug, Clone, PartialEq, Eq)]
