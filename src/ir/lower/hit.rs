@@ -99,23 +99,12 @@ impl<'p> Lowerer<'p> {
                 HitMethod::EvalPdf => {
                     let own = vec![("wi".to_string(), Ty::Vector)];
                     let wi = self.method_args(&mut b, &own).remove(0);
-                    let mut results = self.eval_at(&mut b, &mat, &wi, &wo, &eta, &ctx);
-                    let args = [wi, wo.clone(), eta.clone()];
-                    results.extend(self.mat_method(&mut b, &mat, interface("pdf"), &args, &ctx));
+                    let results = self.eval_pdf(&mut b, &mat, &wi, &wo, &eta, &ctx);
                     (own, self.float_words(&mut outputs, results))
                 }
                 HitMethod::DeltaLobes => {
-                    let one = b.f(1.0);
-                    let ones = vec![one; self.lanes];
-                    let dr =
-                        self.mat_method(&mut b, &mat, interface("reflection_dir"), std::slice::from_ref(&wo), &ctx);
-                    let args = [dr.clone(), ones.clone(), wo.clone()];
-                    let wr = self.mat_method(&mut b, &mat, interface("reflection"), &args, &ctx);
-                    let args = [wo.clone(), eta.clone()];
-                    let dt = self.mat_method(&mut b, &mat, interface("refraction_dir"), &args, &ctx);
-                    let args = [dt.clone(), ones, eta.clone(), wo.clone()];
-                    let wt = self.mat_method(&mut b, &mat, interface("refraction"), &args, &ctx);
-                    (Vec::new(), self.float_words(&mut outputs, [dr, wr, dt, wt].concat()))
+                    let lobes = self.delta_lobes(&mut b, &mat, &wo, &eta, &ctx);
+                    (Vec::new(), self.float_words(&mut outputs, lobes))
                 }
                 HitMethod::ReflectionSum(lights) => {
                     let mut own = Vec::new();
@@ -124,16 +113,7 @@ impl<'p> Lowerer<'p> {
                         own.push((format!("light{k}"), Ty::Color));
                     }
                     let args = self.method_args(&mut b, &own);
-                    let mut sum: Option<Vec<Value>> = None;
-                    for k in 0..lights {
-                        let one_args = [args[2 * k].clone(), args[2 * k + 1].clone(), wo.clone()];
-                        let one = self.mat_method(&mut b, &mat, interface("reflection"), &one_args, &ctx);
-                        sum = Some(match sum {
-                            None => one,
-                            Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
-                        });
-                    }
-                    let sum = sum.unwrap_or_else(|| b.zeros(self.lanes));
+                    let sum = self.reflection_sum(&mut b, &mat, &args, &wo, &ctx);
                     outputs.extend(self.words(&Ty::Color).into_iter().zip(sum));
                     (own, Ty::Color)
                 }
@@ -159,10 +139,6 @@ impl<'p> Lowerer<'p> {
         outputs.extend(results.into_iter().map(|v| (Scalar::F32, v)));
         Ty::Array(Box::new(Ty::Float), n)
     }
-}
-
-fn interface(name: &str) -> &'static InterfaceMethod {
-    interface_method(name).unwrap_or_else(|| unreachable!("`{name}` is an interface method"))
 }
 
 /// The name of a method's function in a group (`NAME.hit.sample`).

@@ -185,7 +185,6 @@ pub fn lower_reflection_sums(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let im = interface_method("reflection").expect("reflection is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.reflection_sum{lights}");
         let mut b = Builder::new(&fname);
@@ -199,16 +198,7 @@ pub fn lower_reflection_sums(
         let ctx = lw.root_ctx();
         let mat = Mat::of_root(expr);
         let wo = args[2 * lights].clone();
-        let mut sum: Option<Vec<Value>> = None;
-        for k in 0..lights {
-            let one =
-                lw.mat_method(&mut b, &mat, im, &[args[2 * k].clone(), args[2 * k + 1].clone(), wo.clone()], &ctx);
-            sum = Some(match sum {
-                None => one,
-                Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
-            });
-        }
-        let sum = sum.unwrap_or_else(|| b.zeros(lw.lanes));
+        let sum = lw.reflection_sum(&mut b, &mat, &args[..2 * lights], &wo, &ctx);
         lw.write_results(&mut b, &Ty::Color, &sum);
         module.functions.push(b.finish());
         entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
@@ -232,9 +222,6 @@ pub fn lower_delta_lobes(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let [reflection_dir, reflection, refraction_dir, refraction] =
-        ["reflection_dir", "reflection", "refraction_dir", "refraction"]
-            .map(|name| interface_method(name).expect("the delta lobes are interface methods"));
     for (name, expr) in materials {
         let fname = format!("{name}.delta_lobes");
         let mut b = Builder::new(&fname);
@@ -243,13 +230,8 @@ pub fn lower_delta_lobes(
         let (wo, eta) = (args[0].clone(), args[1].clone());
         let ctx = lw.root_ctx();
         let mat = Mat::of_root(expr);
-        let one = b.f(1.0);
-        let ones = vec![one; lw.lanes];
-        let dr = lw.mat_method(&mut b, &mat, reflection_dir, std::slice::from_ref(&wo), &ctx);
-        let wr = lw.mat_method(&mut b, &mat, reflection, &[dr.clone(), ones.clone(), wo.clone()], &ctx);
-        let dt = lw.mat_method(&mut b, &mat, refraction_dir, &[wo.clone(), eta.clone()], &ctx);
-        let wt = lw.mat_method(&mut b, &mat, refraction, &[dt.clone(), ones, eta, wo], &ctx);
-        let (function, ret) = finish_words(b, &[dr, wr, dt, wt].concat());
+        let lobes = lw.delta_lobes(&mut b, &mat, &wo, &eta, &ctx);
+        let (function, ret) = finish_words(b, &lobes);
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
@@ -271,7 +253,6 @@ pub fn lower_eval_pdf(
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    let pdf = interface_method("pdf").expect("pdf is an interface method");
     for (name, expr) in materials {
         let fname = format!("{name}.eval_pdf");
         let mut b = Builder::new(&fname);
@@ -280,14 +261,71 @@ pub fn lower_eval_pdf(
         let args = lw.method_args(&mut b, &params);
         let ctx = lw.root_ctx();
         let mat = Mat::of_root(expr);
-        let mut results = lw.eval_at(&mut b, &mat, &args[0], &args[1], &args[2], &ctx);
-        results.extend(lw.mat_method(&mut b, &mat, pdf, &args, &ctx));
+        let results = lw.eval_pdf(&mut b, &mat, &args[0], &args[1], &args[2], &ctx);
         let (function, ret) = finish_words(b, &results);
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
     }
     verify::debug_verify_module(&module, "lowering");
     (module, entries, lw.diags)
+}
+
+impl<'p> Lowerer<'p> {
+    /// `reflection` summed over lights: `pairs` is `wi_1, light_1, ...`.
+    fn reflection_sum(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        pairs: &[Vec<Value>],
+        wo: &[Value],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let reflection = interface("reflection");
+        let mut sum: Option<Vec<Value>> = None;
+        for pair in pairs.chunks(2) {
+            let one = self.mat_method(b, mat, reflection, &[pair[0].clone(), pair[1].clone(), wo.to_vec()], ctx);
+            sum = Some(match sum {
+                None => one,
+                Some(acc) => b.map2(BinOp::FAdd, &acc, &one),
+            });
+        }
+        sum.unwrap_or_else(|| b.zeros(self.lanes))
+    }
+
+    /// Both perfect directions and their responses to unit light, as
+    /// [`lower_delta_lobes`] returns them.
+    fn delta_lobes(&mut self, b: &mut Builder, mat: &Mat<'p>, wo: &[Value], eta: &[Value], ctx: &Ctx) -> Vec<Value> {
+        let one = b.f(1.0);
+        let ones = vec![one; self.lanes];
+        let (wo, eta) = (wo.to_vec(), eta.to_vec());
+        let dr = self.mat_method(b, mat, interface("reflection_dir"), std::slice::from_ref(&wo), ctx);
+        let wr = self.mat_method(b, mat, interface("reflection"), &[dr.clone(), ones.clone(), wo.clone()], ctx);
+        let dt = self.mat_method(b, mat, interface("refraction_dir"), &[wo.clone(), eta.clone()], ctx);
+        let wt = self.mat_method(b, mat, interface("refraction"), &[dt.clone(), ones, eta, wo], ctx);
+        [dr, wr, dt, wt].concat()
+    }
+
+    /// `f · cos` for unit light from `wi` and the pdf, as [`lower_eval_pdf`]
+    /// returns them.
+    fn eval_pdf(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        wi: &[Value],
+        wo: &[Value],
+        eta: &[Value],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let mut results = self.eval_at(b, mat, wi, wo, eta, ctx);
+        let args = [wi.to_vec(), wo.to_vec(), eta.to_vec()];
+        results.extend(self.mat_method(b, mat, interface("pdf"), &args, ctx));
+        results
+    }
+}
+
+/// An interface method the lowering needs, by name.
+fn interface(name: &str) -> &'static InterfaceMethod {
+    interface_method(name).unwrap_or_else(|| unreachable!("`{name}` is an interface method"))
 }
 
 /// Finishes an entry that returns `results` as float words (a combination
