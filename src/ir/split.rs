@@ -83,10 +83,10 @@ enum Hoist {
 fn split_with(combined: &Function, hit_inputs: u32, parts: &[Part], hoist: Hoist) -> Option<Split> {
     let point = PointOnly::analyse(combined, hit_inputs);
     let eligible: Vec<bool> = (0..combined.values.len())
-        .map(|v| match point.defs[v].as_ref() {
-            Some(Op::Param(_)) => point.values[v],
-            Some(Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_)) | None => false,
-            Some(_) => hoist == Hoist::PointOnly && point.values[v] && !point.in_loop[v],
+        .map(|v| match point.leaves[v] {
+            Leaf::Param => point.values[v],
+            Leaf::Free => false,
+            Leaf::Work => hoist == Hoist::PointOnly && point.values[v] && !point.in_loop[v],
         })
         .collect();
 
@@ -158,10 +158,32 @@ fn split_with(combined: &Function, hit_inputs: u32, parts: &[Part], hoist: Hoist
     Some(Split { prepare, methods })
 }
 
+/// What a definition is, for the choice of what goes into the record.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Leaf {
+    /// An argument word: a hit input goes through the record whatever else does.
+    Param,
+    /// A constant or a global: no cheaper to read from the record.
+    Free,
+    /// Everything else: worth hoisting when point-only.
+    Work,
+}
+
+impl Leaf {
+    fn of(op: &Op) -> Leaf {
+        match op {
+            Op::Param(_) => Leaf::Param,
+            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_) => Leaf::Free,
+            _ => Leaf::Work,
+        }
+    }
+}
+
 /// Which values, variables and arrays are point-only (the module's rule).
 struct PointOnly {
     hit_inputs: u32,
-    defs: Vec<Option<Op>>,
+    /// What each definition is, for the choice of what to hoist.
+    leaves: Vec<Leaf>,
     values: Vec<bool>,
     /// Defined in a point-only loop: one value per iteration, not per call.
     in_loop: Vec<bool>,
@@ -179,7 +201,7 @@ impl PointOnly {
         let lookups = super::lookup_arrays(f);
         let mut p = PointOnly {
             hit_inputs,
-            defs: vec![None; f.values.len()],
+            leaves: vec![Leaf::Free; f.values.len()],
             values: vec![false; f.values.len()],
             in_loop: vec![false; f.values.len()],
             vars: vec![true; f.vars.len()],
@@ -230,9 +252,7 @@ impl PointOnly {
                     let k = v.0 as usize;
                     self.values[k] = self.op(op);
                     self.in_loop[k] = in_loop;
-                    if self.defs[k].is_none() {
-                        self.defs[k] = Some(op.clone());
-                    }
+                    self.leaves[k] = Leaf::of(op);
                 }
                 Inst::Set(var, v) => {
                     if !(control && self.v(*v)) {
