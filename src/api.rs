@@ -37,7 +37,7 @@ mod prepared;
 
 use material::SAMPLE_WORDS;
 pub use material::{BsdfSample, Material, SampledDir};
-pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, worth_preparing};
+pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]

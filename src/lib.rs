@@ -39,7 +39,7 @@ pub mod texture;
 
 pub use api::{
     Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
-    SampledDir, worth_preparing,
+    SampledDir, WHITTED_METHODS, worth_preparing,
 };
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;

@@ -362,3 +362,45 @@ fn string_options_choose_their_branch() {
     assert_eq!(float_at(&p, "picked_v", &g), 0.75);
     assert_eq!(float_at(&p, "picked_u", &g), 0.25);
 }
+
+/// A bump runs its height at three points (the point and one step along
+/// each tangent) however many methods of a hit group read the tilted
+/// normal: the coordinate contexts of one bump lowered for `sample`,
+/// `eval_pdf` and the delta lobes are one context, so the generator calls
+/// under them share the memo.
+#[test]
+fn a_bump_evaluates_its_height_three_times_per_hit() {
+    let p = compile(
+        r#"
+        material bumped = bump(cellnoise(Pl * 5), 0.1, phong(kd: gray(0.5), ks: gray(0.3)));
+        "#,
+    );
+    let m = &p.hit_materials(&["bumped"], tsl::PATH_METHODS).unwrap()[0];
+    let prepare = m.prepare_function().ir();
+    assert_eq!(calls(prepare, "tsl_cellnoise3"), 3, "{prepare}");
+    // On its own, `sample` needs the tilted normal for its direction, its
+    // weight and its pdf: still three heights.
+    let sample = ir(&p, "bumped.sample");
+    assert_eq!(calls(&sample, "tsl_cellnoise3"), 3, "{sample}");
+}
+
+/// Methods that do not read the normal compute no height: a bump's
+/// finite differences are dead code there, loops included.
+#[test]
+fn methods_that_ignore_the_normal_run_no_generator() {
+    let p = compile(
+        r#"
+        float dents() { return 1 - worley(Pl * 6); }
+        material hammered = bump(dents(), 0.15, phong(kd: gray(0.5), ks: gray(0.3)));
+        "#,
+    );
+    for method in ["refraction_index", "opaque", "emission", "absorption"] {
+        let f = ir(&p, &format!("hammered.{method}"));
+        assert_eq!(calls(&f, "tsl_cellnoise3"), 0, "{f}");
+        assert!(!f.body.iter().any(|i| matches!(i, Inst::Loop { .. })), "a dead loop is left:\n{f}");
+    }
+    assert!(calls(&ir(&p, "hammered.normal"), "tsl_cellnoise3") > 0);
+    // So the renderer sees what they are: opaque, and not refracting.
+    let m = p.material("hammered").unwrap();
+    assert!(m.always_opaque() && !m.may_refract());
+}

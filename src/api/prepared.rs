@@ -21,6 +21,10 @@ use std::sync::Arc;
 /// its own).
 pub const PATH_METHODS: &[HitMethod] = &[HitMethod::Interface("sample"), HitMethod::EvalPdf, HitMethod::DeltaLobes];
 
+/// What a Whitted ray tracer calls at a hit after `prepare`: `reflection`
+/// once per light sample and the perfect directions.
+pub const WHITTED_METHODS: &[HitMethod] = &[HitMethod::Interface("reflection"), HitMethod::DeltaLobes];
+
 /// A material compiled for prepared hits: its `prepare` stage and the
 /// methods of one hit group.
 #[derive(Clone)]

@@ -24,7 +24,16 @@ pub(crate) struct Builder {
     /// How many more noise sites are expanded inline; later ones call the
     /// native (see [`NOISE_INLINE_SITES`]).
     pub(crate) noise_budget: u32,
+    /// The id of each coordinate context made in this function, by its
+    /// parent and its changes: the same `bump` or `transform` lowered for
+    /// two methods gets one id, so their generator calls share the memo.
+    pub(crate) contexts: HashMap<(u32, GlobalChanges), u32>,
+    /// In a hit group: what is per-call, for [`Builder::hoisted`].
+    pub(crate) hoisting: Option<super::hoist::Hoisting>,
 }
+
+/// Shading globals replaced in a coordinate context, by name.
+pub(crate) type GlobalChanges = Vec<(&'static str, Vec<Value>)>;
 
 /// Noise sites per function expanded into IR (about 150 operations each
 /// for 3D noise); beyond them a function calls the native, which computes
@@ -111,6 +120,8 @@ impl Builder {
             globals: HashMap::default(),
             in_prologue: std::collections::HashSet::default(),
             noise_budget: NOISE_INLINE_SITES,
+            contexts: HashMap::default(),
+            hoisting: None,
         }
     }
 
@@ -119,12 +130,17 @@ impl Builder {
         self.prologue.extend(body);
         self.func.body = self.prologue;
         verify::debug_verify(&self.func, "lowering");
+        // The plain pass first (cheap, removes most), then the aggressive one
+        // for what only feeds itself: a loop accumulating a value nobody
+        // reads, such as a bump's height inside `refraction_index`.
         super::opt::eliminate_dead_code(&mut self.func);
+        super::adce::eliminate_dead_code_aggressive(&mut self.func);
         verify::debug_verify(&self.func, "dead code elimination");
         self.func
     }
 
     pub(crate) fn push(&mut self, inst: Inst) {
+        self.note_write(&inst);
         if let Some(top) = self.stack.last_mut() {
             top.push(inst);
         }
@@ -171,6 +187,16 @@ impl Builder {
             return v[0];
         }
         let v = self.fresh_value(ty);
+        self.note_value(v, Some(&op));
+        if let Some(d) = self.anchor_of(&op) {
+            // Point-only work under a per-call condition (`ir::hoist`).
+            self.place_at(v, d);
+            self.stack[d].push(Inst::Def(v, op));
+            if let Some(key) = key {
+                self.memo[d].insert(key, vec![v]);
+            }
+            return v;
+        }
         match op {
             Op::Global(_) => {
                 self.in_prologue.insert(v);
@@ -199,6 +225,7 @@ impl Builder {
             Const::B(x) => (Scalar::Bool, Op::Bool(x)),
         };
         let v = self.fresh_value(ty);
+        self.note_value(v, None);
         // Constants live in the prologue so they dominate everything.
         self.prologue.push(Inst::Def(v, op));
         self.in_prologue.insert(v);
@@ -366,7 +393,9 @@ impl Builder {
         let rgba = std::array::from_fn(|k| {
             let index = self.i(k as i32);
             let v = self.fresh_value(Scalar::F32);
-            self.push(Inst::Def(v, Op::Load { array: out, index }));
+            let load = Op::Load { array: out, index };
+            self.note_value(v, Some(&load));
+            self.push(Inst::Def(v, load));
             v
         });
         self.remember(key, rgba.to_vec());
@@ -416,7 +445,9 @@ impl Builder {
     pub(crate) fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> (Vec<Inst>, Vec<Inst>) {
         self.stack.push(Vec::new());
         self.memo.push(HashMap::default());
+        self.note_scope(false);
         f(self);
+        self.note_scope_end();
         let scope = self.memo.pop().unwrap_or_default();
         let mut body = self.stack.pop().unwrap_or_default();
         let split = body.iter().position(may_leave).unwrap_or(body.len());
@@ -441,11 +472,20 @@ impl Builder {
         (prefix, rest)
     }
 
-    /// Runs `f` with a fresh instruction list and memo scope; returns the list.
-    pub(crate) fn nested(&mut self, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
+    /// Runs `f` with a fresh instruction list and memo scope, for a body
+    /// run depending on `control` (a branch's condition, a loop's bounds);
+    /// returns the list.
+    pub(crate) fn nested_under(&mut self, control: &[Value], f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
+        let per_call = control.iter().any(|v| self.is_per_call(*v));
+        self.scope(per_call, f)
+    }
+
+    fn scope(&mut self, per_call: bool, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
         self.stack.push(Vec::new());
         self.memo.push(HashMap::default());
+        self.note_scope(per_call);
         f(self);
+        self.note_scope_end();
         self.memo.pop();
         self.stack.pop().unwrap_or_default()
     }
@@ -467,14 +507,14 @@ impl Builder {
         }
         let vars: Vec<Var> = tys.iter().map(|t| self.var(*t)).collect();
         let mut then_vals = Vec::new();
-        let then_body = self.nested(|b| {
+        let then_body = self.nested_under(&[cond], |b| {
             then_vals = then_f(b, cx);
             for (var, v) in vars.iter().zip(&then_vals) {
                 b.push(Inst::Set(*var, *v));
             }
         });
         let mut else_vals = Vec::new();
-        let else_body = self.nested(|b| {
+        let else_body = self.nested_under(&[cond], |b| {
             else_vals = else_f(b, cx);
             for (var, v) in vars.iter().zip(&else_vals) {
                 b.push(Inst::Set(*var, *v));
@@ -508,10 +548,11 @@ impl Builder {
             Some(Const::B(false)) => return otherwise,
             _ => {}
         }
-        let start = self.func.values.len() as u32;
         let mut vals = Vec::new();
-        let mut then_body = self.nested(|b| vals = f(b, cx));
-        if vals.iter().all(|v| v.0 < start || self.in_prologue.contains(v)) {
+        let mut then_body = self.nested_under(&[cond], |b| vals = f(b, cx));
+        let mut inside = HashSet::default();
+        defined_values(&then_body, &mut inside);
+        if vals.iter().all(|v| !inside.contains(v)) {
             // The body's own code computes nothing the result needs.
             return vals;
         }

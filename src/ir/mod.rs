@@ -23,6 +23,7 @@
 mod adce;
 mod builder;
 mod gvn;
+mod hoist;
 pub mod lower;
 pub mod opt;
 pub mod semantics;

@@ -135,11 +135,12 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
     entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
     let mut ids = Vec::new();
     for (k, f) in module.functions.iter().enumerate() {
-        // Symbol names are positional: IR names may contain dots.
-        let id =
-            jit.declare_function(&format!("tsl_entry_{k}"), Linkage::Local, &entry_sig).map_err(|e| e.to_string())?;
+        // Unique by position; the IR name after it (dots and other
+        // characters as `_`) names the code in profilers (`perf`).
+        let readable: String = f.name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+        let symbol = format!("tsl_entry_{k}_{readable}");
+        let id = jit.declare_function(&symbol, Linkage::Local, &entry_sig).map_err(|e| e.to_string())?;
         ids.push(id);
-        let _ = f;
     }
 
     // Translate sequentially (importing natives needs the module), then let

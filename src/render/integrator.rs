@@ -194,6 +194,7 @@ pub const BAILOUT: f32 = 1e-6;
 
 /// Renders call compiled code.
 const JIT: crate::Backend = crate::Backend::Jit;
+const REFLECTION: HitMethod = HitMethod::Interface("reflection");
 
 fn v3(v: Vec3) -> [f32; 3] {
     v.to_array()
@@ -250,10 +251,35 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     // ------------------------------------------------------------ material calls
 
-    fn reflection(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
+    fn reflection(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
         let mut out = Spectrum::ZERO;
+        if let Some(hit) = &sh.object.hit
+            && hit.method_function(REFLECTION).is_some()
+        {
+            self.lobe_args.clear();
+            push_words(&mut self.lobe_args, &v3(wi));
+            push_words(&mut self.lobe_args, &light.0[..self.lanes]);
+            let mut words = [0u32; N];
+            if hit.call_words(JIT, REFLECTION, &sh.g, &mut self.hit_words, &self.lobe_args, &mut words).is_ok() {
+                for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
+                    *o = f32::from_bits(*w);
+                }
+            }
+            return out;
+        }
         sh.object.material.reflection_into(&sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
         out
+    }
+
+    /// Runs the per-hit stage of a prepared material: every call below,
+    /// until the next hit, reads its record.
+    fn prepare(&mut self, sh: &Shading, eta: &Spectrum<N>) {
+        if let Some(hit) = &sh.object.hit {
+            self.lobe_args.clear();
+            push_words(&mut self.lobe_args, &v3(sh.wo));
+            push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
+            hit.prepare_words(JIT, &sh.g, &self.lobe_args, &mut self.hit_words);
+        }
     }
 
     fn refraction(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>, eta: &Spectrum<N>) -> Spectrum<N> {
@@ -401,7 +427,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let Some(f) = &sh.object.eval_pdf else {
             // An emitter of `light rect`/`light sphere`: the interface itself.
             let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
-            let f = if same_side { self.reflection(sh, wi, &self.ones) } else { Spectrum::ZERO };
+            let ones = self.ones;
+            let f = if same_side { self.reflection(sh, wi, &ones) } else { Spectrum::ZERO };
             return (f, sh.object.material.pdf_lanes(&sh.g, v3(wi), v3(sh.wo), &eta.0));
         };
         let args = &mut self.lobe_args;
@@ -707,6 +734,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
         }
         let here = distance + sh.g.t;
         let (eta, entering) = self.crossing(&sh, media);
+        // The record serves this hit's calls, all made before the recursion.
+        self.prepare(&sh, &eta);
         let lobes = self.lobes(&sh, &eta, entering);
         let deltas = [lobes.reflect.map(|r| r.0), lobes.refract.as_ref().map(|r| r.dir)];
         let mut l = self.emission(sh.object, &sh.g, sh.wo);
@@ -795,12 +824,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             }
             let (eta, entering) = self.crossing(&sh, &media);
             // The per-hit stage once; every call below reads its record.
-            if let Some(hit) = &sh.object.hit {
-                self.lobe_args.clear();
-                push_words(&mut self.lobe_args, &v3(sh.wo));
-                push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
-                hit.prepare_words(JIT, &sh.g, &self.lobe_args, &mut self.hit_words);
-            }
+            self.prepare(&sh, &eta);
             // Light samples near a perfect direction are not the smooth part.
             let deltas = if sh.object.delta_lobes.is_some()
                 || (sh.object.hit.is_some() && (sh.object.reflects || sh.object.refracts))

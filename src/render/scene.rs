@@ -393,12 +393,18 @@ impl<'a> Builder<'a> {
             })
             .collect();
         let mut objects = objects;
-        // Summed delta lights serve the integrators that sample every light.
+        if !overrides.unsplit {
+            let methods = match settings.integrator {
+                IntegratorKind::Path => crate::PATH_METHODS,
+                IntegratorKind::Whitted => crate::WHITTED_METHODS,
+            };
+            self.hit_groups(&mut objects, &materials, methods)?;
+        }
+        // Summed delta lights serve the integrators that sample every light,
+        // for objects without a prepared hit (whose eval_pdf per light reads
+        // the record: cheaper than evaluating the tree again for the sum).
         if settings.integrator == IntegratorKind::Whitted || settings.light_sampling == LightSampling::All {
             self.reflection_sums(&mut objects, &materials, &lights)?;
-        }
-        if settings.integrator == IntegratorKind::Path && !overrides.unsplit {
-            self.hit_groups(&mut objects, &materials)?;
         }
         // Objects without a hit group call these on their own.
         self.delta_lobes(&mut objects, &materials)?;
@@ -456,7 +462,9 @@ impl<'a> Builder<'a> {
             .iter()
             .zip(materials)
             .enumerate()
-            .filter_map(|(k, (o, m))| (!o.reflects && !o.refracts).then_some((k, format!("@object{k}"), (*m)?)))
+            .filter_map(|(k, (o, m))| {
+                (!o.reflects && !o.refracts && o.hit.is_none()).then_some((k, format!("@object{k}"), (*m)?))
+            })
             .collect();
         let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, n, m)| (n.clone(), *m)).collect();
         let functions = self.program.compile_reflection_sums(&items, count)?;
@@ -492,7 +500,12 @@ impl<'a> Builder<'a> {
 
     /// Compiles for each object with a material its hit group for the path
     /// tracer: `prepare`, `sample`, `eval_pdf` and the delta lobes.
-    fn hit_groups(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
+    fn hit_groups(
+        &self,
+        objects: &mut [Object],
+        materials: &[Option<MaterialRef>],
+        methods: &[crate::ir::lower::HitMethod],
+    ) -> Result<(), Error> {
         // A tree without lookups or noise in its methods has none in its
         // `prepare` either: not worth lowering a group for.
         let textured = |o: &Object| {
@@ -511,7 +524,7 @@ impl<'a> Builder<'a> {
             return Ok(());
         }
         let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
-        let groups = self.program.compile_hit_group_refs(&items, crate::PATH_METHODS)?;
+        let groups = self.program.compile_hit_group_refs(&items, methods)?;
         for ((k, _), h) in wanted.iter().zip(groups) {
             objects[*k].hit = h;
         }

@@ -7,6 +7,12 @@
 use super::*;
 use crate::ir::split::{self, Part, Split};
 
+/// Noise sites expanded inline in a hit group (a function's default is
+/// four): its `prepare` holds a whole tree's generators, a `select` of
+/// several trees more (texture_tree's cube has 44), and runs once per hit.
+/// Inline noise is f32 arithmetic, the native's f64 (within 1e-6).
+pub const HIT_NOISE_INLINE_SITES: u32 = 16;
+
 /// A method of a hit group. Every one reads the hit inputs `wo` and `eta`
 /// where the interface method takes them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -66,6 +72,8 @@ impl<'p> Lowerer<'p> {
         let inputs = self.method_args(&mut b, &hit_inputs());
         let (wo, eta) = (inputs[0].clone(), inputs[1].clone());
         let hit_words = b.func.params.len() as u32;
+        b.hoist_above_per_call(hit_words);
+        b.noise_budget = HIT_NOISE_INLINE_SITES;
         let ctx = self.root_ctx();
         let mut parts = Vec::new();
         let mut entries = Vec::new();

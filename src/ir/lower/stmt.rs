@@ -147,7 +147,6 @@ impl<'p> Lowerer<'p> {
         args: Vec<Val<'p>>,
         ctx: &Ctx,
     ) -> Val<'p> {
-        let ret = Ty::from_ast(&f.ret);
         let plain_args: Option<Vec<Value>> = args
             .iter()
             .map(|a| match a {
@@ -162,6 +161,27 @@ impl<'p> Lowerer<'p> {
         {
             return Val::Lanes(v);
         }
+        // In a hit group, a call with point-only inputs under a per-call
+        // condition is lowered above it (`ir::hoist`), for the other methods.
+        if let Some(MemoKey::Call { args: words, .. }) = &key
+            && b.hoisting.is_some()
+        {
+            let inputs: Vec<Value> = words.iter().chain(ctx.overrides.values().flatten()).copied().collect();
+            return b.hoisted(&inputs, |b| self.inline_body(b, (sym, f), args, ctx, key));
+        }
+        self.inline_body(b, (sym, f), args, ctx, key)
+    }
+
+    /// The body of `callee` inlined with `args`, remembered under `key`.
+    fn inline_body(
+        &mut self,
+        b: &mut Builder,
+        (sym, f): (Symbol, &'p ast::Function),
+        args: Vec<Val<'p>>,
+        ctx: &Ctx,
+        key: Option<MemoKey>,
+    ) -> Val<'p> {
+        let ret = Ty::from_ast(&f.ret);
         let mut fr = self.new_frame(self.is_prelude(sym), assigned_names(&f.body));
         for (p, a) in f.params.iter().zip(args) {
             let ty = Ty::from_ast(&p.ty);
@@ -265,9 +285,9 @@ impl<'p> Lowerer<'p> {
                     _ => {}
                 }
                 let mut then_ends = false;
-                let then_body = b.nested(|b| then_ends = self.block(b, fr, ctx, then_block));
+                let then_body = b.nested_under(&[c], |b| then_ends = self.block(b, fr, ctx, then_block));
                 let mut else_ends = false;
-                let else_body = b.nested(|b| {
+                let else_body = b.nested_under(&[c], |b| {
                     if let Some(e) = else_branch {
                         else_ends = self.stmt(b, fr, ctx, e);
                     }
@@ -282,8 +302,9 @@ impl<'p> Lowerer<'p> {
                 let hi = self.scalar(b, hi);
                 let label = b.label();
                 let counter = b.var(Scalar::I32);
+                b.note_loop_counter(counter, [lo, hi]);
                 fr.loops.push(label);
-                let inner = b.nested(|b| {
+                let inner = b.nested_under(&[lo, hi], |b| {
                     fr.scopes.push(HashMap::default());
                     let i = b.get(counter);
                     if let Some(scope) = fr.scopes.last_mut() {

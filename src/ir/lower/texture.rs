@@ -104,6 +104,6 @@ impl<'p> Lowerer<'p> {
             let d = g(self, b, &format!("d{name}d{axis}"));
             changes.push((name, vec![b.fadd(x[0], d[0])]));
         }
-        self.with_overrides(ctx, changes)
+        self.with_overrides(b, ctx, changes)
     }
 }

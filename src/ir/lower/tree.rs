@@ -136,6 +136,12 @@ impl<'p> Lowerer<'p> {
                 if !matches!(im.name, "reflection" | "refraction" | "emission" | "ambient" | "diffuse" | "sample") {
                     return inner;
                 }
+                // Black stays black, whatever the weight (even a NaN): the
+                // weight is not evaluated, so a scaled lambert stays
+                // non-emissive.
+                if im.name != "sample" && inner.iter().all(|v| b.fconst(*v) == Some(0.0)) {
+                    return inner;
+                }
                 let c = match bound.first().copied().flatten() {
                     Some(e) => {
                         let mut fr = self.env_frame(&mat.env, mat.in_prelude);
@@ -285,10 +291,25 @@ impl<'p> Lowerer<'p> {
         )
     }
 
-    pub(super) fn with_overrides(&mut self, ctx: &Ctx, changes: Vec<(&'static str, Vec<Value>)>) -> Ctx {
+    /// `ctx` with some globals replaced. Equal changes of one context get
+    /// one id (see [`Builder::contexts`]).
+    pub(super) fn with_overrides(
+        &mut self,
+        b: &mut Builder,
+        ctx: &Ctx,
+        changes: Vec<(&'static str, Vec<Value>)>,
+    ) -> Ctx {
+        let key = (ctx.id, changes);
+        let id = match b.contexts.get(&key) {
+            Some(id) => *id,
+            None => {
+                let id = self.id();
+                b.contexts.insert(key.clone(), id);
+                id
+            }
+        };
         let mut map = (*ctx.overrides).clone();
-        map.extend(changes);
-        let id = self.id();
+        map.extend(key.1);
         Ctx { id, overrides: Rc::new(map) }
     }
 
@@ -309,7 +330,7 @@ impl<'p> Lowerer<'p> {
         let uv = transform_point(b, m, &[u[0], v[0], zero], true);
         changes.push(("u", vec![uv[0]]));
         changes.push(("v", vec![uv[1]]));
-        self.with_overrides(ctx, changes)
+        self.with_overrides(b, ctx, changes)
     }
 
     /// `bump`: the normal tilted by the gradient of `height` along the
@@ -338,7 +359,8 @@ impl<'p> Lowerer<'p> {
             let moved_p = b.map2(BinOp::FAdd, &p, &step);
             let moved_pl = b.map2(BinOp::FAdd, &pl, &step);
             let moved_param = b.fadd(param[0], delta);
-            let shifted = self.with_overrides(ctx, vec![("P", moved_p), ("Pl", moved_pl), (pname, vec![moved_param])]);
+            let shifted =
+                self.with_overrides(b, ctx, vec![("P", moved_p), ("Pl", moved_pl), (pname, vec![moved_param])]);
             let h = h_at(self, b, &shifted);
             let dh = b.fsub(h, h0);
             gradient.push(b.fdiv(dh, delta));
@@ -366,7 +388,7 @@ impl<'p> Lowerer<'p> {
                 b.select(degenerate, n[k], oriented)
             })
             .collect();
-        self.with_overrides(ctx, vec![("N", new_n)])
+        self.with_overrides(b, ctx, vec![("N", new_n)])
     }
 }
 
