@@ -394,11 +394,20 @@ impl<'a> Builder<'a> {
             .collect();
         let mut objects = objects;
         if !overrides.unsplit {
+            // Whitted shades an object that neither reflects nor refracts
+            // under 2 to MAX_SUMMED_LIGHTS delta lights (and no other light)
+            // with one reflection sum: one evaluation per hit already.
+            let delta = lights.iter().filter(|l| l.is_delta()).count();
+            let summed_alone = settings.integrator == IntegratorKind::Whitted
+                && delta == lights.len()
+                && !objects.iter().any(|o| o.emissive)
+                && (2..=MAX_SUMMED_LIGHTS).contains(&delta);
             let methods = match settings.integrator {
                 IntegratorKind::Path => crate::PATH_METHODS,
                 IntegratorKind::Whitted => crate::WHITTED_METHODS,
             };
-            self.hit_groups(&mut objects, &materials, methods)?;
+            let skip = |o: &Object| summed_alone && !o.reflects && !o.refracts;
+            self.hit_groups(&mut objects, &materials, methods, skip)?;
         }
         // Summed delta lights serve the integrators that sample every light,
         // for objects without a prepared hit (whose eval_pdf per light reads
@@ -498,13 +507,14 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
-    /// Compiles for each object with a material its hit group for the path
-    /// tracer: `prepare`, `sample`, `eval_pdf` and the delta lobes.
+    /// Compiles for each textured object with a material (but those `skip`
+    /// names) its hit group of `methods`.
     fn hit_groups(
         &self,
         objects: &mut [Object],
         materials: &[Option<MaterialRef>],
         methods: &[crate::ir::lower::HitMethod],
+        skip: impl Fn(&Object) -> bool,
     ) -> Result<(), Error> {
         // A tree without lookups or noise in its methods has none in its
         // `prepare` either: not worth lowering a group for.
@@ -517,7 +527,7 @@ impl<'a> Builder<'a> {
         let wanted: Vec<(usize, (String, MaterialRef))> = materials
             .iter()
             .enumerate()
-            .filter(|(k, _)| textured(&objects[*k]))
+            .filter(|(k, _)| !skip(&objects[*k]) && textured(&objects[*k]))
             .filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?))))
             .collect();
         if wanted.is_empty() {

@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Render times of this checkout against another revision, side by side in one
+# run: each scene is rendered by both builds in turn, REPEATS times, and the
+# medians of the render times tslc reports (scene build and compile apart)
+# are printed with their ratio.
+#
+#     scripts/compare-revisions.sh ab5ced4            # the default scenes
+#     REPEATS=5 scripts/compare-revisions.sh HEAD~3 "examples/cornell.tsl --spp 16"
+#
+# The other revision is built (release) in target/compare/REV, a git
+# worktree; its build is kept for the next run.
+set -euo pipefail
+rev=${1:?usage: compare-revisions.sh REV [SCENE_ARGS...]}
+shift
+root=$(cd "$(dirname "$0")/.." && pwd)
+repeats=${REPEATS:-3}
+other="$root/target/compare/$rev"
+if [ ! -d "$other" ]; then
+    mkdir -p "$root/target/compare"
+    git -C "$root" worktree add --detach -f "$other" "$rev" >/dev/null
+fi
+(cd "$other" && cargo build --release --quiet)
+(cd "$root" && cargo build --release --quiet)
+if [ $# -eq 0 ]; then
+    set -- \
+        "examples/techniques/bump_procedural.tsl --res 320x180 --spp 8 --integrator path" \
+        "examples/texture_tree.tsl --res 320x240 --spp 8 --integrator path" \
+        "examples/room.tsl --res 320x240 --spp 8 --integrator path" \
+        "examples/techniques/bump_procedural.tsl --res 320x180 --spp 8 --integrator whitted" \
+        "examples/texture_tree.tsl --res 320x240 --spp 8" \
+        "examples/cornell.tsl" \
+        "examples/whitted.tsl" \
+        "examples/procedural.tsl"
+fi
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+seconds() { # BIN ARGS...: the render time tslc reports
+    local bin=$1
+    shift
+    # shellcheck disable=SC2086
+    (cd "$root" && "$bin" render $* -o "$out/x.png" 2>&1 | sed -n 's/.* in \([0-9.]*\) s on .*/\1/p')
+}
+median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+printf '%-78s %8s %8s %7s\n' "scene" "$rev" "now" "speed-up"
+for scene in "$@"; do
+    before=() after=()
+    for _ in $(seq "$repeats"); do
+        before+=("$(seconds "$other/target/release/tslc" "$scene")")
+        after+=("$(seconds "$root/target/release/tslc" "$scene")")
+    done
+    b=$(printf '%s\n' "${before[@]}" | median)
+    a=$(printf '%s\n' "${after[@]}" | median)
+    printf '%-78s %7ss %7ss %6.2fx\n' "$scene" "$b" "$a" "$(echo "$b / $a" | bc -l)"
+done
