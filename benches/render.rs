@@ -10,8 +10,9 @@
 //! The per-hit split (`ir::split`): path-traced `bump_procedural`, `room`
 //! and `texture_tree` rendered with each method compiled on its own (the
 //! code before the split) and split, alternately, three times each; the
-//! medians, their ratio, both scene builds, and the noise sites run per
-//! path vertex (static: a site in a loop counts once).
+//! medians, their ratio, both scene builds, and the noise evaluated at
+//! each camera hit of a textured object by the path tracer's calls there
+//! (run through the interpreter, which counts).
 
 use std::path::Path;
 use std::time::Instant;
@@ -51,23 +52,81 @@ fn bench_scene(name: &str, file: &Path, spp: Option<u32>) {
     figure(&format!("{label} speed-up"), times[0] / times[1], "x");
 }
 
-/// Noise sites in `f`: native calls plus inline expansions, which read
-/// their gradient table at each corner of the lattice cell (2, 4 or 8).
-fn noise_sites(f: &tsl::ir::Function) -> usize {
-    let (mut calls, mut corners) = (0, 0.0);
-    tsl::ir::for_each_op(&f.body, &mut |op| match op {
-        tsl::ir::Op::Call { native, .. } if native.contains("noise") => calls += 1,
-        tsl::ir::Op::Table { table, .. } => {
-            corners += match tsl::runtime::table_name(table) {
-                Some("grad1") => 0.5,
-                Some("grad2.x") => 0.25,
-                Some("grad3.x") => 0.125,
-                _ => 0.0,
+/// Noise evaluated at the first hit of camera rays over the image, by the
+/// path tracer's calls there, run through the interpreter (which counts):
+/// `prepare` and the group's methods for a prepared object; otherwise
+/// `sample`, the delta lobes, and for the lights either one `eval_pdf` each
+/// or the reflection sum over the delta lights. Returns the mean per hit of
+/// a textured object (one whose methods evaluate noise), and how many hits.
+fn noise_per_hit(scene: &Scene) -> (f64, usize) {
+    use tsl::interp::{Counts, run_counting};
+    let lanes = scene.model.lanes();
+    let (width, height) = (scene.settings.width, scene.settings.height);
+    let (mut total, mut hits) = (0.0, 0);
+    let words = |xs: &[f32]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+    let mut out = vec![0u32; 64 + 2 * lanes];
+    for py in (0..height).step_by(4) {
+        for px in (0..width).step_by(4) {
+            let Some((k, g, wo)) = render::camera_hit(scene, px, py) else { continue };
+            let o = &scene.objects[k];
+            let globals = g.words();
+            let eta = vec![1.0f32; lanes];
+            let hit_inputs = words(&[&wo[..], &eta[..]].concat());
+            let (wi, u) = (words(&g.n), words(&[0.37, 0.61, 0.29]));
+            let mut c = Counts::default();
+            let lights = scene.lights.len();
+            match &o.hit {
+                Some(h) => {
+                    let mut record = vec![0u32; h.record_words()];
+                    run_counting(h.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
+                    let own = |m| match m {
+                        tsl::ir::lower::HitMethod::EvalPdf => (wi.clone(), lights),
+                        tsl::ir::lower::HitMethod::DeltaLobes => (Vec::new(), usize::from(o.reflects || o.refracts)),
+                        _ => (u.clone(), 1),
+                    };
+                    for m in tsl::PATH_METHODS {
+                        let (args, times) = own(*m);
+                        let args = [&record[..], &args[..]].concat();
+                        for _ in 0..times {
+                            if let Some(f) = h.method_function(*m) {
+                                run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                            }
+                        }
+                    }
+                }
+                None => {
+                    let sample_args = [&hit_inputs[..], &u[..]].concat();
+                    run_counting(o.sample.ir(), &globals, &sample_args, &mut out, &mut c);
+                    if let Some(f) = &o.delta_lobes {
+                        run_counting(f.ir(), &globals, &hit_inputs, &mut out, &mut c);
+                    }
+                    let delta = scene.lights.iter().filter(|l| l.is_delta()).count();
+                    let summed = o.reflection_sum.as_ref().filter(|_| delta > 0);
+                    if let Some(f) = summed {
+                        let mut args = Vec::new();
+                        for _ in 0..delta {
+                            args.extend(&wi);
+                            args.extend(words(&eta));
+                        }
+                        args.extend(words(&wo));
+                        run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                    }
+                    let unsummed = if summed.is_some() { lights - delta } else { lights };
+                    if let Some(f) = &o.eval_pdf {
+                        let args = [&wi[..], &hit_inputs[..]].concat();
+                        for _ in 0..unsummed {
+                            run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                        }
+                    }
+                }
+            }
+            if c.noise > 0.0 {
+                total += c.noise;
+                hits += 1;
             }
         }
-        _ => {}
-    });
-    calls + corners as usize
+    }
+    (if hits > 0 { total / hits as f64 } else { 0.0 }, hits)
 }
 
 fn bench_split(name: &str, file: &Path) {
@@ -112,35 +171,11 @@ fn bench_split(name: &str, file: &Path) {
     figure(&format!("{label} split speed-up"), before / after, "x");
     let prepared = scenes[1].objects.iter().filter(|o| o.hit.is_some()).count();
     figure(&format!("{label} objects prepared (of {})", scenes[1].objects.len()), prepared as f64, "");
-    // Per vertex: sample, eval_pdf and the delta lobes, on their own or
-    // after prepare (the first object with a texture counts).
+    // Noise run at the camera hits of textured objects, counted by the interpreter.
     for (unsplit, scene) in [true, false].into_iter().zip(&scenes) {
-        let sites: Option<usize> = scene
-            .objects
-            .iter()
-            .map(|o| match (&o.hit, unsplit) {
-                (Some(h), false) => {
-                    let methods = [tsl::ir::lower::HitMethod::Interface("sample"), tsl::ir::lower::HitMethod::EvalPdf];
-                    noise_sites(h.prepare_function().ir())
-                        + methods
-                            .iter()
-                            .filter_map(|m| h.method_function(*m))
-                            .map(|f| noise_sites(f.ir()))
-                            .sum::<usize>()
-                }
-                _ => {
-                    noise_sites(o.sample.ir())
-                        + o.eval_pdf.as_ref().map_or(0, |f| noise_sites(f.ir()))
-                        + o.delta_lobes.as_ref().map_or(0, |f| noise_sites(f.ir()))
-                }
-            })
-            .max();
+        let (noise, hits) = noise_per_hit(scene);
         let which = if unsplit { "per method" } else { "split" };
-        figure(
-            &format!("{label} noise sites per vertex {which} (most textured object)"),
-            sites.unwrap_or(0) as f64,
-            "",
-        );
+        figure(&format!("{label} noise evaluations per textured hit {which} (of {hits} hits)"), noise, "");
     }
 }
 

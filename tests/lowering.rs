@@ -404,3 +404,23 @@ fn methods_that_ignore_the_normal_run_no_generator() {
     let m = p.material("hammered").unwrap();
     assert!(m.always_opaque() && !m.may_refract());
 }
+
+/// The interpreter's counts (for `cargo bench --bench render -- split`):
+/// native noise calls and inline expansions alike, each loop trip again.
+#[test]
+fn the_interpreter_counts_noise_evaluations() {
+    let p = compile(
+        r#"
+        float three() { return noise(P) + cellnoise(P * 2) + noise(vec2(u, v)); }
+        float octaves() { return fbm(P, octaves: 5); }
+        "#,
+    );
+    let g = ShadingGlobals { p: [0.3, 0.2, 0.1], u: 0.4, v: 0.7, ..Default::default() }.words();
+    for (name, expected) in [("three", 3.0), ("octaves", 5.0)] {
+        let f = ir(&p, name);
+        let mut counts = tsl::interp::Counts::default();
+        let mut out = [0u32; 1];
+        tsl::interp::run_counting(&f, &g, &[], &mut out, &mut counts);
+        assert_eq!(counts.noise, expected, "{f}");
+    }
+}

@@ -17,6 +17,24 @@ use crate::texture::Lookup;
 /// Runs `func` on the given globals and argument words, writing the result
 /// words into `out`.
 pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
+    run_with(func, globals, args, out, None);
+}
+
+/// What a run evaluated, for benchmarks ([`run_counting`]).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub struct Counts {
+    /// Noise evaluations: native calls (`tsl_noise3`, `tsl_cellnoise3`, ...)
+    /// and inline expansions, each of which reads its gradient table at the
+    /// 2, 4 or 8 corners of a 1D, 2D or 3D lattice cell.
+    pub noise: f64,
+}
+
+/// [`run`], adding what it evaluated to `counts`.
+pub fn run_counting(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], counts: &mut Counts) {
+    run_with(func, globals, args, out, Some(counts));
+}
+
+fn run_with(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], counts: Option<&mut Counts>) {
     // A bool argument is true when its word is non-zero, as in the JIT.
     let args: Vec<u32> = args
         .iter()
@@ -31,6 +49,7 @@ pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
         arrays: func.arrays.iter().map(|(_, n)| vec![0u32; *n as usize]).collect(),
         budget: MAX_CALL_ITERATIONS,
         out,
+        counts,
     };
     let _ = m.body(&func.body);
 }
@@ -51,6 +70,7 @@ struct Machine<'a, 'o> {
     /// Loop iterations this call may still run, over all loops.
     budget: i64,
     out: &'o mut [u32],
+    counts: Option<&'o mut Counts>,
 }
 
 fn f(x: u32) -> f32 {
@@ -142,7 +162,17 @@ impl Machine<'_, '_> {
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
-            Op::Table { table, index } => table[table_index(i(self.v(*index)), table.len())],
+            Op::Table { table, index } => {
+                if let Some(c) = &mut self.counts {
+                    c.noise += match crate::runtime::table_name(table) {
+                        Some("grad1") => 0.5,
+                        Some("grad2.x") => 0.25,
+                        Some("grad3.x") => 0.125,
+                        _ => 0.0,
+                    };
+                }
+                table[table_index(i(self.v(*index)), table.len())]
+            }
             Op::Load { array, index } => {
                 let a = &self.arrays[array.0 as usize];
                 a[clamp_index(i(self.v(*index)), a.len())]
@@ -196,6 +226,11 @@ impl Machine<'_, '_> {
                 }
             }
             Op::Call { native: name, args } => {
+                if let Some(c) = &mut self.counts
+                    && name.contains("noise")
+                {
+                    c.noise += 1.0;
+                }
                 let a: Vec<f32> = args.iter().map(|v| f(self.v(*v))).collect();
                 let r = match native(name).map(|n| &n.f) {
                     Some(NativeFn::F1(g)) => g(a[0]),

@@ -948,3 +948,21 @@ fn footprint(g: &mut ShadingGlobals, s: &SurfaceHit, dir: Vec3, distance: f32, s
     g.dpdy = v3(dpdy);
     (g.dudx, g.dvdx, g.dudy, g.dvdy) = (dudx, dvdx, dudy, dvdy);
 }
+
+/// Where the camera ray through the centre of pixel `(px, py)` (and of the
+/// lens) first meets the scene, as a renderer shades it: the object's index
+/// in [`Scene::objects`], its shading globals (the pixel footprint
+/// included) and the direction toward the viewer. For probes, tools and
+/// benchmarks that call materials as the integrators do.
+pub fn camera_hit(scene: &Scene, px: u32, py: u32) -> Option<(usize, ShadingGlobals, [f32; 3])> {
+    let ray = scene.camera.ray(px as f32 + 0.5, py as f32 + 0.5, [0.5, 0.5]);
+    let hit = scene.geometry.intersect(&ray, 0.0, f32::INFINITY)?;
+    let object = &scene.objects[hit.object as usize];
+    let s = scene.geometry.surface(&ray, &hit, object.reads_uv);
+    let len = ray.dir.length();
+    let mut g = globals_of(&s, hit.t * len);
+    if object.reads_footprint {
+        footprint(&mut g, &s, ray.dir / len, hit.t * len, scene.camera.pixel_spread());
+    }
+    Some((hit.object as usize, g, v3(-ray.dir / len)))
+}

@@ -41,7 +41,7 @@ pub type Vec3 = glam::Vec3A;
 /// renderers look for it.
 pub use crate::image_io;
 pub use crate::image_io::{NO_OBJECT, RenderedImage};
-pub use integrator::Counters;
+pub use integrator::{Counters, camera_hit};
 pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 
 use integrator::{Aov, Tracer};
