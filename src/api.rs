@@ -283,6 +283,20 @@ impl Program {
         Error { diagnostics: vec![diagnostic], sources: self.inner.program.loaded.sources.clone() }
     }
 
+    /// What lowering reported, as an error into this program's sources.
+    fn lowering_errors(&self, diags: Vec<Diagnostic>) -> Result<(), Error> {
+        if diags.is_empty() {
+            return Ok(());
+        }
+        Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() })
+    }
+
+    /// Lowered entries compiled into one JIT module.
+    fn jit_part(&self, ir: IrModule, entries: Vec<Entry>) -> Result<Arc<Part>, Error> {
+        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
+        Ok(Arc::new(Part { ir, entries, jit }))
+    }
+
     /// The program's `scene { }` block as checked plain data, its colors in
     /// the program's color model; `None` without a scene.
     pub fn scene(&self) -> Option<&SceneDesc> {
@@ -307,11 +321,8 @@ impl Program {
         let exprs = self.material_exprs(materials)?;
         let (ir, entries, diags) =
             crate::ir::lower::lower_material_exprs(&self.inner.program, self.inner.model, &exprs);
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
-        }
-        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
-        let part = Arc::new(Part { ir, entries, jit });
+        self.lowering_errors(diags)?;
+        let part = self.jit_part(ir, entries)?;
         let mut out = Vec::with_capacity(materials.len());
         for (name, _) in materials {
             let mut methods = Vec::with_capacity(crate::check::INTERFACE.len());
@@ -364,11 +375,8 @@ impl Program {
         &self,
         (ir, entries, diags): (IrModule, Vec<Entry>, Vec<Diagnostic>),
     ) -> Result<Vec<Function>, Error> {
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
-        }
-        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
-        let part = Arc::new(Part { ir, entries, jit });
+        self.lowering_errors(diags)?;
+        let part = self.jit_part(ir, entries)?;
         let mut out = Vec::with_capacity(part.ir.functions.len());
         for (index, f) in part.ir.functions.iter().enumerate() {
             let native = part

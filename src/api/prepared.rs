@@ -8,13 +8,12 @@
 //! answers every method from that. The hit borrows its material, so it can
 //! be used with no other and cannot outlive the compiled code.
 
-use super::{Backend, BsdfSample, Color, Entry, Error, Function, Part, Program, SAMPLE_WORDS};
+use super::{Backend, BsdfSample, Color, Entry, Error, Function, Program, SAMPLE_WORDS};
 use crate::check::{MaterialRef, Ty};
 use crate::globals::ShadingGlobals;
 use crate::ir::Module as IrModule;
 use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups};
 use crate::syntax::ast::{Expr, ExprKind};
-use std::sync::Arc;
 
 /// What a path tracer calls at a hit after `prepare`: the hit group the
 /// renderer compiles (`emission`, needed only by emitters, stays a call of
@@ -87,9 +86,7 @@ impl Program {
     ) -> Result<Vec<Option<HitMaterial>>, Error> {
         let exprs = self.material_exprs(materials)?;
         let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, &exprs, methods);
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
-        }
+        self.lowering_errors(diags)?;
         let worth: Vec<bool> = groups.iter().map(|g| worth_preparing(&g.split.prepare)).collect();
         let chosen: Vec<HitGroup> = groups.into_iter().zip(&worth).filter(|(_, w)| **w).map(|(g, _)| g).collect();
         let mut compiled = self.compile_split_groups(chosen)?.into_iter();
@@ -103,9 +100,7 @@ impl Program {
         methods: &[HitMethod],
     ) -> Result<Vec<HitMaterial>, Error> {
         let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, materials, methods);
-        if !diags.is_empty() {
-            return Err(Error { diagnostics: diags, sources: self.inner.program.loaded.sources.clone() });
-        }
+        self.lowering_errors(diags)?;
         self.compile_split_groups(groups)
     }
 
@@ -128,8 +123,7 @@ impl Program {
                 entries.push(Entry { name: f.name.clone(), kind: EntryKind::Hit(*method), params, ret: ret.clone() });
             }
         }
-        let jit = crate::jit::compile(&ir, &self.inner.jit_options).map_err(Error::plain)?;
-        let part = Arc::new(Part { ir, entries, jit });
+        let part = self.jit_part(ir, entries)?;
         let mut out = Vec::with_capacity(groups.len());
         let mut index = 0;
         let handle = |index: &mut usize| -> Result<Function, Error> {
