@@ -187,6 +187,31 @@ fn format_of(path: &Path) -> Result<Format, String> {
     }
 }
 
+/// Whether an image can be written to `path`, checked before rendering:
+/// a known extension, an existing directory, and permission to create a
+/// file in it (a probe file is made and removed). Errors name `path`.
+pub fn check_output(path: &Path) -> Result<(), String> {
+    format_of(path)?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
+    }
+    if path.is_dir() {
+        return Err(format!("cannot write {}: it is a directory", path.display()));
+    }
+    let probe = dir.join(format!(".tslc-probe-{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => Err(format!("cannot write {}: {e}", path.display())),
+    }
+}
+
 /// Writes the image, choosing the format by extension (`.png` or `.exr`).
 /// A PNG holds just the window's pixels; an EXR keeps the window's place
 /// in the full frame.
@@ -214,11 +239,14 @@ fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) ->
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
     // The temporary keeps the extension: the encoders look at it.
     let tmp = dir.join(format!(".{name}.tmp-{}-{}.{ext}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
+    // The temporary is ours: errors name the user's path.
+    let user_path = |e: String| e.replace(&tmp.display().to_string(), &path.display().to_string());
     let result = write(&tmp)
+        .map_err(user_path)
         .and_then(|()| {
             std::fs::File::open(&tmp)
                 .and_then(|f| f.sync_all())
-                .map_err(|e| format!("cannot sync {}: {e}", tmp.display()))
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))
         })
         .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("cannot write {}: {e}", path.display())));
     if result.is_err() {
@@ -481,6 +509,12 @@ pub fn parse_crop(spec: &str, full_width: u32, full_height: u32) -> Result<(u32,
     let (px0, px1, py0, py1) = if values.iter().all(|v| *v <= 1.0) {
         ((x0 * w).floor(), (x1 * w).ceil(), (y0 * h).floor(), (y1 * h).ceil())
     } else {
+        // Pixel numbers: a fraction among them (`0,1.5,0,1`) is a mistake.
+        if let Some(v) = values.iter().find(|v| v.fract() != 0.0) {
+            return Err(bad(&format!(
+                "{v} is neither a fraction in [0, 1] nor a pixel number: write all four as fractions or as whole pixels"
+            )));
+        }
         (x0, x1, y0, y1)
     };
     if px1 <= px0 || py1 <= py0 {
@@ -637,6 +671,8 @@ mod tests {
         assert!(parse_crop("0,200,0,10", 100, 50).unwrap_err().contains("beyond"));
         assert!(parse_crop("1,2,3", 100, 50).is_err());
         assert!(parse_crop("a,b,c,d", 100, 50).is_err());
+        // A fraction among pixel numbers is not one pixel wide: it is refused.
+        assert!(parse_crop("0,1.5,0,1", 100, 50).unwrap_err().contains("neither a fraction"));
     }
 
     #[test]

@@ -131,6 +131,18 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
     assert!(!o.status.success() && stderr(&o).contains(".png or .exr"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("nodir/x.png")), "--res", "8x8", "--quiet"]);
     assert!(!o.status.success() && stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    // Output problems are found before any rendering (no progress line),
+    // and name the user's path.
+    std::fs::create_dir_all(dir.join("d.png")).unwrap();
+    for (target, why) in [("nodir/x.png", "does not exist"), ("x.jpg", ".png or .exr"), ("d.png", "is a directory")] {
+        let target = dir.join(target);
+        let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&target), "--res", "8x8"]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains(why) && err.contains(&s(&target)), "{err}");
+        assert!(!err.contains("progress") && !err.contains("rendered"), "{err}");
+    }
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0,1.5,0,1", "--res", "8x8"]);
+    assert!(!o.status.success() && stderr(&o).contains("neither a fraction"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--light-sampling", "some"]);
     assert!(o.status.code() == Some(2) && stderr(&o).contains("all or power"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0.5,0.5,0,1", "--res", "8x8"]);

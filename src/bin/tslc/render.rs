@@ -126,6 +126,20 @@ fn fail(message: impl std::fmt::Display) -> ExitCode {
 
 pub fn render(args: RenderArgs) -> ExitCode {
     let start = Instant::now();
+    // Everything about the output is checked before any work starts.
+    if let Err(e) = image_io::check_output(&args.output) {
+        return fail(e);
+    }
+    let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if args.tile.is_some() && !is_exr {
+        return fail("a tile must be written as .exr, so that `tslc merge` can place it");
+    }
+    if args.aov && !is_exr {
+        return fail("--aov needs an .exr output (PNG has no layers)");
+    }
+    if args.crop.is_some() && args.tile.is_some() {
+        return fail("--crop and --tile cannot be combined");
+    }
     let mut compiler = tsl::Compiler::new().color_model(args.color).file(&args.scene);
     for dir in &args.include {
         compiler = compiler.import_path(dir);
@@ -167,13 +181,6 @@ pub fn render(args: RenderArgs) -> ExitCode {
         },
         (None, None) => None,
     };
-    let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-    if args.tile.is_some() && !is_exr {
-        return fail("a tile must be written as .exr, so that `tslc merge` can place it");
-    }
-    if args.aov && !is_exr {
-        return fail("--aov needs an .exr output (PNG has no layers)");
-    }
     let progress = Progress::new(args.quiet);
     let report = |done: u64, total: u64| progress.update(done, total);
     let options = RenderOptions {
