@@ -49,7 +49,7 @@ pub struct Error {
 impl Error {
     pub(crate) fn plain(message: String) -> Error {
         let mut sources = SourceMap::new();
-        let file = sources.add("<tsl>", "");
+        let file = sources.add(crate::diag::UNLOCATED, "");
         Error { diagnostics: vec![Diagnostic::error(crate::diag::Span::new(file, 0, 0), message)], sources }
     }
 }

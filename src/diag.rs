@@ -167,6 +167,10 @@ pub enum Colors {
     Always,
 }
 
+/// The file name of diagnostics that are about no source text
+/// (`Error::plain`); [`render_text`] prints them as one line.
+pub const UNLOCATED: &str = "<tsl>";
+
 /// Renders diagnostics as rustc-style text: `file:line:col`, the source
 /// line, carets, labels, help.
 pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) -> String {
@@ -178,6 +182,20 @@ pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) ->
     let config = term::Config::default();
     let mut out: Vec<u8> = Vec::new();
     for d in diags {
+        // Not about any source text (a bad override, a failed write): one line.
+        if sources.name(d.span.file) == UNLOCATED && sources.text(d.span.file).is_empty() {
+            let severity = if d.is_error() { "error" } else { "warning" };
+            out.extend(format!("{severity}: {}\n", d.message).bytes());
+            for line in d
+                .help
+                .iter()
+                .map(|h| format!("  = help: {h}\n"))
+                .chain(d.notes.iter().map(|n| format!("  = note: {n}\n")))
+            {
+                out.extend(line.bytes());
+            }
+            continue;
+        }
         let cs_diag = to_codespan(d);
         // Writing into a Vec cannot fail; a bad span could, and then the
         // plain one-line form below still tells the user what happened.

@@ -143,6 +143,23 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
     }
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0,1.5,0,1", "--res", "8x8"]);
     assert!(!o.status.success() && stderr(&o).contains("neither a fraction"), "{}", stderr(&o));
+    // Every count has a bound, and a negative number gets the same message.
+    for (flag, value, why) in [
+        ("--spp", "0", "samples per pixel must be a whole number from 1 to 1048576"),
+        ("--spp", "-1", "samples per pixel must be a whole number from 1 to 1048576"),
+        ("--max-depth", "0", "the maximum depth must be a whole number from 1 to 1024"),
+        ("--seed", "-1", "the seed must be a whole number from 0"),
+        ("--threads", "10000", "the thread count must be a whole number from 0 to 1024"),
+        ("--res", "65536x65536", "more than the 134217728 pixels"),
+    ] {
+        let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), flag, value]);
+        assert!(o.status.code() == Some(2) && stderr(&o).contains(why), "{flag} {value}: {}", stderr(&o));
+    }
+    // A file without a scene is named.
+    let no_scene = dir.join("no_scene.tsl");
+    std::fs::write(&no_scene, "material m = lambert;\n").unwrap();
+    let o = tslc(&["render", &s(&no_scene), "-o", &s(&out)]);
+    assert!(stderr(&o).contains("no_scene.tsl:1:1") && !stderr(&o).contains("<tsl>"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--light-sampling", "some"]);
     assert!(o.status.code() == Some(2) && stderr(&o).contains("all or power"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), "--crop", "0.5,0.5,0,1", "--res", "8x8"]);

@@ -67,10 +67,14 @@ impl Ray {
     }
 }
 
+/// The most worker threads a render may ask for.
+pub const MAX_THREADS: usize = 1024;
+
 /// How one render runs (what is not part of the scene).
 #[derive(Default)]
 pub struct RenderOptions<'a> {
-    /// Worker threads; 0 means one per core.
+    /// Worker threads; 0 means one per core. At most [`MAX_THREADS`], and
+    /// never more than the image has tiles.
     pub threads: usize,
     /// The pixels to render, `(x0, y0, width, height)`; `None` for all.
     pub window: Option<(u32, u32, u32, u32)>,
@@ -145,8 +149,13 @@ fn render_lanes<const N: usize>(
             tiles.push((tx, ty, TILE.min(x0 + width - tx), TILE.min(y0 + height - ty)));
         }
     }
+    if options.threads > MAX_THREADS {
+        return Err(format!("at most {MAX_THREADS} render threads, asked for {}", options.threads));
+    }
+    // More threads than tiles would only wait.
+    let threads = if options.threads == 0 { 0 } else { options.threads.min(tiles.len()) };
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(options.threads)
+        .num_threads(threads)
         .build()
         .map_err(|e| format!("cannot start render threads: {e}"))?;
     let threads = pool.current_num_threads();

@@ -184,8 +184,17 @@ impl Scene {
     /// it has read.
     pub fn build(program: &Program, overrides: &Overrides) -> Result<Scene, Error> {
         let start = std::time::Instant::now();
-        let desc =
-            program.scene().ok_or_else(|| Error::plain("the program has no `scene { ... }` block to render".into()))?;
+        let Some(desc) = program.scene() else {
+            // Said at the top of the user's file.
+            let root = program.checked().loaded.modules.iter().find(|m| !m.is_prelude).map(|m| m.file);
+            let message = "the program has no `scene { ... }` block to render";
+            return Err(match root {
+                Some(file) => {
+                    program.error(crate::diag::Diagnostic::error(crate::diag::Span::new(file, 0, 0), message))
+                }
+                None => Error::plain(message.into()),
+            });
+        };
         let scene = Builder { program, desc, model: program.color_model() }.build(overrides)?;
         Ok(Scene { build_seconds: start.elapsed().as_secs_f64(), ..scene })
     }
@@ -227,11 +236,26 @@ impl<'a> Builder<'a> {
         s.seed = overrides.seed.unwrap_or(s.seed);
         s.integrator = overrides.integrator.unwrap_or(s.integrator);
         s.light_sampling = overrides.light_sampling.unwrap_or(s.light_sampling);
-        if s.width == 0 || s.height == 0 {
-            return Err(Error::plain(format!("the image size must be positive, found {}x{}", s.width, s.height)));
+        // Overrides (the scene's own values were checked with their spans).
+        use crate::scene::{MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP};
+        let sides = 1..=MAX_IMAGE_SIDE;
+        if !sides.contains(&s.width) || !sides.contains(&s.height) {
+            return Err(Error::plain(format!(
+                "the image size {}x{} must be between 1x1 and {MAX_IMAGE_SIDE}x{MAX_IMAGE_SIDE}",
+                s.width, s.height
+            )));
         }
-        if s.spp == 0 {
-            return Err(Error::plain("samples per pixel must be at least 1".into()));
+        if u64::from(s.width) * u64::from(s.height) > MAX_PIXELS {
+            return Err(Error::plain(format!(
+                "{}x{} is more than the {MAX_PIXELS} pixels an image may have",
+                s.width, s.height
+            )));
+        }
+        if !(1..=MAX_SPP).contains(&s.spp) {
+            return Err(Error::plain(format!("samples per pixel must be in 1..={MAX_SPP}, found {}", s.spp)));
+        }
+        if !(1..=MAX_DEPTH).contains(&s.max_depth) {
+            return Err(Error::plain(format!("the maximum depth must be in 1..={MAX_DEPTH}, found {}", s.max_depth)));
         }
         Ok(s)
     }

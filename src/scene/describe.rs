@@ -6,8 +6,9 @@
 
 use super::{
     AreaEmission, CameraDesc, EnvironmentDesc, EnvironmentImage, EnvironmentSourceDesc, IntegratorKind, Lanes,
-    LightColor, LightDesc, LightSampling, MaterialDesc, MaterialRef, MeshData, ObjectDesc, Prop, RenderDesc, SceneDesc,
-    ShapeDesc, Surface, Transform, Vec3, affine_rows, compose, mesh_transform_error, shape_transform_error,
+    LightColor, LightDesc, LightSampling, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP, MaterialDesc, MaterialRef,
+    MeshData, ObjectDesc, Prop, RenderDesc, SceneDesc, ShapeDesc, Surface, Transform, Vec3, affine_rows, compose,
+    mesh_transform_error, shape_transform_error,
 };
 use crate::check::{Program, SymbolKind, Ty};
 use crate::color::ColorModel;
@@ -112,11 +113,16 @@ impl<'a> Describer<'a> {
         Some(x)
     }
 
-    fn count(&mut self, p: &SceneProp) -> Option<Prop<u32>> {
+    /// A whole number in `1..=max`.
+    fn count(&mut self, p: &SceneProp, max: u32) -> Option<Prop<u32>> {
         let e = self.expr(p)?;
         let x = *self.words(e, &Ty::Int)?.first()? as i32;
         if x <= 0 {
             self.error(e.span, format!("`{}` must be positive, found {x}", p.name.name));
+            return None;
+        }
+        if x as u32 > max {
+            self.error(e.span, format!("`{}` must be at most {max}, found {x}", p.name.name));
             return None;
         }
         Some(Prop::new(x as u32, e.span))
@@ -314,10 +320,10 @@ impl<'a> Describer<'a> {
         for p in &b.props {
             let name = p.name.name.as_str();
             let valid = match name {
-                "width" => self.count(p).map(|x| s.width = Some(x)),
-                "height" => self.count(p).map(|x| s.height = Some(x)),
-                "spp" => self.count(p).map(|x| s.spp = Some(x)),
-                "max_depth" => self.count(p).map(|x| s.max_depth = Some(x)),
+                "width" => self.count(p, MAX_IMAGE_SIDE).map(|x| s.width = Some(x)),
+                "height" => self.count(p, MAX_IMAGE_SIDE).map(|x| s.height = Some(x)),
+                "spp" => self.count(p, MAX_SPP).map(|x| s.spp = Some(x)),
+                "max_depth" => self.count(p, MAX_DEPTH).map(|x| s.max_depth = Some(x)),
                 "seed" => self.expr(p).and_then(|e| {
                     let w = *self.words(e, &Ty::Int)?.first()?;
                     s.seed = Some(Prop::new(u64::from(w), e.span));
@@ -346,6 +352,13 @@ impl<'a> Describer<'a> {
                 _ => Some(()),
             };
             ok &= valid.is_some();
+        }
+        if let (Some(w), Some(h)) = (&s.width, &s.height)
+            && u64::from(w.value) * u64::from(h.value) > MAX_PIXELS
+        {
+            let message = format!("{}x{} is more than the {MAX_PIXELS} pixels an image may have", w.value, h.value);
+            self.error(h.span, message);
+            ok = false;
         }
         if let Some(out) = out {
             // Later blocks override earlier ones (the checker allows one).

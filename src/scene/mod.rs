@@ -86,6 +86,16 @@ pub struct CameraDesc {
     pub focus: Option<Prop<f32>>,
 }
 
+/// The largest image side, in pixels (`width`, `height`, `--res`).
+pub const MAX_IMAGE_SIDE: u32 = 65536;
+/// The most pixels an image may have: 2^27 (134 million, such as
+/// 16384 x 8192; the film alone then takes 1.6 GB).
+pub const MAX_PIXELS: u64 = 1 << 27;
+/// The most samples per pixel (`spp`, `--spp`).
+pub const MAX_SPP: u32 = 1 << 20;
+/// The longest path (`max_depth`, `--max-depth`).
+pub const MAX_DEPTH: u32 = 1024;
+
 /// What the `render { }` block sets; `None` where it says nothing, so the
 /// renderer's defaults (and command-line overrides) apply.
 #[derive(Debug, Clone, Default, PartialEq)]

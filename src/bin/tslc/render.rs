@@ -17,14 +17,14 @@ pub struct RenderArgs {
     /// The image to write: .png (8-bit sRGB) or .exr (linear float).
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     output: PathBuf,
-    /// Samples per pixel (overrides the scene's `spp`).
-    #[arg(long)]
+    /// Samples per pixel, 1 to 1048576 (overrides the scene's `spp`).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
     spp: Option<u32>,
     /// Image size, e.g. `640x480` (overrides the scene's width and height).
     #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
     res: Option<(u32, u32)>,
-    /// Worker threads (default: one per core).
-    #[arg(long, default_value_t = 0)]
+    /// Worker threads, at most 1024 (default: one per core).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: usize,
     /// The integrator (overrides the scene's `integrator`).
     #[arg(long, value_parser = parse_integrator)]
@@ -37,11 +37,11 @@ pub struct RenderArgs {
     /// The color model: `rgb`, or `spectral` (16 samples) or `spectralN`.
     #[arg(long, default_value = "rgb", value_parser = parse_color)]
     color: tsl::ColorModel,
-    /// The random seed (overrides the scene's `seed`).
-    #[arg(long)]
+    /// The random seed, a whole number from 0 (overrides the scene's `seed`).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
     seed: Option<u64>,
-    /// Maximum path depth (overrides the scene's `max_depth`).
-    #[arg(long)]
+    /// Maximum path depth, 1 to 1024 (overrides the scene's `max_depth`).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_depth)]
     max_depth: Option<u32>,
     /// Render only a window: `x0,x1,y0,y1` as fractions of the image in
     /// [0, 1] (as pbrt's --cropwindow) or as pixel numbers.
@@ -87,10 +87,40 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("`{s}` is not a resolution: write WIDTHxHEIGHT, e.g. 640x480");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h) = (w.trim().parse::<u32>().map_err(|_| bad())?, h.trim().parse::<u32>().map_err(|_| bad())?);
-    if w == 0 || h == 0 || w > 65536 || h > 65536 {
-        return Err(format!("the resolution {w}x{h} must be between 1x1 and 65536x65536"));
+    let side = tsl::scene::MAX_IMAGE_SIDE;
+    if w == 0 || h == 0 || w > side || h > side {
+        return Err(format!("the resolution {w}x{h} must be between 1x1 and {side}x{side}"));
+    }
+    if u64::from(w) * u64::from(h) > tsl::scene::MAX_PIXELS {
+        return Err(format!("{w}x{h} is more than the {} pixels an image may have", tsl::scene::MAX_PIXELS));
     }
     Ok((w, h))
+}
+
+/// A whole number in `lo..=hi`, for the option `what`.
+fn whole(s: &str, what: &str, lo: u64, hi: u64) -> Result<u64, String> {
+    let bad = || format!("{what} must be a whole number from {lo} to {hi}, found `{s}`");
+    let x: i128 = s.trim().parse().map_err(|_| bad())?;
+    if x < i128::from(lo) || x > i128::from(hi) {
+        return Err(bad());
+    }
+    Ok(x as u64)
+}
+
+fn parse_spp(s: &str) -> Result<u32, String> {
+    whole(s, "samples per pixel", 1, u64::from(tsl::scene::MAX_SPP)).map(|x| x as u32)
+}
+
+fn parse_depth(s: &str) -> Result<u32, String> {
+    whole(s, "the maximum depth", 1, u64::from(tsl::scene::MAX_DEPTH)).map(|x| x as u32)
+}
+
+fn parse_threads(s: &str) -> Result<usize, String> {
+    whole(s, "the thread count", 0, render::MAX_THREADS as u64).map(|x| x as usize)
+}
+
+fn parse_seed(s: &str) -> Result<u64, String> {
+    whole(s, "the seed", 0, u64::MAX)
 }
 
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
