@@ -155,6 +155,16 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
         let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&out), flag, value]);
         assert!(o.status.code() == Some(2) && stderr(&o).contains(why), "{flag} {value}: {}", stderr(&o));
     }
+    // A scene without light renders, with a warning.
+    let dark = dir.join("dark.tsl");
+    std::fs::write(&dark, "scene {\n    camera { from (0, 0, -4); to (0, 0, 0); }\n    object sphere { center (0, 0, 0); radius 1; material lambert; }\n}\n").unwrap();
+    let dark_out = dir.join("dark.png");
+    let o = tslc(&["render", &s(&dark), "-o", &s(&dark_out), "--res", "8x8", "--spp", "1"]);
+    assert!(o.status.success() && stderr(&o).contains("warning: the scene has no light"), "{}", stderr(&o));
+    let _ = std::fs::remove_file(&dark_out);
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dark_out), "--res", "8x8", "--spp", "1"]);
+    assert!(!stderr(&o).contains("no light"), "{}", stderr(&o));
+    let _ = std::fs::remove_file(&dark_out);
     // A file without a scene is named.
     let no_scene = dir.join("no_scene.tsl");
     std::fs::write(&no_scene, "material m = lambert;\n").unwrap();

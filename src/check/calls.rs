@@ -316,6 +316,16 @@ impl<'a> Checker<'a> {
             "linear" => Some(Encoding::Raw),
             _ => None,
         });
+        // A constant channel out of 0..=3 would read a clamped neighbour.
+        if let Some(c) = arg("channel")
+            && let Some(k) = const_int(c)
+            && !(0..=3).contains(&k)
+        {
+            self.error(
+                Diagnostic::error(c.span, format!("there is no channel {k}"))
+                    .with_help("channels are 0, 1, 2 (red, green, blue) and 3 (alpha)"),
+            );
+        }
         let Some(file) = arg("file") else { return };
         let ExprKind::Str(path) = &file.kind else {
             self.error(

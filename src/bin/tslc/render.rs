@@ -198,6 +198,12 @@ pub fn render(args: RenderArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    if scene.lights.is_empty() && !args.quiet {
+        eprintln!(
+            "warning: the scene has no light (no `light` block, emitting object or environment): \
+             its surfaces will render black"
+        );
+    }
     let (w, h) = (scene.settings.width, scene.settings.height);
     let window = match (&args.crop, args.tile) {
         (Some(_), Some(_)) => return fail("--crop and --tile cannot be combined"),
