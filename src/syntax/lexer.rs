@@ -21,6 +21,8 @@ pub enum LexError {
     UnterminatedString,
     /// A number that does not fit its type.
     BadNumber,
+    /// A word with letters beyond ASCII (`café`): identifiers are ASCII.
+    NonAsciiIdent,
 }
 
 impl fmt::Display for LexError {
@@ -30,6 +32,7 @@ impl fmt::Display for LexError {
             LexError::UnterminatedComment => "unterminated block comment",
             LexError::UnterminatedString => "unterminated string literal",
             LexError::BadNumber => "number literal out of range",
+            LexError::NonAsciiIdent => "identifiers are ASCII letters, digits and `_`",
         })
     }
 }
@@ -54,6 +57,10 @@ fn string_body(lex: &mut logos::Lexer<'_, Tok>) -> Result<String, LexError> {
         return Err(LexError::UnterminatedString);
     }
     Ok(s[1..s.len() - 1].to_string())
+}
+
+fn non_ascii_ident(_: &mut logos::Lexer<'_, Tok>) -> Result<String, LexError> {
+    Err(LexError::NonAsciiIdent)
 }
 
 fn int_value(lex: &mut logos::Lexer<'_, Tok>) -> Result<i32, LexError> {
@@ -84,7 +91,10 @@ pub enum Tok {
     // needed for file names.
     #[regex(r#""[^"\n]*"?"#, string_body)]
     Str(String),
-    #[regex(r"[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice().to_string())]
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice().to_string(), priority = 3)]
+    // A word with other letters is one error, not one per character (the
+    // longer match wins over the ASCII rule).
+    #[regex(r"[\p{XID_Start}_][\p{XID_Continue}]*", non_ascii_ident, priority = 1)]
     Ident(String),
 
     // Keywords.
@@ -358,5 +368,16 @@ mod tests {
         assert!(matches!(&toks[0], Err(e) if e.error == LexError::UnterminatedString));
         let toks = tokenize("99999999999");
         assert!(matches!(&toks[0], Err(e) if e.error == LexError::BadNumber));
+    }
+
+    /// A word with non-ASCII letters is one error over the whole word;
+    /// ASCII identifiers are untouched by that rule.
+    #[test]
+    fn a_non_ascii_word_is_one_error() {
+        let toks = tokenize("café x_1 größe");
+        assert_eq!(toks[0], Err(SpannedLexError { error: LexError::NonAsciiIdent, span: 0..5 }));
+        assert_eq!(toks[1], Ok((6, Tok::Ident("x_1".into()), 9)));
+        assert!(matches!(&toks[2], Err(e) if e.error == LexError::NonAsciiIdent && e.span == (10..17)));
+        assert_eq!(toks.len(), 3);
     }
 }

@@ -51,6 +51,8 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
                         Some(Tok::Str(src.get(e.span.start + 1..e.span.end).unwrap_or("").to_string()))
                     }
                     LexError::BadNumber => Some(Tok::Float(0.0)),
+                    // Parsed as the identifier it means, so nothing else is reported.
+                    LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").to_string())),
                     LexError::UnexpectedChar | LexError::UnterminatedComment => None,
                 };
                 let token = stand_in.map(|t| (e.span.start, t, e.span.end));
@@ -68,6 +70,12 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
         let d = match src.get(e.span.clone()).and_then(|s| s.chars().next()) {
             Some(c) if e.error == LexError::UnexpectedChar => {
                 Diagnostic::error(span, format!("unexpected character `{}`", c.escape_debug()))
+            }
+            _ if e.error == LexError::NonAsciiIdent => {
+                let word = src.get(e.span.clone()).unwrap_or("");
+                Diagnostic::error(span, format!("`{word}` is not an identifier: {}", e.error)).with_help(
+                    "rename it with ASCII letters: identifiers are `[A-Za-z_][A-Za-z0-9_]*`, as in OSL and C",
+                )
             }
             _ => Diagnostic::error(span, e.error.to_string()),
         };
