@@ -79,7 +79,7 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>
             // The diagnostic needs a file to point into: the readable prefix.
             let mut loaded = Loaded::default();
             let shown = match bad_utf8_at {
-                Some(_) => String::from_utf8_lossy(&std::fs::read(path).unwrap_or_default()).into_owned(),
+                Some(_) => String::from_utf8_lossy(&read_capped(path).unwrap_or_default()).into_owned(),
                 None => String::new(),
             };
             let file = loaded.sources.add(path.display().to_string(), shown);
@@ -87,6 +87,19 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>
             (loaded, vec![Diagnostic::error(Span::new(file, at, at), message)])
         }
     }
+}
+
+/// The largest source file read (256 MiB; a scene of a million spheres
+/// written out is about 80 MB): `/dev/zero` or a runaway generator stops
+/// here instead of at the end of memory.
+pub const MAX_SOURCE_BYTES: u64 = 256 << 20;
+
+/// At most one byte more than [`MAX_SOURCE_BYTES`] of `path`.
+fn read_capped(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes)?;
+    Ok(bytes)
 }
 
 struct ReadError {
@@ -99,8 +112,14 @@ fn read_source(path: &Path) -> Result<String, ReadError> {
     if path.is_dir() {
         return Err(plain(format!("`{}` is a directory, not a .tsl file", path.display())));
     }
-    let bytes =
-        std::fs::read(path).map_err(|e| plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))))?;
+    let bytes = read_capped(path).map_err(|e| plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))))?;
+    if bytes.len() as u64 > MAX_SOURCE_BYTES {
+        return Err(plain(format!(
+            "`{}` is larger than {} MiB, the most a source file may be",
+            path.display(),
+            MAX_SOURCE_BYTES >> 20
+        )));
+    }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         ReadError {

@@ -221,3 +221,15 @@ fn emit_hit_prints_each_material_split() {
     assert!(text.contains("hit[0]"), "the methods read the record:\n{text}");
     assert!(text.contains("// plain: a ") && text.contains("calls each method on its own"), "{text}");
 }
+
+/// An endless input (`/dev/zero`) stops at the source size limit with a
+/// clear error instead of reading until memory runs out.
+#[test]
+fn endless_input_stops_at_the_source_size_limit() {
+    if !Path::new("/dev/zero").exists() {
+        return;
+    }
+    let o = tslc(&["check", "/dev/zero"], None);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("/dev/zero` is larger than 256 MiB"), "{}", stderr(&o));
+}

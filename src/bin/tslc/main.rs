@@ -154,8 +154,14 @@ fn check(args: CheckArgs) -> ExitCode {
             stdin_used = true;
             let mut text = String::new();
             let name = args.stdin_path.clone().unwrap_or_else(|| "<stdin>".into());
-            if let Err(e) = std::io::stdin().read_to_string(&mut text) {
+            let max = tsl::load::MAX_SOURCE_BYTES;
+            if let Err(e) = std::io::stdin().take(max + 1).read_to_string(&mut text) {
                 eprintln!("error: cannot read standard input: {e}");
+                failed = true;
+                continue;
+            }
+            if text.len() as u64 > max {
+                eprintln!("error: standard input is larger than {} MiB, the most a source file may be", max >> 20);
                 failed = true;
                 continue;
             }
