@@ -224,6 +224,21 @@ pub fn write_image(path: &Path, image: &RenderedImage) -> Result<(), String> {
     })
 }
 
+/// Temporaries being written by [`atomic_write`], for [`remove_temporaries`].
+static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes the temporary file of every image being written: for a signal
+/// handler, just before the process exits (`tslc` installs one for SIGINT
+/// and SIGTERM), so an interrupted write leaves neither a truncated target
+/// (writes are atomic) nor litter.
+pub fn remove_temporaries() {
+    if let Ok(mut pending) = TEMPORARIES.lock() {
+        for tmp in pending.drain(..) {
+            let _ = std::fs::remove_file(&tmp);
+        }
+    }
+}
+
 /// Runs `write` on a temporary path beside `path`, then renames it over
 /// `path`; on failure the temporary is removed and `path` is untouched.
 fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
@@ -239,6 +254,9 @@ fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) ->
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
     // The temporary keeps the extension: the encoders look at it.
     let tmp = dir.join(format!(".{name}.tmp-{}-{}.{ext}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
+    if let Ok(mut pending) = TEMPORARIES.lock() {
+        pending.push(tmp.clone());
+    }
     // The temporary is ours: errors name the user's path.
     let user_path = |e: String| e.replace(&tmp.display().to_string(), &path.display().to_string());
     let result = write(&tmp)
@@ -251,6 +269,9 @@ fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) ->
         .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("cannot write {}: {e}", path.display())));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
+    }
+    if let Ok(mut pending) = TEMPORARIES.lock() {
+        pending.retain(|p| *p != tmp);
     }
     result
 }

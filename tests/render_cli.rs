@@ -188,3 +188,55 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// SIGINT or SIGTERM while a large EXR is being written leaves neither a
+/// truncated target nor the temporary beside it.
+#[test]
+fn an_interrupted_write_leaves_nothing_behind() {
+    use std::io::BufRead;
+    let dir = scratch("signals");
+    let scene = dir.join("big.tsl");
+    std::fs::write(
+        &scene,
+        "scene {\n    camera { from (0, 0, -4); to (0, 0, 0); }\n    render { integrator \"whitted\"; spp 1; }\n    \
+         light point { at (2, 3, -4); intensity gray(20); }\n    object sphere { center (0, 0, 0); radius 1; material lambert; }\n}\n",
+    )
+    .unwrap();
+    for signal in ["-INT", "-TERM"] {
+        let out = dir.join("big.exr");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_tslc"))
+            .args(["render", &s(&scene), "-o", &s(&out), "--res", "1024x1024", "--aov"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // The film is done; signal once the temporary of the write (about
+        // 16 MB of EXR) is there.
+        let lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+        for line in lines.map_while(Result::ok) {
+            if line.contains("progress: 100%") {
+                break;
+            }
+        }
+        let temporary =
+            || std::fs::read_dir(&dir).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().contains(".tmp-"));
+        let start = std::time::Instant::now();
+        while !temporary() && start.elapsed().as_secs() < 30 {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        assert!(temporary(), "{signal}: the write never started");
+        let killed = Command::new("kill").args([signal, &child.id().to_string()]).status().unwrap();
+        assert!(killed.success());
+        let status = child.wait().unwrap();
+        let names: Vec<String> =
+            std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        assert!(!names.iter().any(|n| n.contains(".tmp-")), "{signal}: {names:?} (exit {status:?})");
+        // The target is absent, or whole if the write finished first.
+        if out.exists() {
+            assert!(tsl::render::image_io::read_exr(&out).is_ok(), "{signal}: a truncated target");
+            let _ = std::fs::remove_file(&out);
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

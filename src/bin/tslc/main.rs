@@ -112,6 +112,12 @@ enum WarningLevel {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Interrupted (SIGINT, SIGTERM): the image being written, if any, is
+    // left as it was (writes are atomic) and its temporary is removed.
+    let _ = ctrlc::set_handler(|| {
+        tsl::image_io::remove_temporaries();
+        std::process::exit(130);
+    });
     // Checking recurses over the (depth-limited) syntax tree; a generous
     // stack keeps that safe for every accepted input.
     let worker = std::thread::Builder::new().stack_size(64 << 20).spawn(move || match cli.command {
