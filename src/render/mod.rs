@@ -70,6 +70,18 @@ impl Ray {
 /// The most worker threads a render may ask for.
 pub const MAX_THREADS: usize = 1024;
 
+/// The most memory a render's film may take (4 GiB), checked before it is
+/// allocated; beyond it, render in tiles.
+pub const FILM_BUDGET_BYTES: u64 = 4 << 30;
+
+/// What the film of a `width` x `height` window takes at its peak: the
+/// finished tiles and the image they are copied into, color (and AOVs).
+pub fn film_bytes(width: u32, height: u32, aov: bool) -> u64 {
+    let per_pixel =
+        std::mem::size_of::<[f32; 3]>() + if aov { std::mem::size_of::<Aov>() + std::mem::size_of::<i32>() } else { 0 };
+    2 * u64::from(width) * u64::from(height) * per_pixel as u64
+}
+
 /// How one render runs (what is not part of the scene).
 #[derive(Default)]
 pub struct RenderOptions<'a> {
@@ -141,6 +153,17 @@ fn render_lanes<const N: usize>(
         return Err(format!(
             "the window {width}x{height} at ({x0}, {y0}) is not inside the {}x{} image",
             s.width, s.height
+        ));
+    }
+    let film = film_bytes(width, height, options.aov);
+    if film > FILM_BUDGET_BYTES {
+        let tiles_needed = film.div_ceil(FILM_BUDGET_BYTES);
+        return Err(format!(
+            "a {width}x{height} film{} would take {:.1} GB, more than the {} GB budget: render it in \
+             parts with --tile I/{tiles_needed} (or more) and join them with `tslc merge`",
+            if options.aov { " with AOVs" } else { "" },
+            film as f64 / 1e9,
+            FILM_BUDGET_BYTES >> 30
         ));
     }
     let mut tiles = Vec::new();
