@@ -192,13 +192,7 @@ fn format_of(path: &Path) -> Result<Format, String> {
 /// file in it (a probe file is made and removed). Errors name `path`.
 pub fn check_output(path: &Path) -> Result<(), String> {
     format_of(path)?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
-    }
+    let dir = directory_of(path)?;
     if path.is_dir() {
         return Err(format!("cannot write {}: it is a directory", path.display()));
     }
@@ -224,6 +218,19 @@ pub fn write_image(path: &Path, image: &RenderedImage) -> Result<(), String> {
     })
 }
 
+/// The directory `path` is written into; an error naming `path` when it
+/// does not exist.
+fn directory_of(path: &Path) -> Result<PathBuf, String> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
+    }
+    Ok(dir)
+}
+
 /// Temporaries being written by [`atomic_write`], for [`remove_temporaries`].
 static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
 
@@ -243,13 +250,7 @@ pub fn remove_temporaries() {
 /// `path`; on failure the temporary is removed and `path` is untouched.
 fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
-    }
+    let dir = directory_of(path)?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
     // The temporary keeps the extension: the encoders look at it.

@@ -38,6 +38,12 @@ pub(crate) struct Hoisting {
     conditional: Vec<bool>,
 }
 
+impl Hoisting {
+    fn per_call(&self, v: Value) -> bool {
+        self.per_call.get(v.0 as usize).copied().unwrap_or(false)
+    }
+}
+
 impl Builder {
     /// Turns hoisting on: argument words from `first_own_word` on are
     /// per-call. Call before any value is defined.
@@ -60,12 +66,10 @@ impl Builder {
             None | Some(Op::Global(_)) => false,
             Some(Op::Param(k)) => *k >= h.first_own_word,
             Some(Op::Get(var)) => h.per_call_vars.contains(var),
-            Some(Op::Load { array, index }) => {
-                h.per_call_arrays.contains(array) || h.per_call.get(index.0 as usize).copied().unwrap_or(false)
-            }
+            Some(Op::Load { array, index }) => h.per_call_arrays.contains(array) || h.per_call(*index),
             Some(op) => {
                 let mut any = false;
-                super::opt::for_each_operand(op, |x| any |= h.per_call.get(x.0 as usize).copied().unwrap_or(false));
+                super::opt::for_each_operand(op, |x| any |= h.per_call(x));
                 any
             }
         };
@@ -83,7 +87,7 @@ impl Builder {
     pub(super) fn note_write(&mut self, inst: &Inst) {
         let Some(h) = &mut self.hoisting else { return };
         let under = h.conditional.iter().any(|c| *c);
-        let pc = |v: &Value| h.per_call.get(v.0 as usize).copied().unwrap_or(false);
+        let pc = |v: &Value| h.per_call(*v);
         match inst {
             Inst::Set(var, v) if under || pc(v) => {
                 h.per_call_vars.insert(*var);
@@ -110,7 +114,7 @@ impl Builder {
     /// Whether `v` depends on a method's own arguments (false when not
     /// hoisting).
     pub(crate) fn is_per_call(&self, v: Value) -> bool {
-        self.hoisting.as_ref().is_some_and(|h| h.per_call.get(v.0 as usize).copied().unwrap_or(false))
+        self.hoisting.as_ref().is_some_and(|h| h.per_call(v))
     }
 
     pub(super) fn note_scope(&mut self, conditional: bool) {
@@ -133,10 +137,11 @@ impl Builder {
         (anchor + 1 < self.stack.len()).then_some(anchor)
     }
 
-    /// Whether `v` is defined at or above scope `depth`.
-    fn available_at(&self, v: Value, depth: usize) -> bool {
-        self.in_prologue.contains(&v)
-            || self.hoisting.as_ref().is_some_and(|h| h.depth.get(v.0 as usize).is_some_and(|d| *d as usize <= depth))
+    /// Whether `v` may be read in scope `depth`: it is not per-call and is
+    /// defined at or above that scope.
+    fn movable_to(&self, v: Value, depth: usize) -> bool {
+        let defined_above = |h: &Hoisting| h.depth.get(v.0 as usize).is_some_and(|d| *d as usize <= depth);
+        !self.is_per_call(v) && (self.in_prologue.contains(&v) || self.hoisting.as_ref().is_some_and(defined_above))
     }
 
     /// Where to define `op` instead of the current scope: the anchor, for
@@ -149,7 +154,7 @@ impl Builder {
         }
         let anchor = self.anchor()?;
         let mut ok = true;
-        super::opt::for_each_operand(op, |x| ok &= !self.is_per_call(x) && self.available_at(x, anchor));
+        super::opt::for_each_operand(op, |x| ok &= self.movable_to(x, anchor));
         ok.then_some(anchor)
     }
 
@@ -166,7 +171,7 @@ impl Builder {
     /// scope, before the per-call construct being built.
     pub(crate) fn hoisted<R>(&mut self, inputs: &[Value], f: impl FnOnce(&mut Builder) -> R) -> R {
         let Some(anchor) = self.anchor() else { return f(self) };
-        if !inputs.iter().all(|v| !self.is_per_call(*v) && self.available_at(*v, anchor)) {
+        if !inputs.iter().all(|v| self.movable_to(*v, anchor)) {
             return f(self);
         }
         let stack = self.stack.split_off(anchor + 1);

@@ -88,6 +88,18 @@ pub struct Overrides {
     pub unsplit: bool,
 }
 
+/// The number of delta lights when a reflection sum shades them (2 to
+/// [`MAX_SUMMED_LIGHTS`]), else `None`.
+fn summed_lights(lights: &[Light]) -> Option<usize> {
+    let count = lights.iter().filter(|l| l.is_delta()).count();
+    (2..=MAX_SUMMED_LIGHTS).contains(&count).then_some(count)
+}
+
+/// Objects that only reflect may have their delta lights summed.
+fn takes_reflection_sum(o: &Object) -> bool {
+    !o.reflects && !o.refracts
+}
+
 /// Scenes with more delta lights than this shade them one call each.
 pub const MAX_SUMMED_LIGHTS: usize = 8;
 
@@ -421,16 +433,14 @@ impl<'a> Builder<'a> {
             // Whitted shades an object that neither reflects nor refracts
             // under 2 to MAX_SUMMED_LIGHTS delta lights (and no other light)
             // with one reflection sum: one evaluation per hit already.
-            let delta = lights.iter().filter(|l| l.is_delta()).count();
             let summed_alone = settings.integrator == IntegratorKind::Whitted
-                && delta == lights.len()
-                && !objects.iter().any(|o| o.emissive)
-                && (2..=MAX_SUMMED_LIGHTS).contains(&delta);
+                && summed_lights(&lights) == Some(lights.len())
+                && !objects.iter().any(|o| o.emissive);
             let methods = match settings.integrator {
                 IntegratorKind::Path => crate::PATH_METHODS,
                 IntegratorKind::Whitted => crate::WHITTED_METHODS,
             };
-            let skip = |o: &Object| summed_alone && !o.reflects && !o.refracts;
+            let skip = |o: &Object| summed_alone && takes_reflection_sum(o);
             self.hit_groups(&mut objects, &materials, methods, skip)?;
         }
         // Summed delta lights serve the integrators that sample every light,
@@ -487,16 +497,13 @@ impl<'a> Builder<'a> {
         materials: &[Option<MaterialRef>],
         lights: &[Light],
     ) -> Result<(), Error> {
-        let count = lights.iter().filter(|l| l.is_delta()).count();
-        if !(2..=MAX_SUMMED_LIGHTS).contains(&count) {
-            return Ok(());
-        }
+        let Some(count) = summed_lights(lights) else { return Ok(()) };
         let wanted: Vec<(usize, String, MaterialRef)> = objects
             .iter()
             .zip(materials)
             .enumerate()
             .filter_map(|(k, (o, m))| {
-                (!o.reflects && !o.refracts && o.hit.is_none()).then_some((k, format!("@object{k}"), (*m)?))
+                (takes_reflection_sum(o) && o.hit.is_none()).then_some((k, format!("@object{k}"), (*m)?))
             })
             .collect();
         let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, n, m)| (n.clone(), *m)).collect();

@@ -205,17 +205,15 @@ pub fn render(args: RenderArgs) -> ExitCode {
         );
     }
     let (w, h) = (scene.settings.width, scene.settings.height);
+    // Both at once was refused before compiling.
     let window = match (&args.crop, args.tile) {
-        (Some(_), Some(_)) => return fail("--crop and --tile cannot be combined"),
-        (Some(c), None) => match image_io::parse_crop(c, w, h) {
-            Ok(win) => Some(win),
-            Err(e) => return fail(e),
-        },
-        (None, Some((i, n))) => match image_io::tile_window(w, h, i, n) {
-            Ok(win) => Some(win),
-            Err(e) => return fail(e),
-        },
-        (None, None) => None,
+        (Some(c), _) => image_io::parse_crop(c, w, h).map(Some),
+        (None, Some((i, n))) => image_io::tile_window(w, h, i, n).map(Some),
+        (None, None) => Ok(None),
+    };
+    let window = match window {
+        Ok(window) => window,
+        Err(e) => return fail(e),
     };
     let progress = Progress::new(args.quiet);
     let report = |done: u64, total: u64| progress.update(done, total);
