@@ -307,20 +307,30 @@ fn bench_compile() {
         // their own entries (prelude ones are compiled when first used).
         let eager = name == "stdlib";
         // examples/heavy.tsl reads a generated mesh (`tslc make-mesh heavy`).
-        if let Err(e) = Compiler::new().eager_prelude(eager).source(name, text).compile() {
+        if let Err(e) = Compiler::new().eager(true).eager_prelude(eager).source(name, text).compile() {
             let first = e.to_string().lines().next().unwrap_or_default().to_string();
             println!("compile {name}: skipped ({first})");
             continue;
         }
         let t = best_of(5, || {
             let start = Instant::now();
-            let program = Compiler::new().eager_prelude(eager).source(name, text).compile().expect("examples compile");
+            let program = Compiler::new()
+                .eager(true)
+                .eager_prelude(eager)
+                .source(name, text)
+                .compile()
+                .expect("examples compile");
             let elapsed = start.elapsed();
             black_box(program.entries().len());
             elapsed
         });
-        let n =
-            Compiler::new().eager_prelude(eager).source(name, text).compile().map(|p| p.entries().len()).unwrap_or(0);
+        let n = Compiler::new()
+            .eager(true)
+            .eager_prelude(eager)
+            .source(name, text)
+            .compile()
+            .map(|p| p.entries().len())
+            .unwrap_or(0);
         println!("compile {name} ({n} entry points): {:.1} ms", t.as_secs_f64() * 1e3);
     }
 }

@@ -56,7 +56,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         println!("{line}");
     }
-    println!("{} entry points compiled, color model {}", program.entries().len(), program.color_model().name());
+    println!(
+        "{} entry points compiled (on first use), color model {}",
+        program.entries().len(),
+        program.color_model().name()
+    );
     Ok(())
 }
 

@@ -27,7 +27,7 @@ use crate::jit::{EntryFn, Jit, JitOptions};
 use crate::load::LoadOptions;
 use crate::scene::SceneDesc;
 use crate::syntax::ast::{Expr, Item};
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::fmt;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
@@ -70,6 +70,7 @@ pub struct Compiler {
     file: Option<PathBuf>,
     options: LoadOptions,
     keep_clif: bool,
+    eager: bool,
     eager_prelude: bool,
 }
 
@@ -81,6 +82,7 @@ impl Default for Compiler {
             file: None,
             options: LoadOptions::default(),
             keep_clif: false,
+            eager: false,
             eager_prelude: false,
         }
     }
@@ -133,9 +135,28 @@ impl Compiler {
         self
     }
 
-    /// Compiles every prelude material and generator up front. By default
-    /// they are compiled on first use ([`Program::material`],
-    /// [`Program::function`]), so a program pays only for what it uses.
+    /// Compiles the program's own materials and generators up front, so
+    /// that [`Compiler::compile`] reports every lowering error and
+    /// [`Program::entries`] lists them all. By default each name is
+    /// lowered and compiled on first use ([`Program::material`],
+    /// [`Program::function`], a scene object's material), so a file of
+    /// 10,000 materials whose scene uses one compiles one.
+    ///
+    /// ```
+    /// let src = "material a = lambert; material b = mirror;";
+    /// let lazy = tsl::Compiler::new().source("m.tsl", src).compile()?;
+    /// assert!(lazy.entries().is_empty());
+    /// let eager = tsl::Compiler::new().eager(true).source("m.tsl", src).compile()?;
+    /// assert_eq!(eager.entries().len(), 2 * tsl::check::INTERFACE.len());
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn eager(mut self, eager: bool) -> Self {
+        self.eager = eager;
+        self
+    }
+
+    /// Compiles every prelude material and generator up front as well (see
+    /// [`Compiler::eager`]; by default they too are compiled on first use).
     pub fn eager_prelude(mut self, eager: bool) -> Self {
         self.eager_prelude = eager;
         self
@@ -170,19 +191,32 @@ impl Compiler {
             }
         };
         let program = checked.program;
-        let eager = self.eager_prelude;
         let jit_options = JitOptions { keep_clif: self.keep_clif };
-        let first = compile_part(&program, self.model, &jit_options, |_, sym| {
-            eager || !program.loaded.modules[sym.module].is_prelude
-        })?;
+        let mut parts = Vec::new();
+        if self.eager || self.eager_prelude {
+            let (own, prelude) = (self.eager, self.eager_prelude);
+            let first = compile_part(&program, self.model, &jit_options, |_, sym| {
+                if program.loaded.modules[sym.module].is_prelude { prelude } else { own }
+            })?;
+            parts.push(Arc::new(first));
+        }
+        // Names compiled up front are never compiled again on first use.
+        let compiled = program
+            .symbols
+            .iter()
+            .filter(
+                |(_, sym)| if program.loaded.modules[sym.module].is_prelude { self.eager_prelude } else { self.eager },
+            )
+            .map(|(name, _)| (name.clone(), None))
+            .collect();
         Ok(Program {
             inner: Arc::new(Inner {
                 model: self.model,
                 program,
                 scene,
                 jit_options,
-                parts: RwLock::new(vec![Arc::new(first)]),
-                tried: Mutex::new(HashSet::new()),
+                parts: RwLock::new(parts),
+                compiled: Mutex::new(compiled),
             }),
         })
     }
@@ -217,10 +251,11 @@ struct Inner {
     /// The program's scene, described in the program's color model.
     scene: Option<SceneDesc>,
     jit_options: JitOptions,
-    /// The program's own entries first, then prelude entries as requested.
+    /// The parts compiled so far: up front, then as names are first used.
     parts: RwLock<Vec<Arc<Part>>>,
-    /// Prelude names already compiled (or found to have no entries).
-    tried: Mutex<HashSet<String>>,
+    /// Names already compiled (or found to have no entries), with the
+    /// error lowering them gave, if any.
+    compiled: Mutex<HashMap<String, Option<Error>>>,
 }
 
 /// A compiled program: cheap to clone, `Send + Sync`, callable from many
@@ -252,8 +287,8 @@ impl Program {
         self.inner.parts.read().map(|p| p.clone()).unwrap_or_default()
     }
 
-    /// The entry points compiled so far: the program's own generators and
-    /// material methods, and any prelude ones already used.
+    /// The entry points compiled so far: all of the program's own with
+    /// [`Compiler::eager`], otherwise those of the names already used.
     pub fn entries(&self) -> Vec<Entry> {
         self.parts().iter().flat_map(|p| p.entries.iter().cloned()).collect()
     }
@@ -439,61 +474,79 @@ impl Program {
     }
 
     /// A material defined in the program (a material tree, or a material
-    /// model whose parameters all have defaults).
+    /// model whose parameters all have defaults), compiled on first use.
     pub fn material(&self, name: &str) -> Result<Material, Error> {
-        let mut methods = Vec::new();
-        for im in crate::check::INTERFACE {
-            let f = self.function_handle(&format!("{name}.{}", im.name));
-            match f {
-                Some(f) => methods.push(f),
-                None => {
-                    let known: Vec<&str> = self
-                        .inner
-                        .program
-                        .symbols
-                        .iter()
-                        .filter(|(_, s)| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree))
-                        .map(|(n, _)| n.as_str())
-                        .collect();
-                    let hint = crate::diag::did_you_mean(name, known.iter().copied())
-                        .map(|s| format!(" (did you mean `{s}`?)"))
-                        .unwrap_or_default();
-                    return Err(Error::plain(format!("no material named `{name}`{hint}")));
-                }
-            }
+        let is_material = self
+            .inner
+            .program
+            .symbols
+            .get(name)
+            .is_some_and(|s| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree));
+        if is_material {
+            self.compile_name(name)?;
         }
-        Ok(Material::new(self.clone(), methods))
+        let methods: Option<Vec<Function>> =
+            crate::check::INTERFACE.iter().map(|im| self.find(&format!("{name}.{}", im.name))).collect();
+        if let Some(methods) = methods {
+            return Ok(Material::new(self.clone(), methods));
+        }
+        let known: Vec<&str> = self
+            .inner
+            .program
+            .symbols
+            .iter()
+            .filter(|(_, s)| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree))
+            .map(|(n, _)| n.as_str())
+            .collect();
+        let hint = crate::diag::did_you_mean(name, known.iter().copied())
+            .map(|s| format!(" (did you mean `{s}`?)"))
+            .unwrap_or_default();
+        Err(Error::plain(format!("no material named `{name}`{hint}")))
     }
 
-    /// A compiled function by its entry name (`rings` or `wood.reflection`).
+    /// A compiled function by its entry name (`rings` or `wood.reflection`),
+    /// compiled on first use; `None` when the program has no such entry or
+    /// lowering it failed (see [`Program::try_function`]).
     pub fn function(&self, name: &str) -> Option<Function> {
-        self.function_handle(name)
+        self.try_function(name).ok().flatten()
     }
 
-    fn function_handle(&self, name: &str) -> Option<Function> {
+    /// [`Program::function`], with the error of lowering the name it
+    /// belongs to (the part before the first `.`).
+    pub fn try_function(&self, name: &str) -> Result<Option<Function>, Error> {
         if let Some(f) = self.find(name) {
-            return Some(f);
+            return Ok(Some(f));
         }
-        // A prelude name not compiled yet: compile all its entries now.
         let base = name.split('.').next().unwrap_or(name);
-        let sym = *self.inner.program.symbols.get(base)?;
-        if !self.inner.program.loaded.modules[sym.module].is_prelude {
-            return None;
+        if self.inner.program.symbols.contains_key(base) {
+            self.compile_name(base)?;
         }
-        {
-            let mut tried = self.inner.tried.lock().ok()?;
-            // Each prelude name is compiled at most once, whether or not it
-            // had the entry asked for (`lambert.nope`, or a constant).
-            if tried.insert(base.to_string()) {
-                let part =
-                    compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base)
-                        .ok()?;
-                if !part.entries.is_empty() {
-                    self.inner.parts.write().ok()?.push(Arc::new(part));
+        Ok(self.find(name))
+    }
+
+    /// Lowers and compiles every entry of the program's name `base` (all
+    /// methods of a material, or a generator), once: later calls return
+    /// what the first gave, whether or not `base` had entries (a constant
+    /// has none).
+    fn compile_name(&self, base: &str) -> Result<(), Error> {
+        let mut compiled = self.inner.compiled.lock().map_err(|_| Error::plain("a compile panicked".into()))?;
+        if let Some(outcome) = compiled.get(base) {
+            return outcome.clone().map_or(Ok(()), Err);
+        }
+        let part = compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base);
+        let outcome = match part {
+            Ok(part) => {
+                if !part.entries.is_empty()
+                    && let Ok(mut parts) = self.inner.parts.write()
+                {
+                    parts.push(Arc::new(part));
                 }
+                None
             }
-        }
-        self.find(name)
+            Err(e) => Some(e),
+        };
+        compiled.insert(base.to_string(), outcome.clone());
+        outcome.map_or(Ok(()), Err)
     }
 
     fn find(&self, name: &str) -> Option<Function> {

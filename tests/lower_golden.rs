@@ -37,6 +37,7 @@ fn emitted_names(source: &str) -> Vec<String> {
 fn lower(path: &Path) -> String {
     let source = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let program = tsl::Compiler::new()
+        .eager(true)
         .file(path)
         .import_path("examples/textures")
         .compile()

@@ -95,11 +95,13 @@ fn mix_runs_one_child_at_zero_and_one() {
 }
 
 #[test]
-fn prelude_materials_compile_on_first_use() {
-    let p = compile("material mine = lambert;");
+fn materials_compile_on_first_use() {
+    let p = compile("material mine = lambert; material unused = mirror;");
+    assert!(p.entries().is_empty(), "nothing is compiled before it is used");
+    p.material("mine").unwrap();
     let before = p.entries().len();
     let methods = tsl::check::INTERFACE.len();
-    assert_eq!(before, methods, "only the program's own material");
+    assert_eq!(before, methods, "only the material asked for");
     let glass = p.material("glass").expect("prelude materials are available by name");
     assert!(!glass.opaque(&ShadingGlobals::default()));
     assert_eq!(p.entries().len(), before + methods);

@@ -1065,6 +1065,7 @@ fn check_program(src: &Source) -> Result<(), TestCaseError> {
     for model in MODELS {
         let program = Compiler::new()
             .color_model(model)
+            .eager(true)
             .source("random.tsl", &src.0)
             .compile()
             .map_err(|e| TestCaseError::fail(format!("{} does not compile:\n{e}", model.name())))?;

@@ -8,6 +8,7 @@ use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
 fn compile(src: &str) -> Program {
     Compiler::new()
         .color_model(ColorModel::Rgb)
+        .eager(true)
         .source("regression.tsl", src)
         .compile()
         .unwrap_or_else(|e| panic!("{e}"))

@@ -319,6 +319,7 @@ fn loops_are_capped_at_a_million_iterations() {
 /// Both back ends agree on every method of `name` at `points` shading points.
 fn compare_material(p: &Program, name: &str, points: usize) {
     let lanes = p.color_model().lanes();
+    p.material(name).unwrap_or_else(|e| panic!("{name}: {e}"));
     let entries: Vec<_> = p.entries().into_iter().filter(|e| e.name.starts_with(&format!("{name}."))).collect();
     assert_eq!(entries.len(), tsl::check::INTERFACE.len(), "the methods of `{name}`");
     for entry in &entries {

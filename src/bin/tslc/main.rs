@@ -196,8 +196,11 @@ fn emit(args: EmitArgs) -> ExitCode {
         }
         return ExitCode::SUCCESS;
     }
-    let mut compiler =
-        tsl::Compiler::new().color_model(args.color_model).file(&args.file).keep_clif(args.emit == EmitKind::Clif);
+    let mut compiler = tsl::Compiler::new()
+        .color_model(args.color_model)
+        .file(&args.file)
+        .eager(true)
+        .keep_clif(args.emit == EmitKind::Clif);
     for dir in &args.include {
         compiler = compiler.import_path(dir);
     }
