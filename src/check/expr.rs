@@ -25,7 +25,7 @@ impl<'a> Checker<'a> {
     /// Types an expression, recording the result. `expected` guides tuples
     /// and array literals and is otherwise only a hint.
     pub(super) fn expr(&mut self, e: &Expr, expected: Option<&Ty>) -> Ty {
-        let ty = self.expr_inner(e, expected);
+        let ty = crate::syntax::ast::with_stack(|| self.expr_inner(e, expected));
         self.expr_types.insert(e.span, ty.clone());
         ty
     }

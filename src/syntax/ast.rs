@@ -1,13 +1,26 @@
 //! The spanned syntax tree. It knows nothing of types: `check` gives it meaning.
 //!
 //! Invariant: every expression and statement knows its nesting depth, and the
-//! parser refuses trees deeper than [`MAX_NESTING`], so every recursive pass
-//! over the tree (checking, lowering, dropping) runs in bounded stack.
+//! parser refuses trees deeper than [`MAX_NESTING`]. The left operand of a
+//! binary operation does not count: a chain `a + b + … + z` is one level,
+//! however long, as a person reads it. So the passes that recurse into
+//! operands (checking, lowering, and `Expr`'s own clone, comparison, debug
+//! print and drop) run under [`with_stack`], which grows the stack on
+//! demand.
 
 use crate::diag::Span;
 
 /// The deepest nesting of expressions or statements the parser accepts.
 pub const MAX_NESTING: u32 = 256;
+
+/// Runs `f` with at least 128 KiB of stack left, switching to a fresh
+/// 2 MiB segment when less is. Recursive passes over expressions call it
+/// once per level, so their depth is bounded by memory, not by the
+/// thread's stack (a left-leaning chain of binary operations can be as
+/// long as the source file).
+pub fn with_stack<R>(f: impl FnOnce() -> R) -> R {
+    stacker::maybe_grow(128 * 1024, 2 * 1024 * 1024, f)
+}
 
 /// A name with the span where it is written.
 #[derive(Debug, Clone, PartialEq)]
@@ -236,11 +249,45 @@ pub enum StmtKind {
     Block(Block),
 }
 
-#[derive(Debug, Clone, PartialEq)]
+/// An expression. Its clone, comparison, debug print and drop recurse
+/// under [`with_stack`], like every pass over operands.
 pub struct Expr {
     pub kind: ExprKind,
     pub span: Span,
     pub depth: u32,
+}
+
+impl Clone for Expr {
+    fn clone(&self) -> Self {
+        with_stack(|| Expr { kind: self.kind.clone(), span: self.span, depth: self.depth })
+    }
+}
+
+impl PartialEq for Expr {
+    fn eq(&self, other: &Self) -> bool {
+        with_stack(|| self.kind == other.kind && self.span == other.span && self.depth == other.depth)
+    }
+}
+
+impl std::fmt::Debug for Expr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        with_stack(|| {
+            f.debug_struct("Expr")
+                .field("kind", &self.kind)
+                .field("span", &self.span)
+                .field("depth", &self.depth)
+                .finish()
+        })
+    }
+}
+
+impl Drop for Expr {
+    fn drop(&mut self) {
+        if matches!(self.kind, ExprKind::Binary { .. }) {
+            let kind = std::mem::replace(&mut self.kind, ExprKind::Bool(false));
+            with_stack(move || drop(kind));
+        }
+    }
 }
 
 /// A call argument, positional or `name: value`.
@@ -364,7 +411,11 @@ pub struct TooDeep(pub Span);
 impl Expr {
     /// Builds a node, refusing one nested deeper than [`MAX_NESTING`].
     pub fn new(kind: ExprKind, span: Span) -> Result<Expr, TooDeep> {
-        let depth = kind.child_depth() + 1;
+        let depth = match &kind {
+            // A chain's left operand is the chain so far, not nesting.
+            ExprKind::Binary { lhs, rhs, .. } => lhs.depth.max(rhs.depth + 1),
+            _ => kind.child_depth() + 1,
+        };
         if depth > MAX_NESTING {
             return Err(TooDeep(span));
         }

@@ -29,6 +29,10 @@ impl<'p> Lowerer<'p> {
     }
 
     pub(super) fn expr(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, e: &'p Expr) -> Val<'p> {
+        crate::syntax::ast::with_stack(|| self.expr_unguarded(b, fr, ctx, e))
+    }
+
+    fn expr_unguarded(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, e: &'p Expr) -> Val<'p> {
         let ty = self.ty_of(e);
         match &e.kind {
             ExprKind::Int(i) => Val::Lanes(vec![b.i(*i)]),
