@@ -33,6 +33,7 @@ use crate::load::Loaded;
 use crate::syntax::ast::*;
 use crate::texture::{Encoding, Filter, MipMap, Wrap};
 use builtins::{ArgError, builtin, elementwise, type_builtin, unify};
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -53,9 +54,9 @@ pub struct Program {
     /// user definition that shadows a prelude name does not change the
     /// prelude's behaviour.
     pub prelude_symbols: HashMap<String, Symbol>,
-    pub expr_types: HashMap<Span, Ty>,
+    pub expr_types: FxHashMap<Span, Ty>,
     /// The global item each name or call resolved to, keyed by its span.
-    pub resolutions: HashMap<Span, Symbol>,
+    pub resolutions: FxHashMap<Span, Symbol>,
     /// The builtin each call to one resolved to, keyed by the callee's span
     /// (a user function of the same name is an error, so names alone would
     /// do; the lowering matches on the enum instead of on strings).
@@ -160,10 +161,10 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         prelude_symbols: &prelude_symbols,
         in_prelude: false,
         current: (0, 0),
-        resolutions: HashMap::new(),
+        resolutions: FxHashMap::default(),
         reads_globals: HashMap::new(),
         diags: &mut diags,
-        expr_types: HashMap::new(),
+        expr_types: FxHashMap::default(),
         graph: HashMap::new(),
         body: Body::default(),
         images: Vec::new(),
@@ -313,11 +314,11 @@ struct Checker<'a> {
     in_prelude: bool,
     /// The item being checked.
     current: ItemId,
-    resolutions: HashMap<Span, Symbol>,
+    resolutions: FxHashMap<Span, Symbol>,
     /// Items whose own code reads a shading global, with the first use.
     reads_globals: HashMap<Node, Span>,
     diags: &'a mut Vec<Diagnostic>,
-    expr_types: HashMap<Span, Ty>,
+    expr_types: FxHashMap<Span, Ty>,
     /// Dependencies between items, with the span of the first use.
     graph: HashMap<Node, Vec<(Node, Span)>>,
     body: Body,

@@ -22,6 +22,7 @@ use crate::scene::{
     Surface,
 };
 use crate::{Color, ColorModel, Error, Material, Program};
+use std::collections::HashMap;
 
 pub use crate::scene::{IntegratorKind, LightSampling};
 
@@ -350,6 +351,7 @@ impl<'a> Builder<'a> {
         let mut pending: Vec<(usize, String, MaterialRef)> = Vec::new();
         // Each object's material (none for `light rect`/`sphere`).
         let mut materials: Vec<Option<MaterialRef>> = Vec::new();
+        let mut first_of_name: HashMap<&str, MaterialRef> = HashMap::new();
         for o in &self.desc.objects {
             let to_world = o.to_world();
             let placed = match (&o.shape, o.shape.kind()) {
@@ -371,7 +373,13 @@ impl<'a> Builder<'a> {
                         }
                     };
                     objects.push((material, None, o.span));
-                    materials.push(Some(m.material));
+                    // Objects naming one material share its compiled
+                    // functions: they are given the first one's expression.
+                    let shared = match &m.name {
+                        Some(name) => *first_of_name.entry(name.as_str()).or_insert(m.material),
+                        None => m.material,
+                    };
+                    materials.push(Some(shared));
                 }
                 Surface::Emitter(emission) => {
                     let radiance = match (emission, &placed) {
@@ -498,18 +506,14 @@ impl<'a> Builder<'a> {
         lights: &[Light],
     ) -> Result<(), Error> {
         let Some(count) = summed_lights(lights) else { return Ok(()) };
-        let wanted: Vec<(usize, String, MaterialRef)> = objects
+        let wanted: Vec<(usize, MaterialRef)> = objects
             .iter()
             .zip(materials)
             .enumerate()
-            .filter_map(|(k, (o, m))| {
-                (takes_reflection_sum(o) && o.hit.is_none()).then_some((k, format!("@object{k}"), (*m)?))
-            })
+            .filter_map(|(k, (o, m))| (takes_reflection_sum(o) && o.hit.is_none()).then_some((k, (*m)?)))
             .collect();
-        let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, n, m)| (n.clone(), *m)).collect();
-        let functions = self.program.compile_reflection_sums(&items, count)?;
-        for ((k, _, _), f) in wanted.iter().zip(functions) {
-            objects[*k].reflection_sum = Some(f);
+        for (k, f) in per_material(&wanted, |items| self.program.compile_reflection_sums(items, count))? {
+            objects[k].reflection_sum = Some(f);
         }
         Ok(())
     }
@@ -525,15 +529,10 @@ impl<'a> Builder<'a> {
             // Only area lights have no expression, and their emitter has
             // no perfect directions.
             let m = m.ok_or_else(|| self.error(o.span, "internal error: a specular object without a material"))?;
-            wanted.push((k, (format!("@object{k}"), m)));
+            wanted.push((k, m));
         }
-        if wanted.is_empty() {
-            return Ok(());
-        }
-        let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
-        let functions = self.program.compile_delta_lobes(&items)?;
-        for ((k, _), f) in wanted.iter().zip(functions) {
-            objects[*k].delta_lobes = Some(f);
+        for (k, f) in per_material(&wanted, |items| self.program.compile_delta_lobes(items))? {
+            objects[k].delta_lobes = Some(f);
         }
         Ok(())
     }
@@ -555,19 +554,14 @@ impl<'a> Builder<'a> {
                 .filter_map(|m| o.material.method(m))
                 .any(|f| crate::worth_preparing(f.ir()))
         };
-        let wanted: Vec<(usize, (String, MaterialRef))> = materials
+        let wanted: Vec<(usize, MaterialRef)> = materials
             .iter()
             .enumerate()
             .filter(|(k, _)| !skip(&objects[*k]) && textured(&objects[*k]))
-            .filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?))))
+            .filter_map(|(k, m)| Some((k, (*m)?)))
             .collect();
-        if wanted.is_empty() {
-            return Ok(());
-        }
-        let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
-        let groups = self.program.compile_hit_group_refs(&items, methods)?;
-        for ((k, _), h) in wanted.iter().zip(groups) {
-            objects[*k].hit = h;
+        for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods))? {
+            objects[k].hit = h;
         }
         Ok(())
     }
@@ -575,22 +569,43 @@ impl<'a> Builder<'a> {
     /// Compiles for each object with a material expression `f · cos` and
     /// `pdf` of a light direction as one function.
     fn eval_pdfs(&self, objects: &mut [Object], materials: &[Option<MaterialRef>]) -> Result<(), Error> {
-        let wanted: Vec<(usize, (String, MaterialRef))> = materials
+        let wanted: Vec<(usize, MaterialRef)> = materials
             .iter()
             .enumerate()
             .filter(|(k, _)| objects[*k].hit.is_none())
-            .filter_map(|(k, m)| Some((k, (format!("@object{k}"), (*m)?))))
+            .filter_map(|(k, m)| Some((k, (*m)?)))
             .collect();
-        if wanted.is_empty() {
-            return Ok(());
-        }
-        let items: Vec<(String, MaterialRef)> = wanted.iter().map(|(_, item)| item.clone()).collect();
-        let functions = self.program.compile_eval_pdf(&items)?;
-        for ((k, _), f) in wanted.iter().zip(functions) {
-            objects[*k].eval_pdf = Some(f);
+        for (k, f) in per_material(&wanted, |items| self.program.compile_eval_pdf(items))? {
+            objects[k].eval_pdf = Some(f);
         }
         Ok(())
     }
+}
+
+/// Compiles once per distinct material of the `(object, material)` pairs
+/// (each named `@object{k}` after the first object that has it) and gives
+/// every object its material's result: a million spheres of one material
+/// are one compile.
+fn per_material<T: Clone>(
+    wanted: &[(usize, MaterialRef)],
+    compile: impl FnOnce(&[(String, MaterialRef)]) -> Result<Vec<T>, Error>,
+) -> Result<Vec<(usize, T)>, Error> {
+    if wanted.is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut slot_of: HashMap<MaterialRef, usize> = HashMap::new();
+    let mut items: Vec<(String, MaterialRef)> = Vec::new();
+    let slots: Vec<usize> = wanted
+        .iter()
+        .map(|(k, m)| {
+            *slot_of.entry(*m).or_insert_with(|| {
+                items.push((format!("@object{k}"), *m));
+                items.len() - 1
+            })
+        })
+        .collect();
+    let compiled = compile(&items)?;
+    Ok(wanted.iter().zip(slots).map(|((k, _), slot)| (*k, compiled[slot].clone())).collect())
 }
 
 fn scale_color(c: &Color, s: f32) -> Color {
@@ -647,4 +662,26 @@ fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, 
         }
     }
     (sum / f64::from(EMISSION_PROBES) / lanes.max(1) as f64) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn objects_sharing_a_material_share_one_compile() {
+        let clay = MaterialRef::TreeBody { module: 0, item: 1 };
+        let gold = MaterialRef::TreeBody { module: 0, item: 2 };
+        let wanted = [(0, clay), (3, gold), (5, clay), (7, clay), (9, gold)];
+        let mut asked = Vec::new();
+        let given = per_material(&wanted, |items| {
+            asked = items.to_vec();
+            Ok(items.iter().map(|(name, _)| name.clone()).collect())
+        })
+        .unwrap();
+        assert_eq!(asked, vec![("@object0".to_string(), clay), ("@object3".to_string(), gold)]);
+        let names: Vec<(usize, &str)> = given.iter().map(|(k, n)| (*k, n.as_str())).collect();
+        assert_eq!(names, [(0, "@object0"), (3, "@object3"), (5, "@object0"), (7, "@object0"), (9, "@object3")]);
+        assert!(per_material(&[], |_| -> Result<Vec<()>, Error> { panic!("nothing to compile") }).unwrap().is_empty());
+    }
 }

@@ -14,7 +14,7 @@ use crate::check::{Program, SymbolKind, Ty};
 use crate::color::ColorModel;
 use crate::diag::{Diagnostic, Span};
 use crate::globals::ShadingGlobals;
-use crate::syntax::ast::{Expr, ExprKind, Item, Scene, SceneBlock, SceneEntry, SceneProp};
+use crate::syntax::ast::{Expr, ExprKind, Item, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -58,6 +58,27 @@ struct Describer<'a> {
     diags: Vec<Diagnostic>,
 }
 
+/// The words of a number or a tuple of numbers, written out, as lowering
+/// and the interpreter would compute them (`as f32` of the literal, the
+/// negation exact): a scene of a million spheres lowers no value.
+fn literal_words(e: &Expr, ty: &Ty) -> Option<Vec<u32>> {
+    fn number(e: &Expr) -> Option<f32> {
+        match &e.kind {
+            ExprKind::Int(i) => Some(*i as f32),
+            ExprKind::Float(x) => Some(*x as f32),
+            ExprKind::Unary { op: UnaryOp::Neg, operand } => number(operand).map(|x| -x),
+            _ => None,
+        }
+    }
+    match (ty, &e.kind) {
+        (Ty::Float, _) => Some(vec![number(e)?.to_bits()]),
+        (Ty::Vector | Ty::Point | Ty::Normal, ExprKind::Tuple(items)) if items.len() == 3 => {
+            items.iter().map(|item| number(item).map(f32::to_bits)).collect()
+        }
+        _ => None,
+    }
+}
+
 fn find<'b>(props: &'b [SceneProp], name: &str) -> Option<&'b SceneProp> {
     props.iter().find(|p| p.name.name == name)
 }
@@ -83,6 +104,9 @@ impl<'a> Describer<'a> {
 
     /// The value's words, converted to `ty`.
     fn words(&mut self, e: &Expr, ty: &Ty) -> Option<Vec<u32>> {
+        if let Some(words) = literal_words(e, ty) {
+            return Some(words);
+        }
         let (f, diags) = crate::ir::lower::lower_value(self.program, self.model, "value", e, ty);
         if !diags.is_empty() {
             self.diags.extend(diags);

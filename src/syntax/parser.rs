@@ -42,25 +42,13 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
     // Lexer errors are reported and lexing goes on. A bad string or number
     // still becomes a token, so the parser does not report it a second time.
     let mut lex_errors: Vec<SpannedLexError> = Vec::new();
-    let tokens: Vec<(usize, Tok, usize)> = Lexer::new(src)
-        .filter_map(|t| match t {
-            Ok(t) => Some(t),
-            Err(e) => {
-                let stand_in = match e.error {
-                    LexError::UnterminatedString => {
-                        Some(Tok::Str(src.get(e.span.start + 1..e.span.end).unwrap_or("").to_string()))
-                    }
-                    LexError::BadNumber => Some(Tok::Float(0.0)),
-                    // Parsed as the identifier it means, so nothing else is reported.
-                    LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").to_string())),
-                    LexError::UnexpectedChar | LexError::UnterminatedComment => None,
-                };
-                let token = stand_in.map(|t| (e.span.start, t, e.span.end));
-                lex_errors.push(e);
-                token
-            }
-        })
-        .collect();
+    // Tokens stream into the parser: a 86 MB scene is never a token vector.
+    let mut recovered: Vec<ErrorRecovery<usize, Tok, SyntaxError>> = Vec::new();
+    let result = grammar::SourceFileParser::new().parse(
+        file,
+        &mut recovered,
+        tokens(src, &mut lex_errors).map(Ok::<_, SyntaxError>),
+    );
     // An unterminated comment or string swallows the rest of the file or
     // line; the end of file that follows is no news.
     let swallowed =
@@ -82,15 +70,6 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
         diags.push(d);
     }
 
-    let context = ErrorContext {
-        file,
-        eof: src.len(),
-        spans: tokens.iter().map(|t| (t.0, t.2)).collect(),
-        unclosed: unclosed_braces(&tokens),
-    };
-    let mut recovered: Vec<ErrorRecovery<usize, Tok, SyntaxError>> = Vec::new();
-    let result =
-        grammar::SourceFileParser::new().parse(file, &mut recovered, tokens.into_iter().map(Ok::<_, SyntaxError>));
     let mut errors: Vec<ParseError<usize, Tok, SyntaxError>> = recovered.into_iter().map(|r| r.error).collect();
     let ast = match result {
         Ok(ast) => ast,
@@ -99,6 +78,12 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
             SourceFile::default()
         }
     };
+    if errors.is_empty() {
+        return (ast, diags);
+    }
+    // Only a file with syntax errors needs the tokens again, to word them.
+    let spans: Vec<(usize, usize)> = tokens(src, &mut Vec::new()).map(|t| (t.0, t.2)).collect();
+    let context = ErrorContext { file, eof: src.len(), unclosed: unclosed_braces(src), spans };
     for e in errors {
         if swallowed && matches!(e, ParseError::UnrecognizedEof { .. }) {
             continue;
@@ -118,11 +103,34 @@ struct ErrorContext {
     unclosed: Vec<usize>,
 }
 
-fn unclosed_braces(tokens: &[(usize, Tok, usize)]) -> Vec<usize> {
+/// The tokens of `src`, lexer errors pushed to `errors` as they are met. A
+/// bad string or number still becomes a token, so the parser does not
+/// report it a second time.
+fn tokens<'s>(src: &'s str, errors: &'s mut Vec<SpannedLexError>) -> impl Iterator<Item = (usize, Tok, usize)> + 's {
+    Lexer::new(src).filter_map(move |t| match t {
+        Ok(t) => Some(t),
+        Err(e) => {
+            let stand_in = match e.error {
+                LexError::UnterminatedString => {
+                    Some(Tok::Str(src.get(e.span.start + 1..e.span.end).unwrap_or("").to_string()))
+                }
+                LexError::BadNumber => Some(Tok::Float(0.0)),
+                // Parsed as the identifier it means, so nothing else is reported.
+                LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").to_string())),
+                LexError::UnexpectedChar | LexError::UnterminatedComment => None,
+            };
+            let token = stand_in.map(|t| (e.span.start, t, e.span.end));
+            errors.push(e);
+            token
+        }
+    })
+}
+
+fn unclosed_braces(src: &str) -> Vec<usize> {
     let mut open = Vec::new();
-    for (start, tok, _) in tokens {
+    for (start, tok, _) in tokens(src, &mut Vec::new()) {
         match tok {
-            Tok::LBrace => open.push(*start),
+            Tok::LBrace => open.push(start),
             Tok::RBrace => {
                 open.pop();
             }
@@ -218,7 +226,7 @@ impl ErrorContext {
                 // Point at where the over-deep construct starts, not over all of it.
                 let start = Span { end: span.start + 1, ..span };
                 Diagnostic::error(start, format!("nested deeper than {MAX_NESTING} levels"))
-                    .with_note("each operator, parenthesis, call, index and block adds a level; a chain `a + b + c + ...` adds one per operand")
+                    .with_note("each parenthesis, call, index, block and right operand adds a level; a chain `a + b + c + ...` is one level")
                     .with_help("split it into smaller functions or local variables")
             }
         }
