@@ -61,7 +61,7 @@ fn blend_of_ints_is_a_float_blend() {
 }
 
 // Found by the safety tests; fixed.
-// Every `for` loop is capped at 1,000,000 iterations on its own, so nested
+// Every `for` loop was capped at 1,000,000 iterations on its own, so nested
 // loops multiply the caps: three nested `0..2000000000` loops run 10^18
 // iterations (the JIT does about 10^9 a second here; the interpreter about
 // 10^7), so a three-line shader hangs its host, against "a shader must not

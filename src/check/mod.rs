@@ -42,7 +42,7 @@ pub const MAX_ARRAY_LEN: u32 = 4096;
 
 /// The most iterations one `for` loop runs: the IR's limit, which the
 /// checker reports when constant bounds exceed it.
-pub use crate::ir::MAX_LOOP_ITERATIONS;
+pub use crate::ir::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 
 /// A checked program: the loaded modules, the global symbols and the type of
 /// every expression, keyed by its span.
@@ -296,6 +296,10 @@ struct Body {
     scopes: Vec<Vec<Local>>,
     ret: Option<Ty>,
     loops: u32,
+    /// The most iterations the enclosing loops can run together per call
+    /// (1 outside loops), and whether a warning about them was given.
+    loop_work: i64,
+    loop_warned: bool,
     /// Inside a material definition: its name and the methods it defines.
     material: Option<(String, Vec<&'static str>)>,
     globals_allowed: bool,

@@ -134,9 +134,31 @@ impl<'a> Checker<'a> {
                     kind: LocalKind::LoopVar,
                     used: true,
                 });
+                let outer_work = self.body.loop_work;
+                self.body.loop_work = outer_work.max(1).saturating_mul(worst_case_trips(start, end));
+                if self.body.loop_work > MAX_CALL_ITERATIONS
+                    && (const_int(start).is_none() || const_int(end).is_none())
+                    && !self.body.loop_warned
+                {
+                    self.body.loop_warned = true;
+                    self.error(
+                        Diagnostic::warning(
+                            start.span.to(end.span),
+                            "a bound that is not a constant lets these loops run past the call's iteration budget",
+                        )
+                        .with_note(format!(
+                            "with this bound, the loops around here can run {} iterations per call; a call stops \
+                             every loop after {MAX_CALL_ITERATIONS} in all, and a runaway shader spends them on \
+                             every hit",
+                            self.body.loop_work
+                        ))
+                        .with_help("bound it with a constant, for example `for i in 0..min(n, 64)`"),
+                    );
+                }
                 self.body.loops += 1;
                 self.block(body);
                 self.body.loops -= 1;
+                self.body.loop_work = outer_work;
                 self.end_scope();
             }
             StmtKind::While { cond, body } => {
@@ -274,5 +296,28 @@ impl<'a> Checker<'a> {
                 None
             }
         }
+    }
+}
+
+/// The most times `for i in start..end` can run: the difference of constant
+/// bounds; `c` for `x..x + c`; where the end is `min(x, c)` (either order)
+/// over a constant start, `c - start`; otherwise the per-loop cap.
+fn worst_case_trips(start: &Expr, end: &Expr) -> i64 {
+    if let ExprKind::Binary { op: BinaryOp::Add, lhs, rhs } = &end.kind
+        && let (ExprKind::Name(a), ExprKind::Name(b)) = (&lhs.kind, &start.kind)
+        && a == b
+        && let Some(c) = const_int(rhs)
+    {
+        return c.clamp(0, MAX_LOOP_ITERATIONS);
+    }
+    let upper = const_int(end).or_else(|| match &end.kind {
+        ExprKind::Call { callee, args } if callee.name == "min" && args.len() == 2 => {
+            args.iter().filter_map(|a| const_int(&a.value)).min()
+        }
+        _ => None,
+    });
+    match (const_int(start), upper) {
+        (Some(lo), Some(hi)) => (hi - lo).clamp(0, MAX_LOOP_ITERATIONS),
+        _ => MAX_LOOP_ITERATIONS,
     }
 }

@@ -8,15 +8,23 @@
 //! emits code that computes the same (its comments point back here).
 
 /// The most iterations one [`Inst::Loop`](super::Inst::Loop) runs, however
-/// far apart its bounds are. The checker warns about constant bounds
+/// far apart its bounds are (2^16). The checker warns about constant bounds
 /// beyond it.
-pub const MAX_LOOP_ITERATIONS: i64 = 1_000_000;
+pub const MAX_LOOP_ITERATIONS: i64 = 1 << 16;
 
 /// The most loop iterations one call of a function runs over all its loops
-/// together, so nested loops cannot multiply their caps; once it is spent,
-/// every loop ends. With [`MAX_LOOP_ITERATIONS`], no IR function can hang
-/// its host.
-pub const MAX_CALL_ITERATIONS: i64 = 1 << 24;
+/// together (2^18), so nested loops cannot multiply their caps; once it is
+/// spent, every loop ends. With [`MAX_LOOP_ITERATIONS`], no IR function can
+/// hang its host.
+///
+/// The trade-off: a budget this size leaves room for any loop a shading
+/// call needs (64 octaves of noise, a 256 x 256 filter, a 512-step march),
+/// while a runaway shader, spending all of it on every call, costs about
+/// 0.3 ms per call, so a 64 x 64 preview stays within seconds (it was
+/// 2^24, about 20 ms a call, and minutes for the same preview). The
+/// checker warns where bounds that are not constants let a loop nest run
+/// past it.
+pub const MAX_CALL_ITERATIONS: i64 = 1 << 18;
 
 /// [`BinOp::IDiv`](super::BinOp::IDiv): wrapping (`i32::MIN / -1` is
 /// `i32::MIN`), and 0 for a zero divisor.
