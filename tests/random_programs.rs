@@ -24,7 +24,6 @@ use proptest::test_runner::Config;
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::fmt;
-use tsl::check::Ty;
 use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
 
 // ---------------------------------------------------------------- types and environments
@@ -948,7 +947,7 @@ fn program() -> impl Strategy<Value = Source> {
 // ---------------------------------------------------------------- running both back ends
 
 mod common;
-use common::{Rng, close};
+use common::{Rng, args, close};
 
 const POINTS: usize = 50;
 
@@ -959,23 +958,6 @@ fn globals(rng: &mut Rng, point: usize) -> ShadingGlobals {
         1 => ShadingGlobals { p: [1e30, -1e30, 3e38], pl: [5e29, -5e29, 1.5e38], ..common::shading_point(rng) },
         _ => common::shading_point(rng),
     }
-}
-
-fn args(rng: &mut Rng, params: &[(String, Ty)], model: ColorModel) -> Vec<u32> {
-    let mut words = Vec::new();
-    for (_, ty) in params {
-        match ty {
-            Ty::Float => words.push(rng.float().to_bits()),
-            Ty::Int => words.push(rng.int() as u32),
-            Ty::Bool => words.push((rng.next() % 2) as u32),
-            Ty::Vec2 => words.extend([rng.float().to_bits(), rng.float().to_bits()]),
-            Ty::Vector | Ty::Point | Ty::Normal => words.extend(rng.unit().map(f32::to_bits)),
-            Ty::Color => words.extend((0..model.lanes()).map(|_| rng.range(0.0, 2.0).to_bits())),
-            Ty::Matrix => words.extend((0..12).map(|_| rng.range(-1.0, 1.0).to_bits())),
-            _ => {}
-        }
-    }
-    words
 }
 
 /// Entries defined by the generated program (not the prelude's).

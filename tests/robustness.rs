@@ -5,6 +5,9 @@
 use proptest::prelude::*;
 use tsl::LoadOptions;
 
+mod common;
+use common::TOKENS;
+
 fn check(src: &str) -> tsl::Checked {
     tsl::check_source("input.tsl", src, &LoadOptions::default())
 }
@@ -118,83 +121,6 @@ fn invalid_utf8_file_is_a_located_error() {
     assert!(text.contains("bad.tsl:2:"), "located on the bad line: {text}");
     std::fs::remove_dir_all(&dir).ok();
 }
-
-/// Token texts from which random streams are built.
-const TOKENS: &[&str] = &[
-    "float",
-    "int",
-    "bool",
-    "color",
-    "vector",
-    "point",
-    "normal",
-    "vec2",
-    "uv",
-    "matrix",
-    "string",
-    "void",
-    "material",
-    "scene",
-    "import",
-    "const",
-    "if",
-    "else",
-    "for",
-    "in",
-    "while",
-    "break",
-    "continue",
-    "return",
-    "true",
-    "false",
-    "(",
-    ")",
-    "{",
-    "}",
-    "[",
-    "]",
-    ",",
-    ";",
-    ":",
-    "?",
-    ".",
-    "..",
-    "=",
-    "+=",
-    "-=",
-    "*=",
-    "/=",
-    "+",
-    "-",
-    "*",
-    "/",
-    "%",
-    "!",
-    "==",
-    "!=",
-    "<",
-    "<=",
-    ">",
-    ">=",
-    "&&",
-    "||",
-    "x",
-    "P",
-    "N",
-    "u",
-    "mix",
-    "phong",
-    "rgb",
-    "noise",
-    "f",
-    "1",
-    "2.5",
-    "\"a.tsl\"",
-    "camera",
-    "object",
-    "light",
-    "sphere",
-];
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]

@@ -5,6 +5,7 @@
 #![allow(dead_code)] // each test binary uses its own part
 
 use tsl::ShadingGlobals;
+use tsl::check::Ty;
 
 /// The message of a scene from `src` that must not render: the compile
 /// error (checking describes the scene and finds most problems), or, for
@@ -108,4 +109,99 @@ pub fn close(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
     }
     let (x, y) = (f32::from_bits(a), f32::from_bits(b));
     (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-5 * x.abs().max(y.abs()).max(1.0)
+}
+
+/// Token texts from which random streams are built.
+pub const TOKENS: &[&str] = &[
+    "float",
+    "int",
+    "bool",
+    "color",
+    "vector",
+    "point",
+    "normal",
+    "vec2",
+    "uv",
+    "matrix",
+    "string",
+    "void",
+    "material",
+    "scene",
+    "import",
+    "const",
+    "if",
+    "else",
+    "for",
+    "in",
+    "while",
+    "break",
+    "continue",
+    "return",
+    "true",
+    "false",
+    "(",
+    ")",
+    "{",
+    "}",
+    "[",
+    "]",
+    ",",
+    ";",
+    ":",
+    "?",
+    ".",
+    "..",
+    "=",
+    "+=",
+    "-=",
+    "*=",
+    "/=",
+    "+",
+    "-",
+    "*",
+    "/",
+    "%",
+    "!",
+    "==",
+    "!=",
+    "<",
+    "<=",
+    ">",
+    ">=",
+    "&&",
+    "||",
+    "x",
+    "P",
+    "N",
+    "u",
+    "mix",
+    "phong",
+    "rgb",
+    "noise",
+    "f",
+    "1",
+    "2.5",
+    "\"a.tsl\"",
+    "camera",
+    "object",
+    "light",
+    "sphere",
+];
+
+/// Random argument words for an entry's parameters.
+pub fn args(rng: &mut Rng, params: &[(String, Ty)], model: tsl::ColorModel) -> Vec<u32> {
+    let mut words = Vec::new();
+    for (_, ty) in params {
+        match ty {
+            Ty::Float => words.push(rng.float().to_bits()),
+            Ty::Int => words.push(rng.int() as u32),
+            Ty::Bool => words.push((rng.next() % 2) as u32),
+            Ty::Vec2 => words.extend([rng.float().to_bits(), rng.float().to_bits()]),
+            Ty::Vector | Ty::Point | Ty::Normal => words.extend(rng.unit().map(f32::to_bits)),
+            Ty::Color => words.extend((0..model.lanes()).map(|_| rng.range(0.0, 2.0).to_bits())),
+            Ty::Matrix => words.extend((0..12).map(|_| rng.range(-1.0, 1.0).to_bits())),
+            _ => {}
+        }
+    }
+    words
 }
