@@ -159,3 +159,16 @@ proptest! {
         let _ = check(&format!("material m = mix({}, mirror, lambert);", body.join(" ")));
     }
 }
+
+/// Found by the fuzzer (scripts/fuzz.sh): one stray token in a 4,000-item
+/// array literal gave 2,687 syntax errors, each printing the 12 KB line,
+/// and `tslc check` took seconds. Past `MAX_SYNTAX_ERRORS`, a count.
+#[test]
+fn a_cascade_of_syntax_errors_is_cut_short() {
+    let src = std::fs::read_to_string("tests/data/fuzz/syntax_cascade.tsl").unwrap();
+    let checked = check(&src);
+    let errors = checked.diagnostics.iter().filter(|d| d.is_error()).count();
+    assert_eq!(errors, tsl::syntax::parser::MAX_SYNTAX_ERRORS + 1);
+    let text = checked.render_diagnostics();
+    assert!(text.contains("more syntax errors not shown"), "{}", &text[text.len().saturating_sub(2000)..]);
+}

@@ -36,6 +36,11 @@ pub(crate) fn node(
     ast::Expr::new(kind, Span::new(file, l, r)).map_err(deep)
 }
 
+/// The most syntax errors reported for one file (as clang's error limit):
+/// a broken file of thousands of lines gets its first errors and a count,
+/// not megabytes of echoes.
+pub const MAX_SYNTAX_ERRORS: usize = 100;
+
 /// Parses one source file.
 pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
     let mut diags = Vec::new();
@@ -89,6 +94,15 @@ pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
             continue;
         }
         diags.push(context.diagnostic(e));
+    }
+    if diags.len() > MAX_SYNTAX_ERRORS {
+        let more = diags.len() - MAX_SYNTAX_ERRORS;
+        let at = diags[MAX_SYNTAX_ERRORS].span;
+        diags.truncate(MAX_SYNTAX_ERRORS);
+        diags.push(
+            Diagnostic::error(Span { end: at.start, ..at }, format!("{more} more syntax errors not shown"))
+                .with_note("past the first errors, most are echoes of one mistake: fix those first"),
+        );
     }
     (ast, diags)
 }
