@@ -248,7 +248,7 @@ pub fn remove_temporaries() {
 
 /// Runs `write` on a temporary path beside `path`, then renames it over
 /// `path`; on failure the temporary is removed and `path` is untouched.
-fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
+pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let dir = directory_of(path)?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();

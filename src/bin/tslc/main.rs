@@ -35,6 +35,21 @@ enum Command {
     Merge(render::MergeArgs),
     /// Write a generated mesh that an example scene needs (`heavy`).
     MakeMesh(render::MakeMeshArgs),
+    /// Format TSL files in the canonical style (docs/fmt.md), in place;
+    /// `-` or no file formats standard input to standard output.
+    Fmt(FmtArgs),
+}
+
+#[derive(clap::Args)]
+struct FmtArgs {
+    /// Files or directories (searched for `.tsl` files); `-` is standard input.
+    files: Vec<PathBuf>,
+    /// Change nothing: print a diff and exit 1 when a file would change.
+    #[arg(long)]
+    check: bool,
+    /// The file name to report for standard input.
+    #[arg(long, value_name = "PATH")]
+    stdin_path: Option<String>,
 }
 
 #[derive(clap::Args)]
@@ -126,6 +141,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
         Command::MakeMesh(args) => render::make_mesh(args),
+        Command::Fmt(args) => fmt(args),
     });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,
@@ -302,4 +318,117 @@ fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
 
 fn s(n: usize) -> &'static str {
     if n == 1 { "" } else { "s" }
+}
+
+fn tsl_files(path: &std::path::Path, out: &mut Vec<PathBuf>) {
+    if path.is_dir() {
+        let mut entries: Vec<PathBuf> =
+            std::fs::read_dir(path).into_iter().flatten().flatten().map(|e| e.path()).collect();
+        entries.sort();
+        for e in entries {
+            if e.is_dir() || e.extension().is_some_and(|x| x == "tsl") {
+                tsl_files(&e, out);
+            }
+        }
+    } else {
+        out.push(path.to_path_buf());
+    }
+}
+
+/// A line diff (longest common subsequence), unified-style markers.
+fn line_diff(name: &str, old: &str, new: &str) -> String {
+    let a: Vec<&str> = old.lines().collect();
+    let b: Vec<&str> = new.lines().collect();
+    let mut lcs = vec![vec![0u32; b.len() + 1]; a.len() + 1];
+    for i in (0..a.len()).rev() {
+        for j in (0..b.len()).rev() {
+            lcs[i][j] = if a[i] == b[j] { lcs[i + 1][j + 1] + 1 } else { lcs[i + 1][j].max(lcs[i][j + 1]) };
+        }
+    }
+    let mut out = format!("--- {name}\n+++ {name} (formatted)\n");
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        if i < a.len() && j < b.len() && a[i] == b[j] {
+            i += 1;
+            j += 1;
+        } else if j < b.len() && (i == a.len() || lcs[i][j + 1] >= lcs[i + 1][j]) {
+            out.push_str(&format!("@@ {} @@\n+{}\n", i + 1, b[j]));
+            j += 1;
+        } else {
+            out.push_str(&format!("@@ {} @@\n-{}\n", i + 1, a[i]));
+            i += 1;
+        }
+    }
+    out
+}
+
+fn fmt(args: FmtArgs) -> ExitCode {
+    let mut failed = false;
+    let report = |name: &str, text: &str, diags: &[diag::Diagnostic]| {
+        let mut sources = diag::SourceMap::new();
+        sources.add(name, text);
+        eprint!("{}", diag::render_text(&sources, diags, Colors::Never));
+    };
+    if args.files.is_empty() || args.files.iter().any(|f| f.as_os_str() == "-") {
+        let name = args.stdin_path.clone().unwrap_or_else(|| "<stdin>".into());
+        let mut text = String::new();
+        if let Err(e) = std::io::stdin().read_to_string(&mut text) {
+            eprintln!("error: cannot read standard input: {e}");
+            return ExitCode::from(1);
+        }
+        return match tsl::format::format_source(&text) {
+            Ok(out) if args.check => {
+                if out == text {
+                    ExitCode::SUCCESS
+                } else {
+                    print!("{}", line_diff(&name, &text, &out));
+                    ExitCode::from(1)
+                }
+            }
+            Ok(out) => {
+                print!("{out}");
+                ExitCode::SUCCESS
+            }
+            Err(d) => {
+                report(&name, &text, &d);
+                ExitCode::from(1)
+            }
+        };
+    }
+    let mut files = Vec::new();
+    for f in &args.files {
+        tsl_files(f, &mut files);
+    }
+    for path in files {
+        let name = path.display().to_string();
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) => {
+                eprintln!("error: cannot read {name}: {e}");
+                failed = true;
+                continue;
+            }
+        };
+        match tsl::format::format_source(&text) {
+            Ok(out) if out == text => {}
+            Ok(out) if args.check => {
+                print!("{}", line_diff(&name, &text, &out));
+                failed = true;
+            }
+            Ok(out) => {
+                let written = tsl::image_io::atomic_write(&path, |tmp| {
+                    std::fs::write(tmp, &out).map_err(|e| format!("cannot write {name}: {e}"))
+                });
+                if let Err(e) = written {
+                    eprintln!("error: {e}");
+                    failed = true;
+                }
+            }
+            Err(d) => {
+                report(&name, &text, &d);
+                failed = true;
+            }
+        }
+    }
+    if failed { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }
