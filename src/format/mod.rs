@@ -557,7 +557,35 @@ impl Printer<'_> {
         })
     }
 
+    /// A left-leaning chain `a + b - c` printed flat: its document is as
+    /// deep as the chain's real nesting, not as long as the chain.
+    fn chain(&mut self, e: &Expr) -> Doc {
+        let mut nodes = vec![e];
+        let mut first = e;
+        while let ExprKind::Binary { lhs, .. } = &first.kind {
+            // A parenthesized left operand starts after its `(`: it is
+            // printed by `expr`, with its parentheses.
+            if !matches!(lhs.kind, ExprKind::Binary { .. }) || lhs.span.start != first.span.start {
+                break;
+            }
+            nodes.push(lhs);
+            first = lhs;
+        }
+        let ExprKind::Binary { lhs, .. } = &first.kind else { return Doc::Concat(Vec::new()) };
+        let mut parts = vec![self.expr(lhs)];
+        for node in nodes.iter().rev() {
+            if let ExprKind::Binary { rhs, .. } = &node.kind {
+                parts.extend([text(" "), self.tok(), text(" "), self.expr(rhs)]);
+            }
+        }
+        Doc::Concat(parts)
+    }
+
     fn expr(&mut self, e: &Expr) -> Doc {
+        crate::syntax::ast::with_stack(|| self.expr_unguarded(e))
+    }
+
+    fn expr_unguarded(&mut self, e: &Expr) -> Doc {
         // Parentheses the author wrote lie before the expression's span.
         let mut out = Vec::new();
         let mut parens = 0;
@@ -579,9 +607,7 @@ impl Printer<'_> {
                 Doc::Concat(vec![self.expr(base), self.tok(), self.expr(index), self.tok()])
             }
             ExprKind::Unary { operand, .. } => Doc::Concat(vec![self.tok(), self.expr(operand)]),
-            ExprKind::Binary { lhs, rhs, .. } => {
-                Doc::Concat(vec![self.expr(lhs), text(" "), self.tok(), text(" "), self.expr(rhs)])
-            }
+            ExprKind::Binary { .. } => self.chain(e),
             ExprKind::Ternary { cond, then_expr, else_expr } => Doc::Concat(vec![
                 self.expr(cond),
                 text(" "),

@@ -46,3 +46,11 @@ fn blank_lines_at_most_one() {
         "const int A = 1;\n\nconst int B = 2;\nconst int C = 3;\n"
     );
 }
+
+#[test]
+fn a_100000_term_chain_formats_flat_without_overflowing() {
+    let src = format!("float f(float x) {{ return (x+x)*x{}; }}", "+x-x".repeat(50_000));
+    let out = fmt(&src);
+    assert!(out.starts_with("float f(float x) {\n    return (x + x) * x + x - x + x"), "{}", &out[..200]);
+    assert!(out.ends_with(" + x - x;\n}\n"));
+}
