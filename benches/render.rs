@@ -9,8 +9,10 @@
 //!
 //! The per-hit split (`ir::split`): path-traced `bump_procedural`, `room`
 //! and `texture_tree` rendered with each method compiled on its own (the
-//! code before the split) and split, alternately, three times each; the
-//! medians, their ratio, both scene builds, and the noise evaluated at
+//! code before the split), split, and split with the optimising tier for
+//! large functions (what renders of `render::OPTIMIZE_FROM_SAMPLES` or more
+//! get), in turn, three times each; the medians, their ratios, the scene
+//! builds, and the noise evaluated at
 //! each camera hit of a textured object by the path tracer's calls there
 //! (run through the interpreter, which counts).
 
@@ -131,18 +133,22 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
 
 fn bench_split(name: &str, file: &Path) {
     let Ok(program) = tsl::Compiler::new().file(file).compile() else { return };
-    let overrides = |unsplit| Overrides {
-        resolution: Some((160, 120)),
-        spp: Some(4),
-        integrator: Some(IntegratorKind::Path),
-        unsplit,
-        ..Default::default()
-    };
-    let mut builds = [0.0; 2];
+    // Per method (quick code), split (quick code), split with the
+    // optimising tier for large functions (long renders get it).
+    let variants = [("per method", true, false), ("split", false, false), ("split optimised", false, true)];
+    let mut builds = [0.0; 3];
     let mut scenes = Vec::new();
-    for (k, unsplit) in [true, false].into_iter().enumerate() {
+    for (k, (_, unsplit, optimize)) in variants.into_iter().enumerate() {
+        let overrides = Overrides {
+            resolution: Some((160, 120)),
+            spp: Some(4),
+            integrator: Some(IntegratorKind::Path),
+            unsplit,
+            optimize_code: Some(optimize),
+            ..Default::default()
+        };
         let start = Instant::now();
-        match Scene::build(&program, &overrides(unsplit)) {
+        match Scene::build(&program, &overrides) {
             Ok(s) => scenes.push(s),
             Err(e) => {
                 eprintln!("{e}");
@@ -151,7 +157,7 @@ fn bench_split(name: &str, file: &Path) {
         }
         builds[k] = start.elapsed().as_secs_f64() * 1e3;
     }
-    let mut times = [Vec::new(), Vec::new()];
+    let mut times = [Vec::new(), Vec::new(), Vec::new()];
     for _ in 0..3 {
         for (k, scene) in scenes.iter().enumerate() {
             let Ok((_, stats)) = render::render(scene, &RenderOptions::default()) else { return };
@@ -162,13 +168,14 @@ fn bench_split(name: &str, file: &Path) {
         t.sort_by(f64::total_cmp);
         t[t.len() / 2]
     };
-    let (before, after) = (median(&mut times[0]), median(&mut times[1]));
     let label = format!("{name} path 160x120 4spp");
-    figure(&format!("{label} scene build per method"), builds[0], "ms");
-    figure(&format!("{label} scene build split"), builds[1], "ms");
-    figure(&format!("{label} render per method"), before, "s");
-    figure(&format!("{label} render split"), after, "s");
-    figure(&format!("{label} split speed-up"), before / after, "x");
+    let medians: Vec<f64> = times.iter_mut().map(median).collect();
+    for (k, (which, _, _)) in variants.iter().enumerate() {
+        figure(&format!("{label} scene build {which}"), builds[k], "ms");
+        figure(&format!("{label} render {which}"), medians[k], "s");
+    }
+    figure(&format!("{label} split speed-up"), medians[0] / medians[1], "x");
+    figure(&format!("{label} split optimised speed-up"), medians[0] / medians[2], "x");
     let prepared = scenes[1].objects.iter().filter(|o| o.hit.is_some()).count();
     figure(&format!("{label} objects prepared (of {})", scenes[1].objects.len()), prepared as f64, "");
     // Noise run at the camera hits of textured objects, counted by the interpreter.

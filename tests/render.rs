@@ -675,6 +675,28 @@ fn prepared_hits_render_what_per_method_calls_render() {
     }
 }
 
+/// The optimising tier for large functions (chosen for long renders) runs
+/// the same operations as the quick one: the same image, bit for bit.
+#[test]
+fn optimised_code_renders_the_same_bits() {
+    let program =
+        Compiler::new().file("examples/techniques/bump_procedural.tsl").compile().unwrap_or_else(|e| panic!("{e}"));
+    let render = |optimize| {
+        let overrides = Overrides {
+            resolution: Some((40, 30)),
+            spp: Some(2),
+            integrator: Some(IntegratorKind::Path),
+            optimize_code: Some(optimize),
+            ..Default::default()
+        };
+        let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
+        render::render(&scene, &RenderOptions::default()).unwrap().0
+    };
+    let (quick, optimised) = (render(false), render(true));
+    assert!(quick.color.iter().any(|p| p.iter().any(|x| *x > 0.0)), "a black image proves nothing");
+    assert_eq!(quick.color, optimised.color);
+}
+
 /// A film beyond the memory budget is refused before it is allocated, with
 /// the way out: tiles.
 #[test]
