@@ -108,6 +108,14 @@ impl<'a> Checker<'a> {
                         );
                         Ty::Error
                     }
+                    // Texture trees take their children's lists as written.
+                    Some(Ty::Array(elem, _)) if *elem == Ty::Material => {
+                        self.error(
+                            Diagnostic::error(e.span, "a list of materials cannot be chosen with `?:`")
+                                .with_help("choose each element instead: `[c ? a : b, c ? d : e]`"),
+                        );
+                        Ty::Error
+                    }
                     Some(t) => t,
                     None => {
                         self.error(
