@@ -222,6 +222,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         window,
         aov: args.aov,
         progress: if args.quiet { None } else { Some(&report) },
+        ..Default::default()
     };
     let (image, stats) = match render::render(&scene, &options) {
         Ok(r) => r,
