@@ -134,8 +134,7 @@ impl Live {
         loop {
             let message = {
                 let Ok(state) = self.state.lock() else { return };
-                let Ok((state, _)) =
-                    self.changed.wait_timeout_while(state, KEEPALIVE, |s| Some(s.version) == sent)
+                let Ok((state, _)) = self.changed.wait_timeout_while(state, KEEPALIVE, |s| Some(s.version) == sent)
                 else {
                     return;
                 };

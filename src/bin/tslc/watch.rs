@@ -15,8 +15,8 @@
 use crate::render::{fail, parse_color, parse_depth, parse_integrator, parse_resolution, parse_seed, parse_spp};
 use crate::render::{parse_light_sampling, parse_threads};
 use crate::serve::Live;
-use notify_debouncer_full::notify::event::{AccessKind, AccessMode, EventKind};
 use notify_debouncer_full::notify::RecursiveMode;
+use notify_debouncer_full::notify::event::{AccessKind, AccessMode, EventKind};
 use notify_debouncer_full::{DebounceEventResult, new_debouncer};
 use std::collections::HashSet;
 use std::net::SocketAddr;
@@ -157,10 +157,9 @@ pub fn watch(args: WatchArgs) -> ExitCode {
         Err(e) => return fail(format!("cannot watch files: {e}")),
     };
     let mut watched: HashSet<PathBuf> = HashSet::new();
-    let mut textures = Arc::new(TextureManager::new());
     loop {
         let started = Instant::now();
-        let (scene, inputs) = build(&args, &textures, live.as_deref());
+        let (scene, inputs) = build(&args, live.as_deref());
         for dir in inputs.dirs.difference(&watched.clone()) {
             match debouncer.watch(dir, RecursiveMode::NonRecursive) {
                 Ok(()) => {
@@ -204,17 +203,16 @@ pub fn watch(args: WatchArgs) -> ExitCode {
         };
         let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
         eprintln!("watch: changed: {}", names.join(", "));
-        // Images are cached per manager: a changed one must be read again.
-        if changed.iter().any(|p| p.extension().is_none_or(|e| e != "tsl")) {
-            textures = Arc::new(TextureManager::new());
-        }
     }
 }
 
 /// Checks and compiles the scene and builds it for rendering; `None` (after
 /// printing why) when any step fails.
-fn build(args: &WatchArgs, textures: &Arc<TextureManager>, live: Option<&Live>) -> (Option<Scene>, Inputs) {
-    let options = LoadOptions { import_paths: args.include.clone(), textures: textures.clone(), ..Default::default() };
+fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
+    // A texture manager of its own, so a changed image is read again
+    // rather than found in the cache.
+    let textures = Arc::new(TextureManager::new());
+    let options = LoadOptions { import_paths: args.include.clone(), textures, ..Default::default() };
     let checked = tsl::check_file(&args.scene, &options);
     let inputs = inputs_of(&args.scene, &checked);
     eprint!("{}", crate::human_report(&checked, crate::stderr_colors()));
@@ -253,7 +251,12 @@ fn build(args: &WatchArgs, textures: &Arc<TextureManager>, live: Option<&Live>) 
 /// also to any file with one of [`SOURCE_EXTENSIONS`] in the watched
 /// directories), never to the output image itself. Reads are not changes:
 /// checking opens every input. `None` when the watcher has stopped.
-fn next_change(changes: &Receiver<DebounceEventResult>, inputs: &Inputs, broken: bool, output: &Path) -> Option<Vec<PathBuf>> {
+fn next_change(
+    changes: &Receiver<DebounceEventResult>,
+    inputs: &Inputs,
+    broken: bool,
+    output: &Path,
+) -> Option<Vec<PathBuf>> {
     let out_name = output.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let temporary = format!(".{out_name}.tmp-");
     let relevant = |p: &Path| {
