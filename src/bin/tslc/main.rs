@@ -349,31 +349,14 @@ fn tsl_files(path: &std::path::Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// A line diff (longest common subsequence), unified-style markers.
+/// A unified diff (as `diff -u` and `git diff` print it, 3 lines of
+/// context) from `old` to its formatted text.
 fn line_diff(name: &str, old: &str, new: &str) -> String {
-    let a: Vec<&str> = old.lines().collect();
-    let b: Vec<&str> = new.lines().collect();
-    let mut lcs = vec![vec![0u32; b.len() + 1]; a.len() + 1];
-    for i in (0..a.len()).rev() {
-        for j in (0..b.len()).rev() {
-            lcs[i][j] = if a[i] == b[j] { lcs[i + 1][j + 1] + 1 } else { lcs[i + 1][j].max(lcs[i][j + 1]) };
-        }
-    }
-    let mut out = format!("--- {name}\n+++ {name} (formatted)\n");
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() || j < b.len() {
-        if i < a.len() && j < b.len() && a[i] == b[j] {
-            i += 1;
-            j += 1;
-        } else if j < b.len() && (i == a.len() || lcs[i][j + 1] >= lcs[i + 1][j]) {
-            out.push_str(&format!("@@ {} @@\n+{}\n", i + 1, b[j]));
-            j += 1;
-        } else {
-            out.push_str(&format!("@@ {} @@\n-{}\n", i + 1, a[i]));
-            i += 1;
-        }
-    }
-    out
+    similar::TextDiff::from_lines(old, new)
+        .unified_diff()
+        .context_radius(3)
+        .header(name, &format!("{name} (formatted)"))
+        .to_string()
 }
 
 fn fmt(args: FmtArgs) -> ExitCode {
