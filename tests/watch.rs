@@ -236,6 +236,7 @@ fn serve_answers_the_page_the_events_and_the_image() {
     let state = next_data();
     assert_eq!(state["spp"], 4);
     assert_eq!(state["diagnostics"], "");
+    assert_eq!(state["broken"], false);
     std::fs::write(dir.join("scene.tsl"), scene("gray(0.2")).unwrap();
     let broken = loop {
         let state = next_data();
@@ -243,6 +244,7 @@ fn serve_answers_the_page_the_events_and_the_image() {
             break state;
         }
     };
+    assert_eq!(broken["broken"], true);
     let text = broken["diagnostics"].as_str().unwrap();
     assert!(text.contains("scene.tsl:2:") && text.contains("could not check"), "{text}");
     assert_eq!(broken["image"], state["image"], "a broken build keeps the image");

@@ -38,6 +38,8 @@ struct State {
     spp: u32,
     target_spp: u32,
     diagnostics: String,
+    /// The last build failed: the image is the last good one.
+    broken: bool,
 }
 
 impl Live {
@@ -75,9 +77,13 @@ impl Live {
         });
     }
 
-    /// The diagnostics of the last build (empty when it was clean).
-    pub fn diagnostics(&self, text: String) {
-        self.update(|s| s.diagnostics = text);
+    /// The diagnostics of the last build (empty when it was clean), and
+    /// whether it failed.
+    pub fn diagnostics(&self, text: String, broken: bool) {
+        self.update(|s| {
+            s.diagnostics = text;
+            s.broken = broken;
+        });
     }
 
     fn update(&self, change: impl FnOnce(&mut State)) {
@@ -147,6 +153,7 @@ impl Live {
                         "spp": state.spp,
                         "target_spp": state.target_spp,
                         "diagnostics": state.diagnostics,
+                        "broken": state.broken,
                     });
                     format!("data: {json}\n\n")
                 }
@@ -179,7 +186,7 @@ const PAGE: &str = r#"<!doctype html>
 <style>
   body { background: #1e1e1e; color: #ddd; font: 14px system-ui, sans-serif; margin: 1em; }
   #status { margin-bottom: 0.5em; }
-  #image { max-width: 100%; image-rendering: pixelated; background: #000; }
+  #image { min-width: min(512px, 100%); max-width: 100%; image-rendering: pixelated; background: #000; }
   #diagnostics { color: #f88; white-space: pre-wrap; font: 13px ui-monospace, monospace; }
   #diagnostics:empty { display: none; }
 </style>
@@ -204,7 +211,7 @@ const PAGE: &str = r#"<!doctype html>
     diagnostics.textContent = state.diagnostics;
     if (state.image > 0) {
       status.textContent = state.spp + " / " + state.target_spp + " samples per pixel" +
-        (state.diagnostics.includes("error") ? " (last good image: the scene has errors)" : "");
+        (state.broken ? " (the last good image: the scene has errors)" : "");
     }
   };
   events.onerror = () => { status.textContent = "disconnected from tslc watch; retrying"; };

@@ -217,7 +217,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     let inputs = inputs_of(&args.scene, &checked);
     eprint!("{}", crate::human_report(&checked, crate::stderr_colors()));
     if let Some(live) = live {
-        live.diagnostics(crate::human_report(&checked, tsl::diag::Colors::Never));
+        live.diagnostics(crate::human_report(&checked, tsl::diag::Colors::Never), !checked.is_ok());
     }
     if !checked.is_ok() {
         return (None, inputs);
@@ -225,7 +225,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     let failed = |message: String| {
         eprint!("{message}");
         if let Some(live) = live {
-            live.diagnostics(message);
+            live.diagnostics(message, true);
         }
         None
     };
