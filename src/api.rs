@@ -196,6 +196,22 @@ impl Compiler {
             (None, Some((name, text))) => crate::check_source(name, text, &self.options),
             (None, None) => return Err(Error::plain("no source given to the compiler".into())),
         };
+        self.compile_checked(checked)
+    }
+
+    /// Lowers and JIT-compiles a program checked already (by
+    /// [`check_file`](crate::check_file) with the same load options), so a
+    /// tool that shows the checker's warnings as well checks once. The
+    /// compiler's source and file are not used.
+    ///
+    /// ```
+    /// let checked = tsl::check_source("m.tsl", "material m = lambert;", &tsl::LoadOptions::default());
+    /// assert!(checked.diagnostics.is_empty());
+    /// let program = tsl::Compiler::new().compile_checked(checked)?;
+    /// assert!(program.material("m").is_ok());
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn compile_checked(self, checked: crate::Checked) -> Result<Program, Error> {
         if !checked.is_ok() {
             return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
         }

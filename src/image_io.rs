@@ -278,19 +278,23 @@ pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>
 }
 
 fn write_png(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    let bytes = encode_png(image)?;
+    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// The image's color as an 8-bit sRGB PNG file in memory (what
+/// [`write_image`] writes to a `.png`; `tslc watch --serve` sends it).
+pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
     let mut bytes = Vec::with_capacity(image.color.len() * 3);
     for p in &image.color {
         bytes.extend(p.map(srgb_encode));
     }
-    image::save_buffer_with_format(
-        path,
-        &bytes,
-        image.width,
-        image.height,
-        image::ColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("cannot encode a PNG image: {e}"))?;
+    Ok(png)
 }
 
 fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {

@@ -47,7 +47,8 @@ pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 use integrator::{Aov, Tracer};
 use rayon::prelude::*;
 use sampling::Sampler;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// A ray `origin + t * dir`. `dir` need not be unit length; every `t` is in
 /// units of `dir`.
@@ -94,7 +95,20 @@ pub struct RenderOptions<'a> {
     pub aov: bool,
     /// Called from worker threads as pixels finish: (pixels done, total).
     pub progress: Option<&'a (dyn Fn(u64, u64) + Sync)>,
+    /// The samples to take at each pixel, as indices into its sample
+    /// sequence; `None` for `0..spp`. A progressive renderer takes
+    /// successive ranges and averages the images by their lengths: the
+    /// result is the image of the whole range (up to rounding), since each
+    /// sample depends only on (seed, pixel, index).
+    pub samples: Option<Range<u32>>,
+    /// Set from another thread to stop the render: workers look at it
+    /// before each tile and each row, and the render returns
+    /// `Err(`[`CANCELLED`]`)`.
+    pub cancel: Option<&'a AtomicBool>,
 }
+
+/// The error of a render stopped through [`RenderOptions::cancel`].
+pub const CANCELLED: &str = "the render was cancelled";
 
 /// What a render did.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -182,22 +196,29 @@ fn render_lanes<const N: usize>(
         .build()
         .map_err(|e| format!("cannot start render threads: {e}"))?;
     let threads = pool.current_num_threads();
+    let samples = options.samples.clone().unwrap_or(0..s.spp);
+    if samples.is_empty() || samples.end > crate::scene::MAX_SPP {
+        return Err(format!("the sample range {samples:?} is empty or beyond {}", crate::scene::MAX_SPP));
+    }
+    let cancelled = || options.cancel.is_some_and(|c| c.load(Ordering::Relaxed));
     let total = u64::from(width) * u64::from(height);
     let done = AtomicU64::new(0);
     let start = std::time::Instant::now();
-    let outs: Vec<TileOut> = pool.install(|| {
+    // A cancelled tile is `None`, which stops the collection.
+    let outs: Option<Vec<TileOut>> = pool.install(|| {
         tiles
             .par_iter()
             .map(|&(tx, ty, w, h)| {
-                let out = render_tile::<N>(scene, tx, ty, w, h, options.aov);
+                let out = render_tile::<N>(scene, (tx, ty, w, h), &samples, options.aov, &cancelled)?;
                 let now = done.fetch_add(u64::from(w * h), Ordering::Relaxed) + u64::from(w * h);
                 if let Some(progress) = options.progress {
                     progress(now, total);
                 }
-                out
+                Some(out)
             })
             .collect()
     });
+    let Some(outs) = outs else { return Err(CANCELLED.into()) };
     let mut image = RenderedImage {
         full_width: s.width,
         full_height: s.height,
@@ -233,12 +254,20 @@ fn render_lanes<const N: usize>(
         stats.rays.shadow_rays += t.counters.shadow_rays;
         stats.dropped_samples += t.dropped;
     }
-    stats.samples = total * u64::from(s.spp);
+    stats.samples = total * u64::from(samples.end - samples.start);
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((image, stats))
 }
 
-fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, want_aov: bool) -> TileOut {
+/// Renders the pixels of one tile `(x0, y0, w, h)`, taking `samples` at
+/// each; `None` when `cancelled` (asked before each row).
+fn render_tile<const N: usize>(
+    scene: &Scene,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    samples: &Range<u32>,
+    want_aov: bool,
+    cancelled: &dyn Fn() -> bool,
+) -> Option<TileOut> {
     let s = &scene.settings;
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
@@ -248,11 +277,14 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     let mut objects = Vec::with_capacity(aovs.capacity());
     let mut dropped = 0;
     for py in y0..y0 + h {
+        if cancelled() {
+            return None;
+        }
         for px in x0..x0 + w {
             let mut sum = spectrum::Spectrum::<N>::ZERO;
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
-            for k in 0..s.spp {
+            for k in samples.clone() {
                 let mut sampler = Sampler::new(s.seed, px, py, k);
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
@@ -279,20 +311,20 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                     }
                 }
             }
-            let mean = sum * (1.0 / s.spp as f32);
+            let taken = (samples.end - samples.start) as f32;
+            let mean = sum * (1.0 / taken);
             color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
             if want_aov {
-                let n = s.spp as f32;
                 aovs.push(Aov {
-                    albedo: aov_sum.albedo.map(|x| x / n),
-                    normal: aov_sum.normal.map(|x| x / n),
+                    albedo: aov_sum.albedo.map(|x| x / taken),
+                    normal: aov_sum.normal.map(|x| x / taken),
                     depth: if hits > 0 { aov_sum.depth / hits as f32 } else { f32::INFINITY },
                 });
                 objects.push(object_at_centre(scene, px, py));
             }
         }
     }
-    TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped }
+    Some(TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped })
 }
 
 /// The index (in [`Scene::objects`], scene order) of the first surface the

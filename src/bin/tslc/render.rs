@@ -83,7 +83,7 @@ pub struct MakeMeshArgs {
     output: PathBuf,
 }
 
-fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("`{s}` is not a resolution: write WIDTHxHEIGHT, e.g. 640x480");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h) = (w.trim().parse::<u32>().map_err(|_| bad())?, h.trim().parse::<u32>().map_err(|_| bad())?);
@@ -107,31 +107,31 @@ fn whole(s: &str, what: &str, lo: u64, hi: u64) -> Result<u64, String> {
     Ok(x as u64)
 }
 
-fn parse_spp(s: &str) -> Result<u32, String> {
+pub(crate) fn parse_spp(s: &str) -> Result<u32, String> {
     whole(s, "samples per pixel", 1, u64::from(tsl::scene::MAX_SPP)).map(|x| x as u32)
 }
 
-fn parse_depth(s: &str) -> Result<u32, String> {
+pub(crate) fn parse_depth(s: &str) -> Result<u32, String> {
     whole(s, "the maximum depth", 1, u64::from(tsl::scene::MAX_DEPTH)).map(|x| x as u32)
 }
 
-fn parse_threads(s: &str) -> Result<usize, String> {
+pub(crate) fn parse_threads(s: &str) -> Result<usize, String> {
     whole(s, "the thread count", 0, render::MAX_THREADS as u64).map(|x| x as usize)
 }
 
-fn parse_seed(s: &str) -> Result<u64, String> {
+pub(crate) fn parse_seed(s: &str) -> Result<u64, String> {
     whole(s, "the seed", 0, u64::MAX)
 }
 
-fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
+pub(crate) fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     IntegratorKind::parse(s).ok_or_else(|| format!("`{s}` is not an integrator: use whitted or path"))
 }
 
-fn parse_light_sampling(s: &str) -> Result<LightSampling, String> {
+pub(crate) fn parse_light_sampling(s: &str) -> Result<LightSampling, String> {
     LightSampling::parse(s).ok_or_else(|| format!("`{s}` is not a light sampling: use all or power"))
 }
 
-fn parse_color(s: &str) -> Result<tsl::ColorModel, String> {
+pub(crate) fn parse_color(s: &str) -> Result<tsl::ColorModel, String> {
     if s == "spectral" {
         return Ok(tsl::ColorModel::Spectral { samples: 16 });
     }
@@ -149,7 +149,7 @@ fn parse_tile(s: &str) -> Result<(u32, u32), String> {
     Ok((i, n))
 }
 
-fn fail(message: impl std::fmt::Display) -> ExitCode {
+pub(crate) fn fail(message: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {message}");
     ExitCode::from(1)
 }
@@ -222,6 +222,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         window,
         aov: args.aov,
         progress: if args.quiet { None } else { Some(&report) },
+        ..Default::default()
     };
     let (image, stats) = match render::render(&scene, &options) {
         Ok(r) => r,
