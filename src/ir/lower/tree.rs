@@ -263,7 +263,6 @@ impl<'p> Lowerer<'p> {
         if im.name == "normal" { b.normalize(&acc) } else { acc }
     }
 
-    #[allow(clippy::too_many_arguments)]
     /// `items[i]`, `i` clamped into the list: `select`, and an element of
     /// a `material[N]` parameter.
     pub(super) fn select_clamped(
@@ -283,6 +282,7 @@ impl<'p> Lowerer<'p> {
         self.select_child(b, i, items, 0, im, args, ctx)
     }
 
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn select_child(
         &mut self,
         b: &mut Builder,
