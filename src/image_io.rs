@@ -513,6 +513,34 @@ pub fn tile_window(full_width: u32, full_height: u32, index: u32, count: u32) ->
     Ok((0, y0, full_width, y1 - y0))
 }
 
+/// Whether an output path has a frame pattern: a run of `#` in its file
+/// name (`shot.####.exr`).
+pub fn has_frame_pattern(path: &Path) -> bool {
+    path.file_name().is_some_and(|n| n.to_string_lossy().contains('#'))
+}
+
+/// The output path of frame `frame`: each run of `#` in the file name is
+/// replaced by the frame number, zero-padded to the run's length (as
+/// Blender and Houdini name frames: `shot.####.exr` gives `shot.0007.exr`,
+/// frame -3 `shot.-003.exr`); a path without `#` is returned as is.
+pub fn frame_path(path: &Path, frame: i32) -> PathBuf {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else { return path.to_path_buf() };
+    let mut out = String::with_capacity(name.len() + 8);
+    let mut chars = name.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c != '#' {
+            out.push(c);
+            continue;
+        }
+        let mut width = 1;
+        while chars.next_if_eq(&'#').is_some() {
+            width += 1;
+        }
+        out.push_str(&format!("{frame:0width$}"));
+    }
+    path.with_file_name(out)
+}
+
 /// A crop window `x0,x1,y0,y1`: fractions of the image in [0, 1] (as
 /// pbrt's `--cropwindow`; pixels from `floor(x0 W)` to `ceil(x1 W)`) when
 /// all four are at most 1, otherwise pixel numbers with `x1`, `y1`
@@ -695,6 +723,17 @@ mod tests {
         assert!(parse_crop("a,b,c,d", 100, 50).is_err());
         // A fraction among pixel numbers is not one pixel wide: it is refused.
         assert!(parse_crop("0,1.5,0,1", 100, 50).unwrap_err().contains("neither a fraction"));
+    }
+
+    #[test]
+    fn frame_patterns_take_the_frame_number_padded() {
+        let p = |s: &str, f: i32| frame_path(Path::new(s), f).display().to_string();
+        assert_eq!(p("out/shot.####.exr", 7), "out/shot.0007.exr");
+        assert_eq!(p("out/shot.#.exr", 123), "out/shot.123.exr");
+        assert_eq!(p("shot_##_v#.png", 5), "shot_05_v5.png");
+        assert_eq!(p("shot.####.exr", -3), "shot.-003.exr");
+        assert_eq!(p("dir#/shot.exr", 3), "dir#/shot.exr");
+        assert!(has_frame_pattern(Path::new("a/b.##.exr")) && !has_frame_pattern(Path::new("a#/b.exr")));
     }
 
     #[test]

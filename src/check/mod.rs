@@ -213,11 +213,15 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                 );
                 continue;
             }
-            if interface::global(&name.name).is_some() {
-                diags.push(Diagnostic::error(
-                    name.span,
-                    format!("`{}` is a shading global and cannot be redefined", name.name),
-                ));
+            if let Some((_, _, meaning)) = GLOBALS.iter().find(|g| g.0 == name.name) {
+                diags.push(
+                    Diagnostic::error(
+                        name.span,
+                        format!("`{}` is a shading global and cannot be redefined", name.name),
+                    )
+                    .with_note(format!("`{}` is {meaning}", name.name))
+                    .with_help("choose another name"),
+                );
                 continue;
             }
             let symbol = Symbol { kind, module: m, item: i, span: name.span };
@@ -303,11 +307,25 @@ struct Body {
     /// Inside a material definition: its name and the methods it defines.
     material: Option<(String, Vec<&'static str>)>,
     globals_allowed: bool,
+    /// Which of the frame globals (`frame`, `time`) may be read.
+    frame_globals: FrameGlobals,
     /// Whether material values may appear (material trees only).
     materials_allowed: bool,
     /// What is being checked, for messages: "a function", "a constant", ...
     context: &'static str,
     node: Option<Node>,
+}
+
+/// Where the frame globals may be read. They are the same at every point
+/// of a frame, so shading code, constants and scene values may read them;
+/// render settings hold for every frame and may not, except the `time`
+/// mapping, which reads `frame`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+enum FrameGlobals {
+    #[default]
+    Both,
+    FrameOnly,
+    Neither,
 }
 
 struct Checker<'a> {

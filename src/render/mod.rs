@@ -13,9 +13,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Invariant: every random number is a pure function of (seed, pixel,
-//! sample index, dimension), so an image does not depend on the number of
-//! threads, the tiling, or the window rendered.
+//! Invariant: every random number is a pure function of (seed, frame,
+//! pixel, sample index, dimension), so an image does not depend on the
+//! number of threads, the tiling, the window rendered, or the other frames
+//! rendered by the same command.
 
 pub mod accel;
 pub mod camera;
@@ -240,6 +241,7 @@ fn render_lanes<const N: usize>(
 
 fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, want_aov: bool) -> TileOut {
     let s = &scene.settings;
+    let seed = s.frame_seed();
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let to_rgb = crate::color::to_rgb_weights(scene.model);
@@ -253,7 +255,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
             for k in 0..s.spp {
-                let mut sampler = Sampler::new(s.seed, px, py, k);
+                let mut sampler = Sampler::new(seed, px, py, k);
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
                 let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };

@@ -22,7 +22,7 @@ mod mesh;
 mod shape;
 
 pub use crate::check::MaterialRef;
-pub use describe::describe;
+pub use describe::{describe, describe_frame};
 pub use mesh::MeshData;
 pub use shape::{ShapeError, ShapeKind, Transform, affine_rows, compose, mesh_transform_error, shape_transform_error};
 
@@ -67,6 +67,39 @@ pub struct SceneDesc {
     /// What rays can hit, in scene order: `object` blocks, and the surfaces
     /// of area lights (`light rect`, `light sphere`).
     pub objects: Vec<ObjectDesc>,
+    /// The frame its values were evaluated at.
+    pub frame: Frame,
+}
+
+/// The most a frame number may be from 0 (`--frame`, `--frames`).
+pub const MAX_FRAME: i32 = 1_000_000;
+/// Frames per second when neither the render block nor the command line
+/// says (`time = frame / fps`).
+pub const DEFAULT_FPS: f32 = 24.0;
+
+/// Which frame of an animation to describe: the values of the shading
+/// globals `frame` and `time` in scene values and shaders.
+///
+/// ```
+/// let request = tsl::scene::FrameRequest { frame: 48, fps: Some(24.0) };
+/// assert_eq!(request.frame, 48);
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrameRequest {
+    /// The frame number, at most [`MAX_FRAME`] from 0.
+    pub frame: i32,
+    /// Frames per second given outside the scene (`tslc render --fps`):
+    /// then `time = frame / fps` whatever the render block says.
+    pub fps: Option<f32>,
+}
+
+/// The frame a description is of.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Frame {
+    pub number: i32,
+    /// Seconds: `frame / fps` (the command line's, else the render block's
+    /// `fps`, else [`DEFAULT_FPS`]), or the render block's `time` mapping.
+    pub time: f32,
 }
 
 /// The camera, its defaults filled in (`up` +y, `fov` 45 degrees across
@@ -107,6 +140,10 @@ pub struct RenderDesc {
     pub seed: Option<Prop<u64>>,
     pub integrator: Option<Prop<IntegratorKind>>,
     pub light_sampling: Option<Prop<LightSampling>>,
+    /// Frames per second: a frame's time is `frame / fps`.
+    pub fps: Option<Prop<f32>>,
+    /// The `time` mapping's value at the frame described.
+    pub time: Option<Prop<f32>>,
 }
 
 /// Which light-transport algorithm renders the image.

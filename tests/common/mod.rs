@@ -95,6 +95,8 @@ pub fn shading_point(rng: &mut Rng) -> ShadingGlobals {
         dudy: 0.0,
         dvdx: 0.0,
         dvdy: rng.range(0.0, 0.01),
+        frame: (rng.next() % 100) as i32 - 10,
+        time: rng.range(-1.0, 4.0),
     }
 }
 

@@ -1,0 +1,133 @@
+//! The render-farm path: animation frames (`frame` and `time` in shaders
+//! and scene values, `--frame`, `--frames`, frame-numbered outputs), and
+//! frames rendered one per task giving the bits of a sequence.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use tsl::Compiler;
+use tsl::render::{self, Overrides, RenderOptions, Scene};
+use tsl::scene::FrameRequest;
+
+fn tslc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tslc"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .expect("tslc runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// The color of `src`'s scene rendered at `frame`, as bits.
+fn render_at(src: &str, frame: i32, fps: Option<f32>) -> Vec<[u32; 3]> {
+    let program = Compiler::new().source("anim.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"));
+    let desc = program.scene_at(&FrameRequest { frame, fps }).unwrap_or_else(|e| panic!("{e}"));
+    let scene = Scene::build_from(&program, desc.as_ref(), &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+    let image = render::render(&scene, &RenderOptions::default()).unwrap().0;
+    image.color.iter().map(|p| p.map(f32::to_bits)).collect()
+}
+
+/// A scene whose camera and stripe texture move with `time` (written as
+/// `TIME`, to be replaced), and a sphere that rises with `frame`
+/// (`FRAME`).
+const MOVING: &str = r#"
+    float stripes(float offset) { return step(0.5, fract(u * 6 + offset)); }
+    material striped = mix(stripes(TIME), lambert(kd: rgb(0.8, 0.2, 0.1)), lambert(kd: rgb(0.1, 0.2, 0.8)));
+    scene {
+        camera { from (TIME, 1.2, -4); to (0, 0.6, 0); fov 40; }
+        render { width 24; height 18; spp 2; max_depth 3; }
+        light point { at (2, 4, -3); intensity gray(30); }
+        object sphere { center (0, 0.5 + 0.05 * FRAME, 0); radius 0.5; material striped; }
+        object plane { point (0, 0, 0); normal (0, 1, 0); material lambert; }
+    }
+"#;
+
+#[test]
+fn frame_and_time_move_the_camera_offset_textures_and_enter_the_seed() {
+    let animated = MOVING.replace("TIME", "time").replace("FRAME", "float(frame)");
+    // Frame 12 at 24 frames per second is at 0.5 s.
+    let fixed = MOVING.replace("TIME", "0.5").replace("FRAME", "12");
+    let moved = render_at(&animated, 12, Some(24.0));
+    assert_eq!(moved, render_at(&fixed, 12, Some(24.0)), "time and frame are not 0.5 and 12 at frame 12");
+    // The scene's own frame rate and the `time` mapping give the same.
+    let at_fps = animated.replace("max_depth 3;", "max_depth 3; fps 24;");
+    assert_eq!(moved, render_at(&at_fps, 12, None));
+    let mapped = animated.replace("max_depth 3;", "max_depth 3; time frame / 48.0 + 0.25;");
+    assert_eq!(moved, render_at(&mapped, 12, None));
+    // Another frame moves things; the same scene at another frame has
+    // other noise (the frame enters the seed), and frame 0 keeps the seed.
+    let still = render_at(&fixed, 0, None);
+    assert_ne!(render_at(&animated, 0, None), moved);
+    assert_ne!(still, render_at(&fixed, 12, None));
+    assert_eq!(still, render_at(&fixed.replace("max_depth 3;", "max_depth 3; seed 0;"), 0, None));
+}
+
+#[test]
+fn a_value_invalid_at_one_frame_is_an_error_naming_the_frame() {
+    let src = "scene { camera { from (0, 1, -4 + frame); to (0, 1, 0); } }";
+    let program = Compiler::new().source("anim.tsl", src).compile().unwrap();
+    assert!(program.scene_at(&FrameRequest { frame: 3, fps: None }).is_ok());
+    let e = program.scene_at(&FrameRequest { frame: 4, fps: None }).unwrap_err().to_string();
+    assert!(e.contains("looks from a point to itself") && e.contains("at frame 4") && e.contains("anim.tsl:1:"), "{e}");
+    let e = program.scene_at(&FrameRequest { frame: 3, fps: Some(-1.0) }).unwrap_err().to_string();
+    assert!(e.contains("frame rate"), "{e}");
+    let e = program.scene_at(&FrameRequest { frame: 2_000_000, fps: None }).unwrap_err().to_string();
+    assert!(e.contains("out of range"), "{e}");
+}
+
+fn scratch(name: &str) -> PathBuf {
+    common::temp_dir(&format!("farm-{name}"))
+}
+
+#[test]
+fn frame_3_alone_is_the_third_frame_of_a_sequence() {
+    let dir = scratch("frames");
+    let scene = dir.join("anim.tsl");
+    std::fs::write(&scene, MOVING.replace("TIME", "time").replace("FRAME", "float(frame)")).unwrap();
+    let (scene, seq, one) = (s(&scene), s(&dir.join("seq.####.exr")), s(&dir.join("one.exr")));
+    let o = tslc(&["render", &scene, "-o", &seq, "--frames", "1..3", "--fps", "6", "--threads", "2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("rendered frame 2 "), "{}", stderr(&o));
+    let o = tslc(&["render", &scene, "-o", &one, "--frame", "3", "--fps", "6", "--quiet", "--threads", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let read = |p: &Path| tsl::image_io::read_exr(p).unwrap().color;
+    let third = read(&dir.join("seq.0003.exr"));
+    assert_eq!(third, read(Path::new(&one)));
+    assert_ne!(third, read(&dir.join("seq.0002.exr")));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn frame_options_are_checked_before_any_frame_renders() {
+    let dir = scratch("frame-errors");
+    let scene = dir.join("anim.tsl");
+    std::fs::write(&scene, "scene { camera { from (0, 1, -4 + frame); to (0, 1, 0); } render { width 8; height 8; } }")
+        .unwrap();
+    let scene = s(&scene);
+    let out = s(&dir.join("f.##.png"));
+    // Frame 4 puts the camera on the point it looks at: nothing is written.
+    let o = tslc(&["render", &scene, "-o", &out, "--frames", "1..6", "--quiet"]);
+    assert!(!o.status.success() && stderr(&o).contains("at frame 4"), "{}", stderr(&o));
+    assert!(!dir.join("f.01.png").exists());
+    let o = tslc(&["render", &scene, "-o", &s(&dir.join("f.png")), "--frames", "1..3"]);
+    assert!(!o.status.success() && stderr(&o).contains("run of `#`"), "{}", stderr(&o));
+    for bad in ["3..1", "1..x", "0..2000000"] {
+        let o = tslc(&["render", &scene, "-o", &out, "--frames", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", stderr(&o));
+    }
+    let o = tslc(&["render", &scene, "-o", &out, "--frame", "1", "--frames", "1..2"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = tslc(&["render", &scene, "-o", &out, "--frame", "-2", "--quiet"]);
+    assert!(o.status.success() && dir.join("f.-2.png").exists(), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
