@@ -1,6 +1,9 @@
 //! The render-farm path: animation frames (`frame` and `time` in shaders
-//! and scene values, `--frame`, `--frames`, frame-numbered outputs), and
-//! frames rendered one per task giving the bits of a sequence.
+//! and scene values, `--frame`, `--frames`, frame-numbered outputs),
+//! frames rendered one per task giving the bits of a sequence, and tiles
+//! that say what made them: `tslc merge` refuses parts that disagree,
+//! names missing tiles by number and writes the same bytes every time;
+//! `tslc info` prints it all.
 
 mod common;
 
@@ -100,10 +103,11 @@ fn frame_3_alone_is_the_third_frame_of_a_sequence() {
     assert!(stderr(&o).contains("rendered frame 2 "), "{}", stderr(&o));
     let o = tslc(&["render", &scene, "-o", &one, "--frame", "3", "--fps", "6", "--quiet", "--threads", "1"]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // The same pixels and the same header: the same bytes.
+    let third = std::fs::read(dir.join("seq.0003.exr")).unwrap();
+    assert_eq!(third, std::fs::read(&one).unwrap());
     let read = |p: &Path| tsl::image_io::read_exr(p).unwrap().color;
-    let third = read(&dir.join("seq.0003.exr"));
-    assert_eq!(third, read(Path::new(&one)));
-    assert_ne!(third, read(&dir.join("seq.0002.exr")));
+    assert_ne!(read(&dir.join("seq.0003.exr")), read(&dir.join("seq.0002.exr")));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -129,5 +133,111 @@ fn frame_options_are_checked_before_any_frame_renders() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let o = tslc(&["render", &scene, "-o", &out, "--frame", "-2", "--quiet"]);
     assert!(o.status.success() && dir.join("f.-2.png").exists(), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Renders tiles `which` of `count` of `scene` into `dir` as `tile-I.exr`,
+/// with `extra` options; returns their paths.
+fn render_tiles(scene: &str, dir: &Path, count: u32, which: &[u32], extra: &[&str]) -> Vec<String> {
+    which
+        .iter()
+        .map(|i| {
+            let out = s(&dir.join(format!("tile-{i}.exr")));
+            let tile = format!("{i}/{count}");
+            let mut args = vec!["render", scene, "-o", &out, "--tile", &tile, "--quiet", "--threads", "1"];
+            args.extend(extra);
+            let o = tslc(&args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            out
+        })
+        .collect()
+}
+
+fn merge(inputs: &[&str], out: &Path) -> Output {
+    let out = s(out);
+    let mut args = vec!["merge", "-o", &out];
+    args.extend(inputs);
+    tslc(&args)
+}
+
+#[test]
+fn merged_tiles_are_the_bytes_of_one_render_and_merge_names_what_is_wrong() {
+    let dir = scratch("merge");
+    let scene = dir.join("shot.tsl");
+    std::fs::write(&scene, MOVING.replace("TIME", "time").replace("FRAME", "float(frame)")).unwrap();
+    let scene = s(&scene);
+    let extra = ["--frame", "2", "--aov"];
+    let tiles = render_tiles(&scene, &dir, 4, &[0, 1, 2, 3], &extra);
+    let tiles: Vec<&str> = tiles.iter().map(String::as_str).collect();
+    let full = dir.join("full.exr");
+    let o = tslc(&["render", &scene, "-o", &s(&full), "--frame", "2", "--aov", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Merged in any order, any number of times: the bytes of the full render.
+    let full = std::fs::read(&full).unwrap();
+    for (k, order) in [[0, 1, 2, 3], [3, 1, 0, 2], [2, 3, 1, 0]].iter().enumerate() {
+        let out = dir.join(format!("merged{k}.exr"));
+        let inputs: Vec<&str> = order.iter().map(|&i| tiles[i]).collect();
+        let o = merge(&inputs, &out);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(std::fs::read(&out).unwrap() == full, "merge {k} is not the full render's bytes");
+    }
+    let out = dir.join("bad.exr");
+    // Missing tiles are named by number, as an array to resubmit.
+    let o = merge(&[tiles[0], tiles[2]], &out);
+    let err = stderr(&o);
+    assert!(err.contains("missing tiles 1 and 3 of 4: rerun with --array=1,3"), "{err}");
+    let o = merge(&[tiles[0], tiles[1], tiles[1], tiles[2], tiles[3]], &out);
+    assert!(stderr(&o).contains("tile 1 of 4 is given twice"), "{}", stderr(&o));
+    // A tile rendered with other settings, another frame or another scene
+    // is refused, naming the attribute and the file.
+    let odd = scratch("merge-odd");
+    for (what, options) in [
+        ("tsl:spp", vec!["--spp", "3"]),
+        ("tsl:seed", vec!["--seed", "7"]),
+        ("tsl:integrator", vec!["--integrator", "whitted"]),
+        ("tsl:colorModel", vec!["--color", "spectral8"]),
+        ("tsl:frame", vec!["--frame", "3"]),
+    ] {
+        let mut options = options;
+        if what != "tsl:frame" {
+            options.extend(["--frame", "2"]);
+        }
+        options.push("--aov");
+        let other = render_tiles(&scene, &odd, 4, &[3], &options);
+        let o = merge(&[tiles[0], tiles[1], tiles[2], &other[0]], &out);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains(what) && err.contains(&other[0]), "{what}: {err}");
+    }
+    let changed = odd.join("shot.tsl");
+    std::fs::write(&changed, std::fs::read_to_string(&scene).unwrap().replace("gray(30)", "gray(31)")).unwrap();
+    let other = render_tiles(&s(&changed), &odd, 4, &[3], &extra);
+    let err = stderr(&merge(&[tiles[0], tiles[1], tiles[2], &other[0]], &out));
+    assert!(err.contains("tsl:sceneHash"), "{err}");
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&odd);
+}
+
+#[test]
+fn info_prints_what_made_an_image_for_people_and_scripts() {
+    let dir = scratch("info");
+    let tiles = render_tiles("examples/cornell.tsl", &dir, 3, &[2], &["--res", "12x9", "--spp", "2", "--frame", "5"]);
+    let o = tslc(&["info", &tiles[0]]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    for expected in ["resolution         12x9", "y 6..9 (12x3 pixels)", "tsl:spp            2", "tsl:tile           2"]
+    {
+        assert!(text.contains(expected), "{expected}: {text}");
+    }
+    let o = tslc(&["info", "--json", &tiles[0], &tiles[0]]);
+    let lines: Vec<serde_json::Value> =
+        String::from_utf8_lossy(&o.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 2);
+    let a = &lines[0]["attributes"];
+    assert_eq!((a["tsl:tile"].as_i64(), a["tsl:tiles"].as_i64(), a["tsl:frame"].as_i64()), (Some(2), Some(3), Some(5)));
+    assert_eq!(a["tsl:sceneHash"].as_str().map(str::len), Some(64));
+    assert_eq!(lines[0]["window"]["y"].as_i64(), Some(6));
+    let o = tslc(&["info", &s(&dir.join("none.exr"))]);
+    assert!(!o.status.success() && stderr(&o).contains("none.exr"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }

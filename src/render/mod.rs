@@ -115,6 +115,44 @@ impl RenderStats {
     }
 }
 
+/// What made an image of `scene`, for its EXR header: the software and
+/// TSL's version, the scene's content hash (from
+/// [`crate::scene::content_hash`]), the render settings and color model,
+/// the frame, and the tile (`(index, count)`) when it is one. `tslc merge`
+/// refuses parts that disagree on any of it but the tile.
+pub fn image_metadata(scene: &Scene, content_hash: &str, tile: Option<(u32, u32)>) -> image_io::Metadata {
+    let s = &scene.settings;
+    let version = env!("CARGO_PKG_VERSION");
+    let mut m = image_io::Metadata::default();
+    m.set_text(image_io::SOFTWARE, format!("tslc {version}"))
+        .set_text("tsl:version", version)
+        .set_text("tsl:sceneHash", content_hash)
+        .set_int("tsl:spp", s.spp as i32)
+        .set_text("tsl:seed", s.seed.to_string())
+        .set_int("tsl:maxDepth", s.max_depth as i32)
+        .set_text(
+            "tsl:integrator",
+            match s.integrator {
+                IntegratorKind::Whitted => "whitted",
+                IntegratorKind::Path => "path",
+            },
+        )
+        .set_text(
+            "tsl:lightSampling",
+            match s.light_sampling {
+                LightSampling::All => "all",
+                LightSampling::Power => "power",
+            },
+        )
+        .set_text("tsl:colorModel", scene.model.name())
+        .set_int("tsl:frame", s.frame.number)
+        .set_float("tsl:time", s.frame.time);
+    if let Some((index, count)) = tile {
+        m.set_int("tsl:tile", index as i32).set_int("tsl:tiles", count as i32);
+    }
+    m
+}
+
 /// Tiles are this many pixels square.
 const TILE: u32 = 16;
 

@@ -6,6 +6,7 @@
 //! Exit codes: 0 clean, 1 errors (or warnings under `-W error`), 2 usage.
 //! `render`, `merge` and `make-mesh` live in `render.rs`.
 
+mod info;
 mod render;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -33,6 +34,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Join tiles rendered with `render --tile I/N` into one image.
     Merge(render::MergeArgs),
+    /// Print what an EXR says about itself: frame, window, channels and
+    /// the render settings, scene hash and tile it was made with.
+    Info(info::InfoArgs),
     /// Write a generated mesh that an example scene needs (`heavy`).
     MakeMesh(render::MakeMeshArgs),
     /// Format TSL files in the canonical style (docs/fmt.md), in place;
@@ -140,6 +144,7 @@ fn main() -> ExitCode {
         Command::Emit(args) => emit(args),
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
+        Command::Info(args) => info::info(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
     });

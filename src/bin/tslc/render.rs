@@ -252,6 +252,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
             }
         }
     }
+    // The same for every frame: the frame is recorded apart.
+    let content_hash = tsl::scene::content_hash(program.checked(), program.scene());
     let compiled = start.elapsed().as_secs_f64();
     for (k, &frame) in frames.iter().enumerate() {
         let desc = match (k, first.take()) {
@@ -265,7 +267,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
             },
         };
         let animated = args.frame.is_some() || args.frames.is_some();
-        let code = render_frame(&args, &program, desc.as_ref(), animated.then_some(frame), k == 0, compiled);
+        let first = k == 0;
+        let code =
+            render_frame(&args, &program, desc.as_ref(), animated.then_some(frame), first, compiled, &content_hash);
         if code != ExitCode::SUCCESS {
             return code;
         }
@@ -281,6 +285,7 @@ fn render_frame(
     frame: Option<i32>,
     first: bool,
     compiled: f64,
+    content_hash: &str,
 ) -> ExitCode {
     let overrides = Overrides {
         resolution: args.res,
@@ -329,13 +334,15 @@ fn render_frame(
     };
     progress.finish();
     let output = image_io::frame_path(&args.output, frame.unwrap_or(0));
-    if let Err(e) = image_io::write_image(&output, &image) {
+    let mut metadata = render::image_metadata(&scene, content_hash, args.tile);
+    metadata.set_text("tsl:scene", args.scene.display().to_string());
+    if let Err(e) = image_io::write_image_with(&output, &image, &metadata) {
         return fail(e);
     }
     if !args.quiet {
         let secs = stats.seconds.max(1e-9);
         let what = match frame {
-            Some(n) => format!("frame {n} (time {}) ", scene.settings.frame.time),
+            Some(n) => format!("frame {n} (time {:.4} s) ", scene.settings.frame.time),
             None => String::new(),
         };
         eprintln!(
@@ -374,11 +381,14 @@ fn render_frame(
 }
 
 pub fn merge(args: MergeArgs) -> ExitCode {
-    let image = match image_io::merge(&args.inputs) {
+    if let Err(e) = image_io::check_output(&args.output) {
+        return fail(e);
+    }
+    let (image, metadata) = match image_io::merge(&args.inputs) {
         Ok(i) => i,
         Err(e) => return fail(e),
     };
-    if let Err(e) = image_io::write_image(&args.output, &image) {
+    if let Err(e) = image_io::write_image_with(&args.output, &image, &metadata) {
         return fail(e);
     }
     eprintln!("merged {} files into {}", args.inputs.len(), args.output.display());
