@@ -11,7 +11,7 @@
 #   TILES=16 sbatch --array=7,12 --export=ALL,SCENE=shot.tsl scripts/farm/tiles.sbatch
 set -euo pipefail
 if [ $# -lt 1 ]; then
-    sed -n '2,12p' "$0" >&2
+    sed -n '2,11p' "$0" >&2
     exit 2
 fi
 here=$(cd "$(dirname "$0")" && pwd)
