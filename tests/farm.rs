@@ -7,25 +7,12 @@
 
 mod common;
 
+use common::{stderr, tslc};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 use tsl::Compiler;
 use tsl::render::{self, Overrides, RenderOptions, Scene};
 use tsl::scene::FrameRequest;
-
-fn tslc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tslc"))
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .output()
-        .expect("tslc runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 fn s(p: &Path) -> String {
     p.display().to_string()
@@ -40,26 +27,34 @@ fn render_at(src: &str, frame: i32, fps: Option<f32>) -> Vec<[u32; 3]> {
     image.color.iter().map(|p| p.map(f32::to_bits)).collect()
 }
 
-/// A scene whose camera and stripe texture move with `time` (written as
-/// `TIME`, to be replaced), and a sphere that rises with `frame`
-/// (`FRAME`).
-const MOVING: &str = r#"
+/// A scene whose camera, stripes and image texture move with `time`, and
+/// whose sphere rises with `frame`, written as `time` and `frame` or, for
+/// comparison, as the numbers they are at one frame.
+fn moving(time: &str, frame: &str) -> String {
+    let painting = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/textures/painting.png");
+    r#"
     float stripes(float offset) { return step(0.5, fract(u * 6 + offset)); }
     material striped = mix(stripes(TIME), lambert(kd: rgb(0.8, 0.2, 0.1)), lambert(kd: rgb(0.1, 0.2, 0.8)));
+    material painted = lambert(kd: texture("PAINTING", (u * 2 + TIME, v), wrap: "repeat"));
     scene {
         camera { from (TIME, 1.2, -4); to (0, 0.6, 0); fov 40; }
         render { width 24; height 18; spp 2; max_depth 3; }
         light point { at (2, 4, -3); intensity gray(30); }
-        object sphere { center (0, 0.5 + 0.05 * FRAME, 0); radius 0.5; material striped; }
+        object sphere { center (-0.6, 0.5 + 0.05 * FRAME, 0); radius 0.5; material striped; }
+        object sphere { center (0.6, 0.5, 0); radius 0.5; material painted; }
         object plane { point (0, 0, 0); normal (0, 1, 0); material lambert; }
     }
-"#;
+    "#
+    .replace("TIME", time)
+    .replace("FRAME", frame)
+    .replace("PAINTING", &painting.display().to_string())
+}
 
 #[test]
 fn frame_and_time_move_the_camera_offset_textures_and_enter_the_seed() {
-    let animated = MOVING.replace("TIME", "time").replace("FRAME", "float(frame)");
+    let animated = moving("time", "float(frame)");
     // Frame 12 at 24 frames per second is at 0.5 s.
-    let fixed = MOVING.replace("TIME", "0.5").replace("FRAME", "12");
+    let fixed = moving("0.5", "12");
     let moved = render_at(&animated, 12, Some(24.0));
     assert_eq!(moved, render_at(&fixed, 12, Some(24.0)), "time and frame are not 0.5 and 12 at frame 12");
     // The scene's own frame rate and the `time` mapping give the same.
@@ -96,7 +91,7 @@ fn scratch(name: &str) -> PathBuf {
 fn frame_3_alone_is_the_third_frame_of_a_sequence() {
     let dir = scratch("frames");
     let scene = dir.join("anim.tsl");
-    std::fs::write(&scene, MOVING.replace("TIME", "time").replace("FRAME", "float(frame)")).unwrap();
+    std::fs::write(&scene, moving("time", "float(frame)")).unwrap();
     let (scene, seq, one) = (s(&scene), s(&dir.join("seq.####.exr")), s(&dir.join("one.exr")));
     let o = tslc(&["render", &scene, "-o", &seq, "--frames", "1..3", "--fps", "6", "--threads", "2"]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -164,7 +159,7 @@ fn merge(inputs: &[&str], out: &Path) -> Output {
 fn merged_tiles_are_the_bytes_of_one_render_and_merge_names_what_is_wrong() {
     let dir = scratch("merge");
     let scene = dir.join("shot.tsl");
-    std::fs::write(&scene, MOVING.replace("TIME", "time").replace("FRAME", "float(frame)")).unwrap();
+    std::fs::write(&scene, moving("time", "float(frame)")).unwrap();
     let scene = s(&scene);
     let extra = ["--frame", "2", "--aov"];
     let tiles = render_tiles(&scene, &dir, 4, &[0, 1, 2, 3], &extra);

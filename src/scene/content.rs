@@ -62,3 +62,35 @@ pub fn content_hash(program: &Program, scene: Option<&SceneDesc>) -> String {
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::test_support::temp_dir;
+
+    /// The hash of `scene.tsl` in `dir`, which looks up `t.png` and reads
+    /// `m.obj`.
+    fn hash_in(dir: &std::path::Path, texel: u8, z: f32) -> String {
+        image::save_buffer(dir.join("t.png"), &[texel, 0, 0], 1, 1, image::ColorType::Rgb8).unwrap();
+        std::fs::write(dir.join("m.obj"), format!("v 0 0 {z}\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).unwrap();
+        let src = r#"material m = lambert(kd: texture("t.png"));
+            scene {
+                camera { from (0, 0, 5); to (0, 0, 0); }
+                object mesh { file "m.obj"; material m; }
+            }"#;
+        std::fs::write(dir.join("scene.tsl"), src).unwrap();
+        let checked = crate::check_file(&dir.join("scene.tsl"), &crate::LoadOptions::default());
+        assert!(checked.is_ok(), "{}", checked.render_diagnostics());
+        super::content_hash(&checked.program, checked.scene.as_ref())
+    }
+
+    #[test]
+    fn the_hash_follows_textures_and_meshes_not_where_the_files_are() {
+        let (a, b) = (temp_dir("hash-a"), temp_dir("hash-b"));
+        let base = hash_in(&a, 10, 0.0);
+        assert_eq!(base, hash_in(&b, 10, 0.0), "the same files elsewhere");
+        assert_ne!(base, hash_in(&b, 11, 0.0), "another texel");
+        assert_ne!(base, hash_in(&b, 10, 0.5), "another vertex");
+        let _ = std::fs::remove_dir_all(&a);
+        let _ = std::fs::remove_dir_all(&b);
+    }
+}
