@@ -129,9 +129,19 @@ impl<'a> Checker<'a> {
 
     /// `frame` or `time`, where the body may read them.
     fn frame_global(&mut self, name: &str, span: Span, ty: Ty) -> Ty {
+        let allowed = match self.body.frame_globals {
+            FrameGlobals::Both => true,
+            FrameGlobals::FrameOnly => name == "frame",
+            FrameGlobals::Neither => false,
+        };
+        if allowed {
+            if let (Some(node), Some(global)) = (&self.body.node, FRAME_GLOBALS.iter().find(|g| **g == name)) {
+                self.reads_frame.entry((node.clone(), *global)).or_insert((span, *global));
+            }
+            return ty;
+        }
         let refused = match self.body.frame_globals {
             FrameGlobals::Both => return ty,
-            FrameGlobals::FrameOnly if name == "frame" => return ty,
             FrameGlobals::FrameOnly => Diagnostic::error(span, "the `time` mapping cannot read `time`")
                 .with_help("it defines `time`: compute it from `frame`, e.g. `time frame / 24.0;`"),
             FrameGlobals::Neither => Diagnostic::error(span, format!("`{name}` cannot be used in render settings"))

@@ -2,7 +2,7 @@
 //! the type each property takes. Rendering gives them meaning later; here
 //! they are only checked.
 
-use super::{Checker, FrameGlobals, Ty};
+use super::{Checker, FrameGlobals, Node, Ty};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
 use std::collections::HashMap;
@@ -193,7 +193,12 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     let mut top_props: Vec<&SceneProp> = Vec::new();
     // `light environment` blocks and `background`: at most one in all.
     let mut environments: Vec<Span> = Vec::new();
-    for entry in &scene.entries {
+    for (k, entry) in scene.entries.iter().enumerate() {
+        let name = match entry {
+            SceneEntry::Prop(_) => "scene",
+            SceneEntry::Block(b) => b.keyword.name.as_str(),
+        };
+        cx.body.scene_entry = Some((k, name.to_string()));
         match entry {
             SceneEntry::Prop(p) => {
                 if p.name.name == "background" {
@@ -236,7 +241,9 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
             },
         }
     }
+    cx.body.scene_entry = Some((usize::MAX, "scene".into()));
     check_prop_list(cx, &top_props, TOP, &[]);
+    cx.body.scene_entry = None;
     if cameras.is_empty() {
         cx.error(
             Diagnostic::error(Span { end: scene.span.start + 5, ..scene.span }, "the scene has no camera")
@@ -389,6 +396,19 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     cx.body.globals_allowed = spec.want == Want::Material;
     cx.body.materials_allowed = spec.want == Want::Material;
     cx.body.frame_globals = spec.frame;
+    // A value other than a material is fixed for a frame: the functions it
+    // calls are followed to shading globals (`report_varying_values`).
+    cx.body.node = match &cx.body.scene_entry {
+        Some((entry, block)) if spec.want != Want::Material => {
+            Some(Node::SceneValue(cx.current, *entry, format!("{block}.{}", spec.name)))
+        }
+        _ => None,
+    };
+    if let Some(node) = &cx.body.node
+        && spec.frame != FrameGlobals::Both
+    {
+        cx.frame_limits.insert(node.clone(), spec.frame);
+    }
     let expected = match spec.want {
         Want::Positive | Want::NonNegative | Want::Float => Some(Ty::Float),
         Want::Count | Want::Int => Some(Ty::Int),
