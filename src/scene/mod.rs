@@ -1,8 +1,9 @@
 //! The checked scene description: the `scene { }` block as plain data.
 //!
 //! [`describe`] runs right after checking. It evaluates every property
-//! value (they are constants: the checker keeps shading globals out of
-//! them), checks what the checker's schema cannot see (non-finite numbers,
+//! value (they are constants for a frame: the checker keeps the per-point
+//! shading globals out of them; [`describe_frame`] gives `frame` and
+//! `time` their values), checks what the checker's schema cannot see (non-finite numbers,
 //! a camera looking at its own position, `up` along the view, degenerate
 //! shapes and transforms, spot cones), reads the files the scene names (OBJ
 //! meshes, environment images) and reports every problem at once as a
