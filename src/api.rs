@@ -380,6 +380,35 @@ impl Program {
         self.inner.scene.as_ref()
     }
 
+    /// The program's scene described at one frame of an animation: values
+    /// that read `frame` or `time` take that frame's values, and the
+    /// files it names are not read again. `Ok(None)` without a scene; an
+    /// error where a value is invalid at that frame (a camera that looks
+    /// at its own position at frame 12), at the property.
+    ///
+    /// ```
+    /// use tsl::scene::FrameRequest;
+    /// let src = "scene { camera { from (0, 1, -4 + time); to (0, 1, 0); } render { fps 4; } }";
+    /// let program = tsl::Compiler::new().source("anim.tsl", src).compile()?;
+    /// let desc = program.scene_at(&FrameRequest { frame: 2, fps: None })?.unwrap();
+    /// assert_eq!((desc.frame.number, desc.frame.time), (2, 0.5));
+    /// assert_eq!(desc.camera.from.value.z, -3.5);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn scene_at(&self, request: &crate::scene::FrameRequest) -> Result<Option<SceneDesc>, Error> {
+        let reuse = self.inner.scene.as_ref();
+        if reuse.is_some_and(|d| d.frame.number == request.frame) && request.fps.is_none() {
+            return Ok(reuse.cloned());
+        }
+        let (desc, diags) = crate::scene::describe_frame(&self.inner.program, self.inner.model, reuse, request);
+        if diags.iter().any(Diagnostic::is_error) {
+            let at = format!("at frame {}", request.frame);
+            let diagnostics = diags.into_iter().map(|d| d.with_note(at.clone())).collect();
+            return Err(Error { diagnostics, sources: self.inner.program.loaded.sources.clone() });
+        }
+        Ok(desc)
+    }
+
     /// The expressions `materials` name, with their entry names.
     fn material_exprs<'p>(&'p self, materials: &[(String, MaterialRef)]) -> Result<Vec<(String, &'p Expr)>, Error> {
         materials

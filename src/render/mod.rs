@@ -13,9 +13,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Invariant: every random number is a pure function of (seed, pixel,
-//! sample index, dimension), so an image does not depend on the number of
-//! threads, the tiling, or the window rendered.
+//! Invariant: every random number is a pure function of (seed, frame,
+//! pixel, sample index, dimension), so an image does not depend on the
+//! number of threads, the tiling, the window rendered, or the other frames
+//! rendered by the same command.
 
 pub mod accel;
 pub mod camera;
@@ -126,6 +127,44 @@ impl RenderStats {
     pub fn total_rays(&self) -> u64 {
         self.rays.camera_rays + self.rays.secondary_rays + self.rays.shadow_rays
     }
+}
+
+/// What made an image of `scene`, for its EXR header: the software and
+/// TSL's version, the scene's content hash (from
+/// [`crate::scene::content_hash`]), the render settings and color model,
+/// the frame, and the tile (`(index, count)`) when it is one. `tslc merge`
+/// refuses parts that disagree on any of it but the tile.
+pub fn image_metadata(scene: &Scene, content_hash: &str, tile: Option<(u32, u32)>) -> image_io::Metadata {
+    let s = &scene.settings;
+    let version = env!("CARGO_PKG_VERSION");
+    let mut m = image_io::Metadata::default();
+    m.set_text(image_io::SOFTWARE, format!("tslc {version}"))
+        .set_text("tsl:version", version)
+        .set_text("tsl:sceneHash", content_hash)
+        .set_int("tsl:spp", s.spp as i32)
+        .set_text("tsl:seed", s.seed.to_string())
+        .set_int("tsl:maxDepth", s.max_depth as i32)
+        .set_text(
+            "tsl:integrator",
+            match s.integrator {
+                IntegratorKind::Whitted => "whitted",
+                IntegratorKind::Path => "path",
+            },
+        )
+        .set_text(
+            "tsl:lightSampling",
+            match s.light_sampling {
+                LightSampling::All => "all",
+                LightSampling::Power => "power",
+            },
+        )
+        .set_text("tsl:colorModel", scene.model.name())
+        .set_int("tsl:frame", s.frame.number)
+        .set_float("tsl:time", s.frame.time);
+    if let Some((index, count)) = tile {
+        m.set_int("tsl:tile", index as i32).set_int("tsl:tiles", count as i32);
+    }
+    m
 }
 
 /// Tiles are this many pixels square.
@@ -269,6 +308,7 @@ fn render_tile<const N: usize>(
     cancelled: &dyn Fn() -> bool,
 ) -> Option<TileOut> {
     let s = &scene.settings;
+    let seed = s.frame_seed();
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let to_rgb = crate::color::to_rgb_weights(scene.model);
@@ -285,7 +325,7 @@ fn render_tile<const N: usize>(
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
             for k in samples.clone() {
-                let mut sampler = Sampler::new(s.seed, px, py, k);
+                let mut sampler = Sampler::new(seed, px, py, k);
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
                 let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };

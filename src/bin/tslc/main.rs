@@ -7,6 +7,7 @@
 //! `render`, `merge` and `make-mesh` live in `render.rs`; `watch` in
 //! `watch.rs` (its web page in `serve.rs`).
 
+mod info;
 mod render;
 mod serve;
 mod watch;
@@ -36,6 +37,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Join tiles rendered with `render --tile I/N` into one image.
     Merge(render::MergeArgs),
+    /// Print what an EXR says about itself: frame, window, channels and
+    /// the render settings, scene hash and tile it was made with.
+    Info(info::InfoArgs),
     /// Write a generated mesh that an example scene needs (`heavy`).
     MakeMesh(render::MakeMeshArgs),
     /// Format TSL files in the canonical style (docs/fmt.md), in place;
@@ -146,6 +150,7 @@ fn main() -> ExitCode {
         Command::Emit(args) => emit(args),
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
+        Command::Info(args) => info::info(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
         Command::Watch(args) => watch::watch(args),
