@@ -5,7 +5,7 @@
 use super::{Checker, FrameGlobals, Node, Ty};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 /// What a property's value must be.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -350,7 +350,7 @@ fn check_prop_list<'p>(
     own: &[Prop],
     common: &[Prop],
 ) -> HashMap<&'p str, &'p SceneProp> {
-    let mut given: HashMap<&str, &SceneProp> = HashMap::new();
+    let mut given: HashMap<&str, &SceneProp> = HashMap::default();
     for p in props {
         let name = p.name.name.as_str();
         let Some(spec) = own.iter().chain(common).find(|s| s.name == name) else {
@@ -398,8 +398,10 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     cx.body.frame_globals = spec.frame;
     // A value other than a material is fixed for a frame: the functions it
     // calls are followed to shading globals (`report_varying_values`).
+    // Literal values (most of a generated scene's) name nothing to follow.
+    let names_items = || value.any(&|e: &Expr| matches!(e.kind, ExprKind::Name(_) | ExprKind::Call { .. }));
     cx.body.node = match &cx.body.scene_entry {
-        Some((entry, block)) if spec.want != Want::Material => {
+        Some((entry, block)) if spec.want != Want::Material && names_items() => {
             Some(Node::SceneValue(cx.current, *entry, format!("{block}.{}", spec.name)))
         }
         _ => None,

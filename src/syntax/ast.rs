@@ -386,6 +386,41 @@ pub enum ExprKind {
     Tuple(Vec<Expr>),
 }
 
+impl Expr {
+    /// Whether `pred` holds for this expression or any inside it. Only a
+    /// binary operation's left operand may nest without limit (flat chains,
+    /// see `MAX_NESTING`): that one is followed in a loop, the rest
+    /// recursively.
+    pub fn any(&self, pred: &impl Fn(&Expr) -> bool) -> bool {
+        let mut e = self;
+        loop {
+            if pred(e) {
+                return true;
+            }
+            let any_arg = |args: &[Arg]| args.iter().any(|a| a.value.any(pred));
+            match &e.kind {
+                ExprKind::Int(_) | ExprKind::Float(_) | ExprKind::Bool(_) | ExprKind::Str(_) | ExprKind::Name(_) => {
+                    return false;
+                }
+                ExprKind::Call { args, .. } | ExprKind::Construct { args, .. } => return any_arg(args),
+                ExprKind::Member { base, .. } => return base.any(pred),
+                ExprKind::Index { base, index } => return base.any(pred) || index.any(pred),
+                ExprKind::Unary { operand, .. } => return operand.any(pred),
+                ExprKind::Ternary { cond, then_expr, else_expr } => {
+                    return cond.any(pred) || then_expr.any(pred) || else_expr.any(pred);
+                }
+                ExprKind::Array(es) | ExprKind::Tuple(es) => return es.iter().any(|x| x.any(pred)),
+                ExprKind::Binary { lhs, rhs, .. } => {
+                    if rhs.any(pred) {
+                        return true;
+                    }
+                    e = lhs;
+                }
+            }
+        }
+    }
+}
+
 impl ExprKind {
     /// The deepest nesting among the direct children.
     fn child_depth(&self) -> u32 {

@@ -173,7 +173,7 @@ fn check(args: CheckArgs) -> ExitCode {
     };
     let mut failed = false;
     let mut stdin_used = false;
-    for file in &args.files {
+    for (k, file) in args.files.iter().enumerate() {
         let checked = if file.as_os_str() == "-" {
             if stdin_used {
                 eprintln!("error: standard input (`-`) can be checked only once");
@@ -198,6 +198,11 @@ fn check(args: CheckArgs) -> ExitCode {
             tsl::check_file(file, &options)
         };
         failed |= report(&checked, &args, colors);
+        if k + 1 == args.files.len() {
+            // The process ends next: freeing a large program's trees one
+            // by one would only cost time (rustc does the same).
+            std::mem::forget(checked);
+        }
     }
     if failed { ExitCode::from(1) } else { ExitCode::SUCCESS }
 }

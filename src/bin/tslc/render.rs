@@ -274,6 +274,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
             return code;
         }
     }
+    // The process ends next: freeing a large program's trees one by one
+    // would only cost time.
+    std::mem::forget(program);
     ExitCode::SUCCESS
 }
 
