@@ -428,3 +428,28 @@ pub fn fit_column(res: usize, block: usize, y: usize, x: usize) -> Vec<[f32; 3]>
     }
     column
 }
+
+/// The table as the word tables compiled code reads (`ir::Op::Table`, whose
+/// length must be a power of two): the `z` grid, and each coefficient over
+/// the cells, zero-padded.
+pub struct TableWords {
+    pub z: &'static [u32],
+    pub coefficients: [&'static [u32]; 3],
+}
+
+/// The committed table as [`TableWords`], made on first use and kept for
+/// the whole process (compiled code holds the addresses).
+pub fn table_words() -> &'static TableWords {
+    static WORDS: std::sync::OnceLock<TableWords> = std::sync::OnceLock::new();
+    WORDS.get_or_init(|| {
+        let t = table();
+        let leak = |mut words: Vec<u32>| -> &'static [u32] {
+            words.resize(words.len().next_power_of_two(), 0);
+            Box::leak(words.into_boxed_slice())
+        };
+        TableWords {
+            z: leak(t.z.iter().map(|x| x.to_bits()).collect()),
+            coefficients: [0, 1, 2].map(|k| leak(t.cells.iter().map(|c| c[k].to_bits()).collect())),
+        }
+    })
+}

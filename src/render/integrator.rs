@@ -114,6 +114,8 @@ const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
     dudy: 0.0,
     dvdx: 0.0,
     dvdy: 0.0,
+    wavelengths: crate::color::HERO_DEFAULT_WAVELENGTHS,
+    rgb_weights: [[0.0; crate::color::HERO_LANES]; 3],
 };
 
 /// A light sample closer than this (cosine) to a delta direction of the
@@ -901,7 +903,7 @@ pub(super) fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
         dpdv: v3(s.dpdv),
         face: s.face,
         t,
-        ..ShadingGlobals::default()
+        ..ZERO_GLOBALS
     }
 }
 

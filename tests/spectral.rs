@@ -1,0 +1,115 @@
+//! The spectral color models as compiled code: RGB upsampled by Jakob and
+//! Hanika's table for values known only at run time, hero wavelengths read
+//! from the shading globals (upsampled RGB, `spectrum(...)` curves, the
+//! reductions), on both back ends.
+
+use tsl::color::{self, HERO_LANES, jakob_hanika};
+use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
+
+const SOURCE: &str = r#"
+color up(float r, float g, float b) { return rgb(r, g, b); }
+color saturated() { return rgb(0.9, 0.1, 0.1); }
+color curve() { return spectrum([(400, 0.2), (500, 0.8), (501, 0.6), (700, 0.5)]); }
+color varying_curve(float a) { return spectrum([(450, a), (550, 1 - a), (650, a * a)]); }
+float luma(float g) { return brightness(gray(g)); }
+float luma_rgb(float r, float g, float b) { return brightness(rgb(r, g, b)); }
+"#;
+
+fn program(model: ColorModel) -> Program {
+    Compiler::new().color_model(model).source("spectral.tsl", SOURCE).compile().expect("compiles")
+}
+
+fn call(p: &Program, name: &str, g: &ShadingGlobals, args: &[f32], backend: Backend) -> Vec<f32> {
+    let f = p.function(name).expect("entry");
+    let words: Vec<u32> = args.iter().map(|x| x.to_bits()).collect();
+    let mut out = vec![0u32; 64];
+    f.call_words(backend, g, &words, &mut out).expect("call");
+    out.iter().map(|w| f32::from_bits(*w)).collect()
+}
+
+/// Hero globals at `wavelengths`, drawn uniformly.
+fn hero_globals(wavelengths: [f32; HERO_LANES]) -> ShadingGlobals {
+    let pdf = [1.0 / 400.0; HERO_LANES];
+    ShadingGlobals { wavelengths, rgb_weights: color::hero_rgb_weights(&wavelengths, &pdf), ..Default::default() }
+}
+
+/// Colours known only at run time: saturated, dark (below the table's
+/// z range), greys, black, brighter than 1 (emission), negative.
+const RGB: [[f32; 3]; 10] = [
+    [0.9, 0.1, 0.1],
+    [0.1, 0.1, 0.9],
+    [0.2, 0.7, 0.3],
+    [0.01, 0.004, 0.002],
+    [0.5, 0.5, 0.5],
+    [1.0, 1.0, 1.0],
+    [0.0, 0.0, 0.0],
+    [18.387, 13.9873, 6.75357],
+    [0.3, -0.1, 0.2],
+    [0.999, 0.5, 0.0],
+];
+
+fn close(got: f32, want: f32) -> bool {
+    (got - want).abs() <= 2e-5 * want.abs().max(1.0)
+}
+
+#[test]
+fn varying_rgb_is_the_tables_spectrum_at_the_lanes_wavelengths() {
+    let hero_wl = [391.5, 488.25, 611.0, 779.0];
+    for model in [ColorModel::Spectral { samples: 16 }, ColorModel::Spectral { samples: 64 }, ColorModel::Hero] {
+        let p = program(model);
+        let (g, wl) = match model {
+            ColorModel::Hero => (hero_globals(hero_wl), hero_wl.to_vec()),
+            _ => (ShadingGlobals::default(), model.wavelengths()),
+        };
+        for rgb in RGB {
+            let s = jakob_hanika::upsample_by_table(rgb);
+            for backend in [Backend::Jit, Backend::Interpreter] {
+                let lanes = call(&p, "up", &g, &rgb, backend);
+                for (i, l) in wl.iter().enumerate() {
+                    let want = s.eval(*l);
+                    assert!(close(lanes[i], want), "{} {rgb:?} at {l} nm: {} vs {want}", model.name(), lanes[i]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn hero_constants_curves_and_reductions_follow_the_globals() {
+    let p = program(ColorModel::Hero);
+    for wl in [[380.0, 480.0, 580.0, 680.0], [455.5, 500.0, 640.25, 780.0]] {
+        let g = hero_globals(wl);
+        let exact = jakob_hanika::upsample([0.9, 0.1, 0.1]);
+        let at = |x: [f32; 2], y: [f32; 2], l: f32| {
+            // Linear between (x0, y0) and (x1, y1), held beyond.
+            let t = ((l - x[0]) / (x[1] - x[0])).clamp(0.0, 1.0);
+            y[0] + (y[1] - y[0]) * t
+        };
+        for backend in [Backend::Jit, Backend::Interpreter] {
+            let sat = call(&p, "saturated", &g, &[], backend);
+            let curve = call(&p, "curve", &g, &[], backend);
+            let varying = call(&p, "varying_curve", &g, &[0.3], backend);
+            for (i, &l) in wl.iter().enumerate() {
+                assert!(close(sat[i], exact.eval(l)), "rgb(0.9, 0.1, 0.1) at {l}: {}", sat[i]);
+                // 0.2 at 400, 0.8 at 500, 0.6 at 501, 0.5 at 700.
+                let want = match l {
+                    _ if l < 500.0 => at([400.0, 500.0], [0.2, 0.8], l),
+                    _ if l < 501.0 => at([500.0, 501.0], [0.8, 0.6], l),
+                    _ => at([501.0, 700.0], [0.6, 0.5], l),
+                };
+                assert!((curve[i] - want).abs() < 1e-5, "curve at {l}: {} vs {want}", curve[i]);
+                let want =
+                    if l < 550.0 { at([450.0, 550.0], [0.3, 0.7], l) } else { at([550.0, 650.0], [0.7, 0.09], l) };
+                assert!((varying[i] - want).abs() < 1e-5, "varying curve at {l}: {} vs {want}", varying[i]);
+            }
+            // brightness is exact for greys on every sample, and is the Y of
+            // the globals' weights otherwise.
+            assert!((call(&p, "luma", &g, &[0.37], backend)[0] - 0.37).abs() < 1e-6);
+            let lanes = call(&p, "up", &g, &[0.2, 0.6, 0.3], backend);
+            let y: f32 = (0..HERO_LANES)
+                .map(|i| (0..3).map(|c| [0.2126, 0.7152, 0.0722][c] * g.rgb_weights[c][i]).sum::<f32>() * lanes[i])
+                .sum();
+            assert!((call(&p, "luma_rgb", &g, &[0.2, 0.6, 0.3], backend)[0] - y).abs() < 1e-5);
+        }
+    }
+}
