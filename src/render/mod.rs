@@ -30,6 +30,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shape;
 pub mod spectrum;
+pub mod wavelengths;
 
 pub use glam::Mat4;
 /// The renderer's vectors are glam's 16-byte SIMD vectors: arithmetic is one
@@ -114,6 +115,9 @@ impl RenderStats {
     }
 }
 
+/// Mixed into the seed of the stream that draws hero wavelengths.
+const HERO_STREAM: u64 = 0x6865_726f_5f77_6c31;
+
 /// Tiles are this many pixels square.
 const TILE: u32 = 16;
 
@@ -122,7 +126,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(RenderedImage, 
     // Radiance lanes rounded up to a capacity the integrators are built for.
     match scene.model.lanes() {
         0..=3 => render_lanes::<3>(scene, options),
-        4..=8 => render_lanes::<8>(scene, options),
+        4 => render_lanes::<4>(scene, options),
+        5..=8 => render_lanes::<8>(scene, options),
         9..=16 => render_lanes::<16>(scene, options),
         17..=32 => render_lanes::<32>(scene, options),
         _ => render_lanes::<{ crate::color::MAX_SAMPLES }>(scene, options),
@@ -243,6 +248,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let to_rgb = crate::color::to_rgb_weights(scene.model);
+    let hero = scene.model == crate::ColorModel::Hero;
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
     let mut objects = Vec::with_capacity(aovs.capacity());
@@ -250,10 +256,18 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     for py in y0..y0 + h {
         for px in x0..x0 + w {
             let mut sum = spectrum::Spectrum::<N>::ZERO;
+            // Hero samples go to RGB one by one (each has its wavelengths).
+            let mut rgb_sum = [0.0f32; 3];
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
             for k in 0..s.spp {
                 let mut sampler = Sampler::new(s.seed, px, py, k);
+                if hero {
+                    // Its own stream: the paths' numbers are those of the
+                    // other models, so renders compare sample for sample.
+                    let u = Sampler::new(s.seed ^ HERO_STREAM, px, py, k).next_1d();
+                    tracer.hero = Some(wavelengths::HeroSample::draw(u));
+                }
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
                 let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };
@@ -263,10 +277,15 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                     IntegratorKind::Whitted => tracer.whitted(&ray, &mut sampler),
                     IntegratorKind::Path => tracer.path(&ray, &mut sampler),
                 };
-                if l.is_finite() {
-                    sum += l;
-                } else {
+                if !l.is_finite() {
                     dropped += 1;
+                } else if let Some(h) = &tracer.hero {
+                    let rgb = h.to_rgb(&l);
+                    for c in 0..3 {
+                        rgb_sum[c] += rgb[c];
+                    }
+                } else {
+                    sum += l;
                 }
                 if want_aov {
                     for c in 0..3 {
@@ -279,8 +298,12 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                     }
                 }
             }
-            let mean = sum * (1.0 / s.spp as f32);
-            color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
+            if hero {
+                color.push(rgb_sum.map(|c| c / s.spp as f32));
+            } else {
+                let mean = sum * (1.0 / s.spp as f32);
+                color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
+            }
             if want_aov {
                 let n = s.spp as f32;
                 aovs.push(Aov {

@@ -38,6 +38,10 @@ pub fn describe(
         })
     });
     let Some((module, item, scene, file)) = found else { return (None, Vec::new()) };
+    // A hero render's wavelengths change per camera sample: its scene colors
+    // are tabulated at the 64 bin centres and interpolated when drawn.
+    let model =
+        if model == ColorModel::Hero { ColorModel::Spectral { samples: crate::color::MAX_SAMPLES } } else { model };
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
     let mut d = Describer { program, model, module, item, dir, reuse, diags: Vec::new() };
     let desc = d.scene(scene);
