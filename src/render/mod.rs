@@ -258,6 +258,7 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
             let mut sum = spectrum::Spectrum::<N>::ZERO;
             // Hero samples go to RGB one by one (each has its wavelengths).
             let mut rgb_sum = [0.0f32; 3];
+            let hero_phase = Sampler::new(s.seed ^ HERO_STREAM, px, py, u32::MAX).next_1d();
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
             for k in 0..s.spp {
@@ -265,7 +266,11 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                 if hero {
                     // Its own stream: the paths' numbers are those of the
                     // other models, so renders compare sample for sample.
-                    let u = Sampler::new(s.seed ^ HERO_STREAM, px, py, k).next_1d();
+                    // Stratified over the pixel's samples, from a random
+                    // phase per pixel: each u is uniform, and together they
+                    // cover [0, 1) evenly.
+                    let jitter = Sampler::new(s.seed ^ HERO_STREAM, px, py, k).next_1d();
+                    let u = ((k as f32 + jitter) / s.spp as f32 + hero_phase).fract();
                     tracer.hero = Some(wavelengths::HeroSample::draw(u));
                 }
                 // One sample per pixel looks through the pixel centre, as

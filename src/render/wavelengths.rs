@@ -56,24 +56,60 @@ pub fn sample_visible(u: f32) -> f32 {
     (CENTRE + t.atanh() / RATE).clamp(LAMBDA_MIN, LAMBDA_MAX)
 }
 
+/// Cells of the tabulated inverse distribution function.
+const CDF_CELLS: usize = 1024;
+
+/// What drawing a sample reads, made once: the inverse distribution of
+/// [`sample_visible`] at `CDF_CELLS + 1` points (drawing interpolates it,
+/// and the density is that interpolation's own, so the estimate stays
+/// unbiased), and `rgb_matching` every nanometre.
+struct Tables {
+    inverse_cdf: Vec<f32>,
+    matching: Vec<[f32; 3]>,
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| Tables {
+        inverse_cdf: (0..=CDF_CELLS).map(|k| sample_visible(k as f32 / CDF_CELLS as f32)).collect(),
+        matching: (0..=(LAMBDA_MAX - LAMBDA_MIN) as usize)
+            .map(|k| color::rgb_matching(color::White::D65, f64::from(LAMBDA_MIN) + k as f64).map(|x| x as f32))
+            .collect(),
+    })
+}
+
 impl HeroSample {
     /// The wavelengths of `u` (the camera sample's own random number): the
     /// hero at `u`, the companions at `u + i / n` wrapped into [0, 1), so
     /// they stratify the density.
     pub fn draw(u: f32) -> HeroSample {
+        let t = tables();
         let mut wavelengths = [0.0; HERO_LANES];
         let mut pdf = [0.0; HERO_LANES];
+        let mut film = [[0.0; HERO_LANES]; 3];
         for i in 0..HERO_LANES {
-            let ui = (u + i as f32 / HERO_LANES as f32).fract();
-            wavelengths[i] = sample_visible(ui);
-            pdf[i] = visible_pdf(wavelengths[i]);
+            let ui = (u + i as f32 / HERO_LANES as f32).fract() * CDF_CELLS as f32;
+            let k = (ui as usize).min(CDF_CELLS - 1);
+            let (a, b) = (t.inverse_cdf[k], t.inverse_cdf[k + 1]);
+            let l = a + (b - a) * (ui - k as f32);
+            wavelengths[i] = l;
+            pdf[i] = 1.0 / (CDF_CELLS as f32 * (b - a));
+            let x = (l - LAMBDA_MIN).clamp(0.0, LAMBDA_MAX - LAMBDA_MIN);
+            let j = (x as usize).min(t.matching.len() - 2);
+            let f = x - j as f32;
+            let weight = 1.0 / (pdf[i] * HERO_LANES as f32);
+            for c in 0..3 {
+                let (m0, m1) = (t.matching[j][c], t.matching[j + 1][c]);
+                film[c][i] = (m0 + (m1 - m0) * f) * weight;
+            }
         }
-        HeroSample {
-            wavelengths,
-            pdf,
-            film: color::hero_film_weights(&wavelengths, &pdf),
-            shader: color::hero_rgb_weights(&wavelengths, &pdf),
-        }
+        // Shaders' weights: the film's over their luminance, so that a flat
+        // spectrum's brightness is exactly 1 on every sample.
+        let lum = |i: usize| 0.2126 * film[0][i] + 0.7152 * film[1][i] + 0.0722 * film[2][i];
+        let y: f32 = (0..HERO_LANES).map(lum).sum();
+        let norm = if y > 0.0 && y.is_finite() { 1.0 / y } else { 0.0 };
+        let shader = film.map(|row| row.map(|w| w * norm));
+        HeroSample { wavelengths, pdf, film, shader }
     }
 
     /// The film's linear sRGB of radiance `l` at these wavelengths.
@@ -156,6 +192,21 @@ mod tests {
         }
         for c in 0..3 {
             assert!((sum[c] - 1.0).abs() < 2e-3, "{sum:?}");
+        }
+    }
+
+    #[test]
+    fn drawn_samples_match_the_exact_weights() {
+        for k in 0..50 {
+            let h = HeroSample::draw(k as f32 / 50.0);
+            let film = color::hero_film_weights(&h.wavelengths, &h.pdf);
+            for i in 0..HERO_LANES {
+                let exact = visible_pdf(h.wavelengths[i]);
+                assert!((h.pdf[i] / exact - 1.0).abs() < 2e-3, "{} vs {exact}", h.pdf[i]);
+                for c in 0..3 {
+                    assert!((h.film[c][i] - film[c][i]).abs() < 1e-4 * film[c][i].abs().max(1.0));
+                }
+            }
         }
     }
 
