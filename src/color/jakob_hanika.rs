@@ -119,7 +119,7 @@ fn sigmoid32(x: f32) -> f32 {
 pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
     let rgb = rgb.map(|c| if c > 0.0 { c } else { 0.0 });
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
-    if !(m > 0.0) || !m.is_finite() {
+    if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !m.is_finite() {
         return Sigmoid { coefficients: [0.0; 3], scale: 0.0 };
     }
     let scale = range_scale(m);
@@ -152,7 +152,7 @@ pub fn range_scale(m: f32) -> f32 {
 pub fn upsample_by_table(rgb: [f32; 3]) -> Sigmoid {
     let rgb = rgb.map(|c| if c > 0.0 { c } else { 0.0 });
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
-    if !(m > 0.0) || !m.is_finite() {
+    if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !m.is_finite() {
         return Sigmoid { coefficients: [0.0; 3], scale: 0.0 };
     }
     let scale = range_scale(m);
@@ -417,14 +417,14 @@ pub fn fit_column(res: usize, block: usize, y: usize, x: usize) -> Vec<[f32; 3]>
         rgb
     };
     let mut c = [0.0; 3];
-    for k in start..res {
+    for (k, cell) in column.iter_mut().enumerate().skip(start) {
         c = fitter.fit(target(k), c);
-        column[k] = c.map(|v| v as f32);
+        *cell = c.map(|v| v as f32);
     }
     c = [0.0; 3];
-    for k in (0..start).rev() {
+    for (k, cell) in column.iter_mut().enumerate().take(start).rev() {
         c = fitter.fit(target(k), c);
-        column[k] = c.map(|v| v as f32);
+        *cell = c.map(|v| v as f32);
     }
     column
 }

@@ -12,71 +12,57 @@
 //!
 //! # The maths
 //!
-//! **Lanes.** A spectral model with `n` lanes splits
-//! [`LAMBDA_MIN`]..[`LAMBDA_MAX`] (380–780 nm) into `n` equal bins; lane `i`
-//! holds the *average* of the spectrum over bin `i`
-//! (`[380 + i·Δ, 380 + (i+1)·Δ]`, `Δ = 400/n` nm), and
-//! [`ColorModel::wavelengths`] gives the bin centres. Spectra are spectral
-//! radiance (or reflectance) in arbitrary units: a "flat 1" spectrum is the
-//! equal-energy spectrum (CIE illuminant E) and it is the white of every
+//! **Lanes.** A binned model (`Spectral`, `Smits`) with `n` lanes splits
+//! [`LAMBDA_MIN`]..[`LAMBDA_MAX`] (380–780 nm) into `n` equal bins;
+//! [`ColorModel::wavelengths`] gives the bin centres. A measured curve
+//! (`spectrum(...)`, [`resample_weights`]) and a Smits spectrum fill lane `i`
+//! with their *average* over bin `i`; a Jakob–Hanika spectrum with its value
+//! at the bin centre (half the quadrature error of the average, measured).
+//! A `Hero` color's four lanes are its values at the wavelengths in the
+//! shading globals, drawn per camera sample by the renderer.
+//!
+//! **Whites.** Spectra are relative to a white whose lanes are all 1: D65
+//! for `Spectral`, `Hero` and the RGB model's view of curves (sRGB's white;
+//! Mitsuba's and pbrt's RGB illuminants are D65-based), the equal-energy E
+//! for `Smits` (Smits designed his basis for it). The renderer measures
+//! light as lanes times the white, so an RGB light is its reflectance curve
+//! times D65, exactly as Mitsuba's `srgb_d65` emitters.
+//!
+//! **Colour matching.** The CIE 1931 2° standard observer and D65, tabulated
+//! every 5 nm from 380 to 780 nm in `cie1931.rs` and `d65.rs` (generated from
+//! colour-science by `scripts/gen_color_data.py`), are interpolated linearly
+//! between the table rows. [`rgb_matching`] is
+//! `scale · XYZ_TO_SRGB · cmf(λ) · white(λ) / ∫ ȳ · white`: a spectrum's
+//! linear sRGB is its integral against it, and the binned models' `to_rgb`
+//! weights are its integrals over each bin (exact: Gauss–Legendre on every
+//! 5 nm piece, where the integrand is a quadratic). `scale` is a
+//! per-channel factor (a von Kries scale in the sRGB primaries) that makes
+//! the flat spectrum exactly `(1, 1, 1)`, so greys survive RGB → spectrum →
+//! RGB: for D65 it is within 4e-4 of 1 (the table's D65 against sRGB's
+//! rounded white), for E it is Smits' convention (colour-science's
+//! `RGB_COLOURSPACE_SMITS1999`). Only 380–780 nm is integrated, in every
 //! model.
 //!
-//! **Colour matching.** The CIE 1931 2° standard observer, tabulated every
-//! 5 nm from 380 to 780 nm in `cie1931.rs` (generated from colour-science by
-//! `scripts/gen_color_data.py`), is interpolated linearly between the table
-//! rows. Its integral over each bin gives the raw tristimulus weights:
-//! `raw_X[i] = ∫_bin_i x̄(λ) dλ / ∫_380^780 ȳ(λ) dλ` (likewise Y, Z), computed
-//! exactly (the integrand is piecewise linear). So `raw = raw_weights · lanes`
-//! is the CIE XYZ of the spectrum under illuminant E, normalised so that the
-//! flat spectrum has `Y = 1`. Only 380–780 nm is integrated, in every model.
-//!
-//! **To linear sRGB, and the white point.** `raw` XYZ is multiplied by the
-//! inverse of the IEC 61966-2-1 sRGB → XYZ matrix ([`SRGB_TO_XYZ`], whose Y
-//! row is exactly 0.2126, 0.7152, 0.0722) and then each channel is divided by
-//! the same channel of the flat spectrum (a *per-channel von Kries scale in
-//! the sRGB primaries*). So the flat spectrum is exactly `(1, 1, 1)` and an
-//! RGB grey survives RGB → spectrum → RGB. This is the convention Smits
-//! (1999) designed his basis spectra for (sRGB primaries with illuminant E as
-//! white; colour-science's `RGB_COLOURSPACE_SMITS1999`): with it the Smits
-//! round trip, integrated exactly, is within 8e-3 for saturated colours and
-//! 3.5e-3 for unsaturated ones, while a Bradford adaptation from E to D65
-//! would put it off by up to 0.12 (measured with colour-science). The flat
-//! spectrum's raw XYZ over 380–780 nm is `(0.99999, 1, 0.99990)` (not exactly
-//! E's `(1, 1, 1)`: the table is cut at 380 and 780 nm), and the scale is
-//! computed from it, so the flat spectrum is white to rounding.
-//!
-//! **Lighting assumption.** A reflectance curve is therefore shown as lit by
-//! the equal-energy spectrum, which is also what a white `rgb(1, 1, 1)` light
-//! becomes under Smits' upsampling (no illuminant spectrum is multiplied in),
-//! then white-balanced as above. colour-science's usual answer for a
-//! reflectance (lit by D65, `sd_to_XYZ(sd, cmfs, D65)` then `XYZ_to_sRGB`,
-//! no adaptation) differs from this by up to 0.04 on the ColorChecker, so the
-//! test oracle is computed by colour-science with this module's convention.
+//! **RGB to spectrum.** `Spectral` and `Hero`: Jakob and Hanika (2019), see
+//! [`jakob_hanika`]: constants fitted exactly, run-time values from the
+//! coefficient table. `Smits`: B. Smits, "An RGB-to-Spectrum Conversion for
+//! Reflectances", Journal of Graphics Tools 4(4), 1999: the spectrum is a
+//! non-negative sum of seven basis spectra (white, cyan, magenta, yellow,
+//! red, green, blue) whose multiples come from a few comparisons of the
+//! components ([`smits_coefficients`]); the basis table is the paper's, 10
+//! bins of 34 nm from 380 to 720 nm, the last bin held to 780 nm (the
+//! numbers of colour-science's `DATA_SMITS1999`; `smits1999.rs`). Smits'
+//! coefficients are linear in `(r, g, b)` for a given ordering of the
+//! components, so emission values above 1 scale linearly.
 //!
 //! **XYZ and brightness.** [`to_xyz_weights`] gives the XYZ *of the displayed
 //! linear sRGB colour* (`SRGB_TO_XYZ · to_rgb`), relative to D65 (the white
-//! of sRGB), so that `to_xyz` means the same in both models: `rgb(1, 1, 1)`
+//! of sRGB), so that `to_xyz` means the same in every model: `rgb(1, 1, 1)`
 //! and the flat spectrum both give the D65 white `(0.9505, 1, 1.089)`.
 //! `brightness` ([`luminance_weights`]) is the Y row of that: it equals
 //! `0.2126 R + 0.7152 G + 0.0722 B` of `to_rgb` in both models, and it is 1 for
 //! the flat spectrum. (It differs from the plain `∫ ȳ` of the spectrum by the
 //! white balance above.)
-//!
-//! **RGB to spectrum (Smits 1999).** Constant `rgb(r, g, b)` literals are
-//! upsampled with B. Smits, "An RGB-to-Spectrum Conversion for Reflectances",
-//! Journal of Graphics Tools 4(4), 1999: the spectrum is a non-negative sum of
-//! seven basis spectra (white, cyan, magenta, yellow, red, green, blue) whose
-//! multiples come from a few comparisons of the components
-//! ([`smits_coefficients`]). The basis table is the paper's: 10 bins of 34 nm
-//! from 380 to 720 nm, the last bin's value held to 780 nm (the numbers of
-//! colour-science's `DATA_SMITS1999`; `smits1999.rs`). The bins are averaged
-//! into the model's lanes ([`smits_basis`]). colour-science's own
-//! `RGB_to_sd_Smits1999` places the same ten numbers at ten points 380, 417.8,
-//! …, 720 nm and interpolates between them, which puts the round trip of
-//! saturated colours off by up to 0.09 (0.05 for unsaturated ones); the
-//! paper's bins are what the numbers were optimised for. Smits' coefficients
-//! are linear in `(r, g, b)` for a given ordering of the components, so
-//! emission values above 1 scale linearly.
 //!
 //! **Measured curves.** [`resample_weights`] takes the wavelengths of a curve
 //! given as `(λ_j, value_j)` samples, interpolated linearly and held constant
@@ -90,24 +76,20 @@
 //! # Accuracy (checked by the tests)
 //!
 //! Worst channel error against colour-science 0.4.7 (1 nm CIE table, same
-//! conventions; `tests/data/color_oracle.json`):
+//! conventions; `tests/data/color_oracle.json`), the ColorChecker's 24
+//! patches resampled with [`resample_weights`] from their measured 380–780 nm
+//! data (under D65 for `rgb` and `spectralN`, under E for `smitsN`):
+//! `rgb` 4.1e-4 (the 5 nm table's interpolation), `spectral16` 1.1e-2,
+//! `spectral64` 1e-3 (box-averaged lanes: second order for smooth curves).
 //!
-//! | model | ColorChecker N Ohta, linear sRGB | Smits round trip, saturated / unsaturated |
-//! |-------|------------------|------------------|
-//! | `rgb` | 3.7e-4 | 0 (identity) |
-//! | exact integrals (`resample_weights(Rgb, ..)`) | 3.7e-4 | 8.8e-3 / 3.6e-3 |
-//! | `spectral8` | 4.7e-2 | 4.8e-2 / 2.9e-2 |
-//! | `spectral16` | 1.08e-2 | 2.0e-2 / 1.1e-2 |
-//! | `spectral32` | 2.6e-3 | 1.5e-2 / 6.1e-3 |
-//! | `spectral64` | 9.1e-4 | 1.1e-2 / 4.4e-3 |
-//!
-//! The ColorChecker's 24 patches are resampled with [`resample_weights`]
-//! from their measured 380–780 nm data. The RGB model's error is the 5 nm
-//! table's interpolation; the spectral models add the error of box-averaged
-//! lanes (second order for smooth curves, first order for Smits' stepped
-//! spectra). Greys survive RGB → spectrum → RGB within 6e-4 relative in every
-//! model (the white basis spectrum dips to 0.9992), and the flat spectrum is
-//! `(1, 1, 1)` with brightness 1 to `f32` rounding.
+//! RGB round trips (RGB → spectrum → RGB): Jakob–Hanika constants within
+//! 1e-6 (the ColorChecker, 500 random colors), table lookups median 1.7e-4,
+//! 99% 6e-4, worst 3.7e-3, in the limit of infinitely many lanes; in
+//! `spectral16`/`32`/`64` lanes add up to 1.8e-2, 2.8e-3, 6.9e-4 on saturated
+//! colors. Smits (1999): 8.8e-3 saturated, 3.6e-3 unsaturated in the limit,
+//! 2.0e-2 / 1.1e-2 in `smits16`. Greys survive within 1e-5 (Jakob–Hanika)
+//! and 6e-4 relative (Smits, whose white dips to 0.9992), and the flat
+//! spectrum is `(1, 1, 1)` with brightness 1 to `f32` rounding.
 
 mod cie1931;
 mod d65;
@@ -354,7 +336,7 @@ pub fn hero_rgb_weights(wavelengths: &[f32; HERO_LANES], pdf: &[f32; HERO_LANES]
 pub fn hero_film_weights(wavelengths: &[f32; HERO_LANES], pdf: &[f32; HERO_LANES]) -> [[f32; HERO_LANES]; 3] {
     let mut rows = [[0.0f32; HERO_LANES]; 3];
     for i in 0..HERO_LANES {
-        if !(pdf[i] > 0.0) {
+        if pdf[i].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         let m = rgb_matching(White::D65, f64::from(wavelengths[i]));

@@ -98,9 +98,9 @@ impl HeroSample {
             let j = (x as usize).min(t.matching.len() - 2);
             let f = x - j as f32;
             let weight = 1.0 / (pdf[i] * HERO_LANES as f32);
-            for c in 0..3 {
+            for (c, row) in film.iter_mut().enumerate() {
                 let (m0, m1) = (t.matching[j][c], t.matching[j + 1][c]);
-                film[c][i] = (m0 + (m1 - m0) * f) * weight;
+                row[i] = (m0 + (m1 - m0) * f) * weight;
             }
         }
         // Shaders' weights: the film's over their luminance, so that a flat
@@ -200,11 +200,11 @@ mod tests {
         for k in 0..50 {
             let h = HeroSample::draw(k as f32 / 50.0);
             let film = color::hero_film_weights(&h.wavelengths, &h.pdf);
-            for i in 0..HERO_LANES {
-                let exact = visible_pdf(h.wavelengths[i]);
-                assert!((h.pdf[i] / exact - 1.0).abs() < 2e-3, "{} vs {exact}", h.pdf[i]);
-                for c in 0..3 {
-                    assert!((h.film[c][i] - film[c][i]).abs() < 1e-4 * film[c][i].abs().max(1.0));
+            for (i, (&l, &pdf)) in h.wavelengths.iter().zip(&h.pdf).enumerate() {
+                let exact = visible_pdf(l);
+                assert!((pdf / exact - 1.0).abs() < 2e-3, "{pdf} vs {exact}");
+                for (got, want) in h.film.iter().zip(&film) {
+                    assert!((got[i] - want[i]).abs() < 1e-4 * want[i].abs().max(1.0));
                 }
             }
         }

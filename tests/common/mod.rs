@@ -95,6 +95,7 @@ pub fn shading_point(rng: &mut Rng) -> ShadingGlobals {
         dudy: 0.0,
         dvdx: 0.0,
         dvdy: rng.range(0.0, 0.01),
+        ..Default::default()
     }
 }
 
