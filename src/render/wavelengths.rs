@@ -202,9 +202,12 @@ mod tests {
             let film = color::hero_film_weights(&h.wavelengths, &h.pdf);
             for (i, (&l, &pdf)) in h.wavelengths.iter().zip(&h.pdf).enumerate() {
                 let exact = visible_pdf(l);
-                assert!((pdf / exact - 1.0).abs() < 2e-3, "{pdf} vs {exact}");
+                // The interpolated inverse distribution: within 1% of the exact density.
+                assert!((pdf / exact - 1.0).abs() < 1e-2, "{pdf} vs {exact}");
+                // rgb_matching interpolated every nanometre.
                 for (got, want) in h.film.iter().zip(&film) {
-                    assert!((got[i] - want[i]).abs() < 1e-4 * want[i].abs().max(1.0));
+                    let scale = want.iter().fold(0.0f32, |m, w| m.max(w.abs()));
+                    assert!((got[i] - want[i]).abs() < 2e-3 * scale, "{} vs {}", got[i], want[i]);
                 }
             }
         }
