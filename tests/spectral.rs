@@ -62,7 +62,7 @@ fn varying_rgb_is_the_tables_spectrum_at_the_lanes_wavelengths() {
             _ => (ShadingGlobals::default(), model.wavelengths()),
         };
         for rgb in RGB {
-            let s = jakob_hanika::upsample_by_table(rgb);
+            let s = jakob_hanika::upsample(rgb);
             for backend in [Backend::Jit, Backend::Interpreter] {
                 let lanes = call(&p, "up", &g, &rgb, backend);
                 for (i, l) in wl.iter().enumerate() {

@@ -115,7 +115,9 @@ fn sigmoid32(x: f32) -> f32 {
 }
 
 /// The Jakob–Hanika spectrum of a linear sRGB colour (see the module
-/// documentation): negative channels count as 0.
+/// documentation): negative channels count as 0. Compile-time constants and
+/// run-time values (compiled code spells the same lookup out in IR) get
+/// the same spectrum, so specialising a constant never changes a result.
 pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
     let rgb = rgb.map(|c| if c > 0.0 { c } else { 0.0 });
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
@@ -124,13 +126,21 @@ pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
     }
     let scale = range_scale(m);
     let v = rgb.map(|c| (c / scale).min(1.0));
-    let coefficients = if v[0] == v[1] && v[1] == v[2] {
-        grey_coefficients(v[0])
-    } else {
-        let c = table().fetch(v);
-        Fitter::get().fit(v.map(f64::from), c.map(f64::from)).map(|x| x as f32)
-    };
+    let coefficients = if v[0] == v[1] && v[1] == v[2] { grey_coefficients(v[0]) } else { table().fetch(v) };
     Sigmoid { coefficients, scale }
+}
+
+/// The spectrum of `rgb` fitted exactly (Gauss–Newton from the table's
+/// coefficients, round trip within 1e-6): for tools and tests; the color
+/// models use [`upsample`].
+pub fn upsample_exact(rgb: [f32; 3]) -> Sigmoid {
+    let s = upsample(rgb);
+    let v = rgb.map(|c| (c.max(0.0) / s.scale).min(1.0));
+    if s.scale == 0.0 || s.coefficients[..2] == [0.0, 0.0] {
+        return s;
+    }
+    let c = Fitter::get().fit(v.map(f64::from), s.coefficients.map(f64::from));
+    Sigmoid { coefficients: c.map(|x| x as f32), ..s }
 }
 
 /// What a colour whose largest channel is `m > 0` is divided by before the
@@ -144,21 +154,6 @@ pub fn range_scale(m: f32) -> f32 {
     } else {
         1.0
     }
-}
-
-/// The coefficients of `rgb` (a reflectance, scaled by [`range_scale`])
-/// from the table alone, as compiled code computes them for values known
-/// only at run time; [`upsample`] refines them by Gauss–Newton.
-pub fn upsample_by_table(rgb: [f32; 3]) -> Sigmoid {
-    let rgb = rgb.map(|c| if c > 0.0 { c } else { 0.0 });
-    let m = rgb[0].max(rgb[1]).max(rgb[2]);
-    if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !m.is_finite() {
-        return Sigmoid { coefficients: [0.0; 3], scale: 0.0 };
-    }
-    let scale = range_scale(m);
-    let v = rgb.map(|c| (c / scale).min(1.0));
-    let coefficients = if v[0] == v[1] && v[1] == v[2] { grey_coefficients(v[0]) } else { table().fetch(v) };
-    Sigmoid { coefficients, scale }
 }
 
 /// The constant spectrum `v`: `sigmoid(c2) = v`.

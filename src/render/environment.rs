@@ -109,7 +109,7 @@ impl Environment {
             (EnvironmentSource::Image(map), Some(wl)) => {
                 let mut rgb = [0.0f32; 3];
                 lookup(map, d, &mut rgb);
-                let s = crate::color::jakob_hanika::upsample_by_table(rgb);
+                let s = crate::color::jakob_hanika::upsample(rgb);
                 for (o, l) in out.iter_mut().zip(wl) {
                     *o = s.eval(*l);
                 }

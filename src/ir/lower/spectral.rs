@@ -19,8 +19,8 @@ impl<'p> Lowerer<'p> {
     /// An RGB triple in the color model: itself (`Rgb`), Smits' upsampling
     /// (`Smits`), or the Jakob–Hanika spectrum at the lanes' wavelengths
     /// (`Spectral`: the bin centres; `Hero`: the globals'). Constants are
-    /// upsampled at compile time ([`color::rgb_to_lanes`], refined to an
-    /// exact round trip); other values look the table up in the code.
+    /// upsampled at compile time ([`color::rgb_to_lanes`]); other values
+    /// look the same table up in the code, so both agree.
     pub(super) fn rgb_to_lanes(&mut self, b: &mut Builder, rgb: [Value; 3]) -> Vec<Value> {
         let constant = match (b.fconst(rgb[0]), b.fconst(rgb[1]), b.fconst(rgb[2])) {
             (Some(r), Some(g), Some(bl)) => Some([r, g, bl]),
@@ -211,7 +211,7 @@ fn table_f32(b: &mut Builder, table: &'static [u32], index: Value) -> Value {
 }
 
 /// The Jakob–Hanika coefficients and scale of `rgb` as compiled code:
-/// [`jakob_hanika::upsample_by_table`] spelled out in IR (the range scale,
+/// [`jakob_hanika::upsample`] spelled out in IR (the range scale,
 /// the exact grey, the block of the largest channel, a binary search of the
 /// `z` grid and trilinear interpolation of the three coefficient tables).
 fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) {
