@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -24,6 +24,11 @@
 #               load) left out (scripts/peers/equal_time.py).
 #             Until tslc renders a scene (its materials are issue 10's), the
 #             Mitsuba figures are printed alone.
+# spectral    the Cornell box in Mitsuba 3's scalar_spectral at SPECTRAL_SPP
+#             (default 1024) against tslc's color models at the same spp
+#             (hero, spectral64, spectral16, smits16, rgb): each wall's and
+#             block's per-channel mean relative to Mitsuba's; whole-process
+#             times. Not part of `all` (minutes of rendering).
 #
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
 # Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
@@ -49,8 +54,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|all]" >&2; exit 2 ;;
 esac
 
 cargo build --release --quiet
@@ -204,4 +209,24 @@ if [[ $which == all || $which == envlight ]]; then
     # Mitsuba's lat-long convention differs: convert, and check the match.
     python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
     against_mitsuba envlight ground,clay,gold,copper,steel "envmap=$PWD/$OUT/sky_mitsuba.exr"
+fi
+
+if [[ $which == spectral ]]; then
+    spp=${SPECTRAL_SPP:-1024}
+    echo "== cornell, spectral (Mitsuba 3 scalar_spectral and tslc's color models, $spp spp)"
+    mi_ref="$OUT/cornell_mitsuba_spectral$spp.exr"
+    if [[ ! -f $mi_ref ]]; then
+        t=$(MITSUBA_VARIANT=scalar_spectral timed mitsuba_render "$SCENES/cornell/scene.xml" "$mi_ref" "$spp" 1)
+        echo "time: mitsuba scalar_spectral ${t}s"
+    fi
+    "$TSLC" render examples/cornell.tsl -o "$OUT/cornell_ids.exr" --spp 1 --aov --quiet
+    images=()
+    for model in hero spectral64 spectral16 smits16 rgb; do
+        image="$OUT/cornell_tsl_$model$spp.exr"
+        t=$(timed "$TSLC" render examples/cornell.tsl -o "$image" --spp "$spp" --seed 1 --color "$model" --quiet)
+        echo "time: tslc --color $model ${t}s"
+        images+=("$image")
+    done
+    python3 scripts/compare_images.py "$mi_ref" "${images[@]}" --objects "$OUT/cornell_ids.exr" \
+        --labels floor,ceiling,back,right,left,small_block,large_block,light --per-channel
 fi

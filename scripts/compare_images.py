@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compare linear images (EXR) for scripts/compare-peers.sh.
 
-    compare_images.py REFERENCE IMAGE [IMAGE...] [--objects AOV.exr --labels a,b,...]
+    compare_images.py REFERENCE IMAGE [IMAGE...] [--objects AOV.exr --labels a,b,... [--per-channel]]
 
 Prints, for each IMAGE against REFERENCE: the RMSE of linear radiance per
 channel and overall, the relative MSE (mean of (I - R)^2 / (R^2 + 0.01),
@@ -71,6 +71,11 @@ def main(argv):
     p.add_argument("images", nargs="+")
     p.add_argument("--objects")
     p.add_argument("--labels", default="")
+    p.add_argument(
+        "--per-channel",
+        action="store_true",
+        help="per object, each channel's mean against the reference's (spectral comparisons)",
+    )
     a = p.parse_args(argv[1:])
     ref = load(a.reference)
     images = []
@@ -107,6 +112,12 @@ def main(argv):
                 rmse, _, m_img, m_ref, rel = stats(img, ref, mask)
                 rmses.append(rmse)
                 print(f"    {name:<{width}}  rmse {rmse:.5f}  mean {m_img:.5f} ({100 * rel:+.2f}%)")
+                if a.per_channel:
+                    means, refs = img[mask].mean(axis=0), ref[mask].mean(axis=0)
+                    cells = "  ".join(
+                        f"{c} {m:.5f} ({100 * (m - r) / r:+.2f}%)" for c, m, r in zip("rgb", means, refs)
+                    )
+                    print(f"    {'':<{width}}  {cells}")
             if len(rmses) >= 2 and rmses[0] > 0:
                 print(f"    {'rmse ratio last / first':<{width}}  {rmses[-1] / rmses[0]:.3f}")
     return 0

@@ -676,7 +676,7 @@ impl Function {
             Backend::Jit => {
                 // SAFETY: the function was compiled from this IR function,
                 // which reads at most `params.len()` argument words and the
-                // 32-word globals record and writes `results.len()` words;
+                // 48-word globals record and writes `results.len()` words;
                 // the lengths were checked above, and the code is alive as
                 // long as `self.part` is.
                 unsafe { (self.native)((g as *const ShadingGlobals).cast(), args.as_ptr(), out.as_mut_ptr()) }

@@ -1,11 +1,15 @@
 //! The shading globals: the surface-point record every material method and
 //! generator reads, shared with generated code.
 //!
-//! Invariant: the layout is 34 consecutive 4-byte words in the order of
-//! `check::GLOBALS`; `word_of` gives each global's first word. Generated
-//! code reads words by offset, so the layout test below must never fail.
+//! Invariant: the layout is 50 consecutive 4-byte words: the 34 of the
+//! globals shaders name, in the order of `check::GLOBALS` (`word_of` gives
+//! each one's first word), then 16 that only the compiler reads: the
+//! wavelengths of a hero-sampled color's lanes and their `to_rgb` weights
+//! ([`WAVELENGTH_WORD`], [`RGB_WEIGHT_WORD`]). Generated code reads words by
+//! offset, so the layout test below must never fail.
 
 use crate::check::{GLOBALS, Ty};
+use crate::color::{HERO_DEFAULT_WAVELENGTHS, HERO_LANES, LAMBDA_MAX, LAMBDA_MIN};
 
 /// The surface point being shaded, as the renderer (or a host) fills it.
 ///
@@ -14,7 +18,7 @@ use crate::check::{GLOBALS, Ty};
 /// assert_eq!(g.face, 0);
 /// ```
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShadingGlobals {
     /// `P`: hit point, world space.
     pub p: [f32; 3],
@@ -43,10 +47,59 @@ pub struct ShadingGlobals {
     pub frame: i32,
     /// `time`: the frame's time in seconds (the same at every point).
     pub time: f32,
+    /// [`ColorModel::Hero`](crate::ColorModel::Hero): the wavelength (nm)
+    /// of each lane of a color, drawn per camera sample by the renderer
+    /// (`tsl::render::HeroSample`). Other models ignore it. Default:
+    /// [`HERO_DEFAULT_WAVELENGTHS`].
+    pub wavelengths: [f32; HERO_LANES],
+    /// `ColorModel::Hero`: what `to_rgb` (and so `to_xyz` and `brightness`)
+    /// weighs each lane by, rows R, G, B
+    /// ([`color::hero_rgb_weights`](crate::color::hero_rgb_weights) of the
+    /// wavelengths). Default: those of the default wavelengths drawn
+    /// uniformly.
+    pub rgb_weights: [[f32; HERO_LANES]; 3],
+}
+
+impl Default for ShadingGlobals {
+    fn default() -> Self {
+        static WEIGHTS: std::sync::OnceLock<[[f32; HERO_LANES]; 3]> = std::sync::OnceLock::new();
+        let rgb_weights = *WEIGHTS.get_or_init(|| {
+            let uniform = [1.0 / (LAMBDA_MAX - LAMBDA_MIN); HERO_LANES];
+            crate::color::hero_rgb_weights(&HERO_DEFAULT_WAVELENGTHS, &uniform)
+        });
+        ShadingGlobals {
+            p: [0.0; 3],
+            pl: [0.0; 3],
+            n: [0.0; 3],
+            ng: [0.0; 3],
+            u: 0.0,
+            v: 0.0,
+            dpdu: [0.0; 3],
+            dpdv: [0.0; 3],
+            face: 0,
+            t: 0.0,
+            dpdx: [0.0; 3],
+            dpdy: [0.0; 3],
+            dudx: 0.0,
+            dudy: 0.0,
+            dvdx: 0.0,
+            dvdy: 0.0,
+            frame: 0,
+            time: 0.0,
+            wavelengths: HERO_DEFAULT_WAVELENGTHS,
+            rgb_weights,
+        }
+    }
 }
 
 /// Number of 4-byte words in [`ShadingGlobals`].
-pub const GLOBAL_WORDS: u32 = 34;
+pub const GLOBAL_WORDS: u32 = NAMED_WORDS + 4 * HERO_LANES as u32;
+/// The words of the globals shaders name (`check::GLOBALS`).
+pub const NAMED_WORDS: u32 = 34;
+/// The first word of [`ShadingGlobals::wavelengths`].
+pub const WAVELENGTH_WORD: u32 = NAMED_WORDS;
+/// The first word of [`ShadingGlobals::rgb_weights`] (row R; then G, B).
+pub const RGB_WEIGHT_WORD: u32 = WAVELENGTH_WORD + HERO_LANES as u32;
 
 /// Lanes of a global's type.
 fn lanes(ty: &Ty) -> u32 {
@@ -82,11 +135,22 @@ pub fn word_global(word: u32) -> Option<(&'static str, Ty, u32)> {
 /// The type of the global that word `word` belongs to (`face` and `frame`
 /// are `int`; every other word is a float lane), or `None` past the record.
 pub fn word_type(word: u32) -> Option<Ty> {
+    if (NAMED_WORDS..GLOBAL_WORDS).contains(&word) {
+        return Some(Ty::Float);
+    }
     word_global(word).map(|(_, ty, _)| ty)
 }
 
-/// How printed IR names word `word`: `u`, `N.y`; `None` past the record.
+/// How printed IR names word `word`: `u`, `N.y`, `wavelength[2]`,
+/// `rgb_weight.g[0]`; `None` past the record.
 pub fn word_name(word: u32) -> Option<String> {
+    if (WAVELENGTH_WORD..RGB_WEIGHT_WORD).contains(&word) {
+        return Some(format!("wavelength[{}]", word - WAVELENGTH_WORD));
+    }
+    if (RGB_WEIGHT_WORD..GLOBAL_WORDS).contains(&word) {
+        let k = (word - RGB_WEIGHT_WORD) as usize;
+        return Some(format!("rgb_weight.{}[{}]", ["r", "g", "b"][k / HERO_LANES], k % HERO_LANES));
+    }
     let (name, ty, lane) = word_global(word)?;
     Some(if lanes(&ty) == 1 { name.to_string() } else { format!("{name}.{}", ["x", "y", "z"][lane as usize]) })
 }
@@ -94,8 +158,8 @@ pub fn word_name(word: u32) -> Option<String> {
 impl ShadingGlobals {
     /// The record as words, for the interpreter.
     pub fn words(&self) -> [u32; GLOBAL_WORDS as usize] {
-        // SAFETY: `ShadingGlobals` is `repr(C)`, 136 bytes of 4-byte fields
-        // with no padding (asserted in the tests), so it is 32 valid words.
+        // SAFETY: `ShadingGlobals` is `repr(C)`, 200 bytes of 4-byte fields
+        // with no padding (asserted in the tests), so it is 50 valid words.
         unsafe { std::mem::transmute::<ShadingGlobals, [u32; GLOBAL_WORDS as usize]>(*self) }
     }
 }
@@ -130,6 +194,9 @@ mod tests {
             ("time", offset_of!(ShadingGlobals, time)),
         ];
         assert_eq!(fields.len(), GLOBALS.len());
+        assert_eq!(offset_of!(ShadingGlobals, wavelengths), 4 * WAVELENGTH_WORD as usize);
+        assert_eq!(offset_of!(ShadingGlobals, rgb_weights), 4 * RGB_WEIGHT_WORD as usize);
+        assert_eq!(word_global(NAMED_WORDS), None);
         for (name, offset) in fields {
             assert_eq!(word_of(name).unwrap().0 as usize * 4, offset, "{name}");
         }
@@ -137,12 +204,14 @@ mod tests {
         assert_eq!(g.words()[20], 7);
         assert_eq!(f32::from_bits(g.words()[12]), 0.5);
         assert_eq!(word_type(20), Some(Ty::Int));
-        assert_eq!((word_type(2), word_type(GLOBAL_WORDS - 1)), (Some(Ty::Point), Some(Ty::Float)));
-        assert_eq!(word_type(GLOBAL_WORDS - 2), Some(Ty::Int));
+        assert_eq!((word_type(2), word_type(NAMED_WORDS - 1)), (Some(Ty::Point), Some(Ty::Float)));
+        assert_eq!(word_type(NAMED_WORDS - 2), Some(Ty::Int));
+        assert_eq!(word_type(GLOBAL_WORDS - 1), Some(Ty::Float));
         assert_eq!(word_type(GLOBAL_WORDS), None);
         assert_eq!(
-            [word_name(12), word_name(7), word_name(GLOBAL_WORDS)],
-            [Some("u".into()), Some("N.y".into()), None]
+            [word_name(12), word_name(7), word_name(34), word_name(41), word_name(GLOBAL_WORDS)],
+            [Some("u".into()), Some("N.y".into()), Some("wavelength[2]".into()), Some("rgb_weight.g[1]".into()), None]
         );
+        assert_eq!(f32::from_bits(ShadingGlobals::default().words()[33]), HERO_DEFAULT_WAVELENGTHS[1]);
     }
 }

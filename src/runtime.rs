@@ -315,7 +315,17 @@ pub fn table_name(table: &[u32]) -> Option<&'static str> {
         ("grad3.y", &GRAD3_WORDS[1]),
         ("grad3.z", &GRAD3_WORDS[2]),
     ];
-    named.iter().find(|(_, t)| std::ptr::eq(*t, table)).map(|(name, _)| *name)
+    if let Some((name, _)) = named.iter().find(|(_, t)| std::ptr::eq(*t, table)) {
+        return Some(name);
+    }
+    let jh = crate::color::jakob_hanika::table_words();
+    let spectral = [("rgb2spec.z", jh.z), ("rgb2spec.c0", jh.coefficients[0])];
+    let spectral =
+        spectral.into_iter().chain([("rgb2spec.c1", jh.coefficients[1]), ("rgb2spec.c2", jh.coefficients[2])]);
+    if let Some((name, _)) = spectral.into_iter().find(|(_, t)| std::ptr::eq(*t, table)) {
+        return Some(name);
+    }
+    crate::ir::lower::curve_table_name(table)
 }
 
 /// The output scales of 1D, 2D and 3D noise, as f32.

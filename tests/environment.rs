@@ -191,7 +191,7 @@ fn floor_radiance(env: &Environment, kd: f64) -> f64 {
         for i in 0..nu {
             let phi = std::f64::consts::TAU * ((i as f64 + 0.5) / nu as f64 - 0.5);
             let d = Vec3::new((theta.sin() * phi.sin()) as f32, theta.cos() as f32, (-theta.sin() * phi.cos()) as f32);
-            env.radiance(d, &mut out);
+            env.radiance(d, None, &mut out);
             sum += f64::from(out[1]) * theta.cos() * theta.sin();
         }
     }

@@ -667,7 +667,7 @@ fn environment_images_are_looked_up_bilinearly_and_wrap_across() {
         let (phi, theta) = ((u - 0.5) * std::f32::consts::TAU, v * std::f32::consts::PI);
         let d = tsl::render::Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
         let mut out = [0.0f32];
-        env.radiance(d, &mut out);
+        env.radiance(d, None, &mut out);
         out[0]
     };
     // Texel centres.

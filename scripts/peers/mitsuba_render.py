@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""Render a Mitsuba 3 scene (scalar_rgb) to a linear EXR, for compare-peers.sh.
+"""Render a Mitsuba 3 scene to a linear EXR, for compare-peers.sh.
 
     mitsuba_render.py SCENE.xml OUT.exr SPP SEED [NAME=VALUE...]
 
 NAME=VALUE pairs set the scene's other <default> parameters (envmap=...).
+MITSUBA_VARIANT chooses the variant (default scalar_rgb; scalar_spectral for
+the spectral comparison).
 Renders on MITSUBA_THREADS threads (default 2, as tslc's comparison runs).
 Prints one line to stdout: `render_seconds S`, the time of mi.render
 alone; the rest of the process (Python start, import, scene load, EXR
@@ -21,7 +23,7 @@ def main(argv):
     import drjit as dr
     import mitsuba as mi
 
-    mi.set_variant("scalar_rgb")
+    mi.set_variant(os.environ.get("MITSUBA_VARIANT", "scalar_rgb"))
     dr.set_thread_count(int(os.environ.get("MITSUBA_THREADS", "2")))
     params = dict(kv.split("=", 1) for kv in argv[5:])
     scene = mi.load_file(argv[1], spp=argv[3], seed=argv[4], **params)

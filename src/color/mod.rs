@@ -12,71 +12,57 @@
 //!
 //! # The maths
 //!
-//! **Lanes.** A spectral model with `n` lanes splits
-//! [`LAMBDA_MIN`]..[`LAMBDA_MAX`] (380–780 nm) into `n` equal bins; lane `i`
-//! holds the *average* of the spectrum over bin `i`
-//! (`[380 + i·Δ, 380 + (i+1)·Δ]`, `Δ = 400/n` nm), and
-//! [`ColorModel::wavelengths`] gives the bin centres. Spectra are spectral
-//! radiance (or reflectance) in arbitrary units: a "flat 1" spectrum is the
-//! equal-energy spectrum (CIE illuminant E) and it is the white of every
+//! **Lanes.** A binned model (`Spectral`, `Smits`) with `n` lanes splits
+//! [`LAMBDA_MIN`]..[`LAMBDA_MAX`] (380–780 nm) into `n` equal bins;
+//! [`ColorModel::wavelengths`] gives the bin centres. A measured curve
+//! (`spectrum(...)`, [`resample_weights`]) and a Smits spectrum fill lane `i`
+//! with their *average* over bin `i`; a Jakob–Hanika spectrum with its value
+//! at the bin centre (half the quadrature error of the average, measured).
+//! A `Hero` color's four lanes are its values at the wavelengths in the
+//! shading globals, drawn per camera sample by the renderer.
+//!
+//! **Whites.** Spectra are relative to a white whose lanes are all 1: D65
+//! for `Spectral`, `Hero` and the RGB model's view of curves (sRGB's white;
+//! Mitsuba's and pbrt's RGB illuminants are D65-based), the equal-energy E
+//! for `Smits` (Smits designed his basis for it). The renderer measures
+//! light as lanes times the white, so an RGB light is its reflectance curve
+//! times D65, exactly as Mitsuba's `srgb_d65` emitters.
+//!
+//! **Colour matching.** The CIE 1931 2° standard observer and D65, tabulated
+//! every 5 nm from 380 to 780 nm in `cie1931.rs` and `d65.rs` (generated from
+//! colour-science by `scripts/gen_color_data.py`), are interpolated linearly
+//! between the table rows. [`rgb_matching`] is
+//! `scale · XYZ_TO_SRGB · cmf(λ) · white(λ) / ∫ ȳ · white`: a spectrum's
+//! linear sRGB is its integral against it, and the binned models' `to_rgb`
+//! weights are its integrals over each bin (exact: Gauss–Legendre on every
+//! 5 nm piece, where the integrand is a quadratic). `scale` is a
+//! per-channel factor (a von Kries scale in the sRGB primaries) that makes
+//! the flat spectrum exactly `(1, 1, 1)`, so greys survive RGB → spectrum →
+//! RGB: for D65 it is within 4e-4 of 1 (the table's D65 against sRGB's
+//! rounded white), for E it is Smits' convention (colour-science's
+//! `RGB_COLOURSPACE_SMITS1999`). Only 380–780 nm is integrated, in every
 //! model.
 //!
-//! **Colour matching.** The CIE 1931 2° standard observer, tabulated every
-//! 5 nm from 380 to 780 nm in `cie1931.rs` (generated from colour-science by
-//! `scripts/gen_color_data.py`), is interpolated linearly between the table
-//! rows. Its integral over each bin gives the raw tristimulus weights:
-//! `raw_X[i] = ∫_bin_i x̄(λ) dλ / ∫_380^780 ȳ(λ) dλ` (likewise Y, Z), computed
-//! exactly (the integrand is piecewise linear). So `raw = raw_weights · lanes`
-//! is the CIE XYZ of the spectrum under illuminant E, normalised so that the
-//! flat spectrum has `Y = 1`. Only 380–780 nm is integrated, in every model.
-//!
-//! **To linear sRGB, and the white point.** `raw` XYZ is multiplied by the
-//! inverse of the IEC 61966-2-1 sRGB → XYZ matrix ([`SRGB_TO_XYZ`], whose Y
-//! row is exactly 0.2126, 0.7152, 0.0722) and then each channel is divided by
-//! the same channel of the flat spectrum (a *per-channel von Kries scale in
-//! the sRGB primaries*). So the flat spectrum is exactly `(1, 1, 1)` and an
-//! RGB grey survives RGB → spectrum → RGB. This is the convention Smits
-//! (1999) designed his basis spectra for (sRGB primaries with illuminant E as
-//! white; colour-science's `RGB_COLOURSPACE_SMITS1999`): with it the Smits
-//! round trip, integrated exactly, is within 8e-3 for saturated colours and
-//! 3.5e-3 for unsaturated ones, while a Bradford adaptation from E to D65
-//! would put it off by up to 0.12 (measured with colour-science). The flat
-//! spectrum's raw XYZ over 380–780 nm is `(0.99999, 1, 0.99990)` (not exactly
-//! E's `(1, 1, 1)`: the table is cut at 380 and 780 nm), and the scale is
-//! computed from it, so the flat spectrum is white to rounding.
-//!
-//! **Lighting assumption.** A reflectance curve is therefore shown as lit by
-//! the equal-energy spectrum, which is also what a white `rgb(1, 1, 1)` light
-//! becomes under Smits' upsampling (no illuminant spectrum is multiplied in),
-//! then white-balanced as above. colour-science's usual answer for a
-//! reflectance (lit by D65, `sd_to_XYZ(sd, cmfs, D65)` then `XYZ_to_sRGB`,
-//! no adaptation) differs from this by up to 0.04 on the ColorChecker, so the
-//! test oracle is computed by colour-science with this module's convention.
+//! **RGB to spectrum.** `Spectral` and `Hero`: Jakob and Hanika (2019), see
+//! [`jakob_hanika`]: constants and run-time values alike from the
+//! coefficient table. `Smits`: B. Smits, "An RGB-to-Spectrum Conversion for
+//! Reflectances", Journal of Graphics Tools 4(4), 1999: the spectrum is a
+//! non-negative sum of seven basis spectra (white, cyan, magenta, yellow,
+//! red, green, blue) whose multiples come from a few comparisons of the
+//! components ([`smits_coefficients`]); the basis table is the paper's, 10
+//! bins of 34 nm from 380 to 720 nm, the last bin held to 780 nm (the
+//! numbers of colour-science's `DATA_SMITS1999`; `smits1999.rs`). Smits'
+//! coefficients are linear in `(r, g, b)` for a given ordering of the
+//! components, so emission values above 1 scale linearly.
 //!
 //! **XYZ and brightness.** [`to_xyz_weights`] gives the XYZ *of the displayed
 //! linear sRGB colour* (`SRGB_TO_XYZ · to_rgb`), relative to D65 (the white
-//! of sRGB), so that `to_xyz` means the same in both models: `rgb(1, 1, 1)`
+//! of sRGB), so that `to_xyz` means the same in every model: `rgb(1, 1, 1)`
 //! and the flat spectrum both give the D65 white `(0.9505, 1, 1.089)`.
 //! `brightness` ([`luminance_weights`]) is the Y row of that: it equals
 //! `0.2126 R + 0.7152 G + 0.0722 B` of `to_rgb` in both models, and it is 1 for
 //! the flat spectrum. (It differs from the plain `∫ ȳ` of the spectrum by the
 //! white balance above.)
-//!
-//! **RGB to spectrum (Smits 1999).** Constant `rgb(r, g, b)` literals are
-//! upsampled with B. Smits, "An RGB-to-Spectrum Conversion for Reflectances",
-//! Journal of Graphics Tools 4(4), 1999: the spectrum is a non-negative sum of
-//! seven basis spectra (white, cyan, magenta, yellow, red, green, blue) whose
-//! multiples come from a few comparisons of the components
-//! ([`smits_coefficients`]). The basis table is the paper's: 10 bins of 34 nm
-//! from 380 to 720 nm, the last bin's value held to 780 nm (the numbers of
-//! colour-science's `DATA_SMITS1999`; `smits1999.rs`). The bins are averaged
-//! into the model's lanes ([`smits_basis`]). colour-science's own
-//! `RGB_to_sd_Smits1999` places the same ten numbers at ten points 380, 417.8,
-//! …, 720 nm and interpolates between them, which puts the round trip of
-//! saturated colours off by up to 0.09 (0.05 for unsaturated ones); the
-//! paper's bins are what the numbers were optimised for. Smits' coefficients
-//! are linear in `(r, g, b)` for a given ordering of the components, so
-//! emission values above 1 scale linearly.
 //!
 //! **Measured curves.** [`resample_weights`] takes the wavelengths of a curve
 //! given as `(λ_j, value_j)` samples, interpolated linearly and held constant
@@ -90,26 +76,25 @@
 //! # Accuracy (checked by the tests)
 //!
 //! Worst channel error against colour-science 0.4.7 (1 nm CIE table, same
-//! conventions; `tests/data/color_oracle.json`):
+//! conventions; `tests/data/color_oracle.json`), the ColorChecker's 24
+//! patches resampled with [`resample_weights`] from their measured 380–780 nm
+//! data (under D65 for `rgb` and `spectralN`, under E for `smitsN`):
+//! `rgb` 4.1e-4 (the 5 nm table's interpolation), `spectral16` 1.1e-2,
+//! `spectral64` 1e-3 (box-averaged lanes: second order for smooth curves).
 //!
-//! | model | ColorChecker N Ohta, linear sRGB | Smits round trip, saturated / unsaturated |
-//! |-------|------------------|------------------|
-//! | `rgb` | 3.7e-4 | 0 (identity) |
-//! | exact integrals (`resample_weights(Rgb, ..)`) | 3.7e-4 | 8.8e-3 / 3.6e-3 |
-//! | `spectral8` | 4.7e-2 | 4.8e-2 / 2.9e-2 |
-//! | `spectral16` | 1.08e-2 | 2.0e-2 / 1.1e-2 |
-//! | `spectral32` | 2.6e-3 | 1.5e-2 / 6.1e-3 |
-//! | `spectral64` | 9.1e-4 | 1.1e-2 / 4.4e-3 |
-//!
-//! The ColorChecker's 24 patches are resampled with [`resample_weights`]
-//! from their measured 380–780 nm data. The RGB model's error is the 5 nm
-//! table's interpolation; the spectral models add the error of box-averaged
-//! lanes (second order for smooth curves, first order for Smits' stepped
-//! spectra). Greys survive RGB → spectrum → RGB within 6e-4 relative in every
-//! model (the white basis spectrum dips to 0.9992), and the flat spectrum is
-//! `(1, 1, 1)` with brightness 1 to `f32` rounding.
+//! RGB round trips (RGB → spectrum → RGB), in the limit of infinitely many
+//! lanes: Jakob–Hanika's table median 1.7e-4, 99% 6e-4, worst 3.7e-3 over
+//! random colors, 4.2e-4 on the ColorChecker (exact fits,
+//! [`jakob_hanika::upsample_exact`], within 1e-6); in
+//! `spectral16`/`32`/`64` lanes add up to 1.8e-2, 2.8e-3, 6.9e-4 on saturated
+//! colors. Smits (1999): 8.8e-3 saturated, 3.6e-3 unsaturated in the limit,
+//! 2.0e-2 / 1.1e-2 in `smits16`. Greys survive within 1e-5 (Jakob–Hanika)
+//! and 6e-4 relative (Smits, whose white dips to 0.9992), and the flat
+//! spectrum is `(1, 1, 1)` with brightness 1 to `f32` rounding.
 
 mod cie1931;
+mod d65;
+pub mod jakob_hanika;
 mod smits1999;
 #[cfg(test)]
 mod tests;
@@ -123,6 +108,11 @@ pub const MAX_SAMPLES: usize = 64;
 pub const LAMBDA_MIN: f32 = 380.0;
 /// Upper end of the spectral range, nm.
 pub const LAMBDA_MAX: f32 = 780.0;
+/// The wavelengths a [`ColorModel::Hero`] color carries.
+pub const HERO_LANES: usize = 4;
+/// The wavelengths a hero color is evaluated at outside a render (a host's
+/// constant, `Program::rgb`): the centres of four equal bins.
+pub const HERO_DEFAULT_WAVELENGTHS: [f32; HERO_LANES] = [430.0, 530.0, 630.0, 730.0];
 
 const LO: f64 = LAMBDA_MIN as f64;
 const HI: f64 = LAMBDA_MAX as f64;
@@ -143,11 +133,30 @@ pub enum ColorModel {
     /// Three lanes of linear sRGB.
     Rgb,
     /// `samples` lanes, each the average of a spectrum over one of `samples`
-    /// equal bins of 380–780 nm. Valid models have `samples` in
+    /// equal bins of 380–780 nm; RGB upsampled by Jakob and Hanika (2019),
+    /// spectra relative to D65. Valid models have `samples` in
     /// `1..=MAX_SAMPLES` (see [`ColorModel::spectral`]); the functions of this
     /// module do not panic on others (0 lanes gives empty vectors; more than
     /// `MAX_SAMPLES` works, at a cost in proportion).
     Spectral { samples: usize },
+    /// As `Spectral`, but RGB upsampled by Smits (1999) and spectra relative
+    /// to the equal-energy white E (TSL's spectral model before Jakob–Hanika).
+    Smits { samples: usize },
+    /// [`HERO_LANES`] wavelengths drawn per camera sample (hero wavelength
+    /// sampling): lane `i` is the spectrum's value at the wavelength in
+    /// `ShadingGlobals::wavelengths[i]`. RGB upsampled by Jakob–Hanika,
+    /// spectra relative to D65.
+    Hero,
+}
+
+/// The illuminant a model's spectra are relative to: the white whose
+/// lanes are all 1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum White {
+    /// The equal-energy spectrum (Smits' convention).
+    E,
+    /// CIE D65 (sRGB's white; Mitsuba's and pbrt's RGB illuminants).
+    D65,
 }
 
 impl ColorModel {
@@ -156,64 +165,102 @@ impl ColorModel {
         (1..=MAX_SAMPLES).contains(&samples).then_some(ColorModel::Spectral { samples })
     }
 
-    /// True for `Rgb` and for spectral models with `1..=MAX_SAMPLES` lanes.
+    /// True for `Rgb`, `Hero` and for binned models with
+    /// `1..=MAX_SAMPLES` lanes.
     pub fn is_valid(self) -> bool {
         match self {
-            ColorModel::Rgb => true,
-            ColorModel::Spectral { samples } => (1..=MAX_SAMPLES).contains(&samples),
+            ColorModel::Rgb | ColorModel::Hero => true,
+            ColorModel::Spectral { samples } | ColorModel::Smits { samples } => (1..=MAX_SAMPLES).contains(&samples),
         }
     }
 
-    /// Number of `f32` lanes of a color: 3 for `Rgb`, `samples` for `Spectral`.
+    /// Number of `f32` lanes of a color: 3 for `Rgb`, `samples` for the
+    /// binned models, [`HERO_LANES`] for `Hero`.
     pub fn lanes(self) -> usize {
         match self {
             ColorModel::Rgb => 3,
-            ColorModel::Spectral { samples } => samples,
+            ColorModel::Spectral { samples } | ColorModel::Smits { samples } => samples,
+            ColorModel::Hero => HERO_LANES,
         }
     }
 
-    /// Bin centres in nm (empty for `Rgb`): `380 + (i + 0.5) · 400 / samples`.
+    /// The lanes of a binned model (`Spectral`, `Smits`), else `None`.
+    pub fn bins(self) -> Option<usize> {
+        match self {
+            ColorModel::Spectral { samples } | ColorModel::Smits { samples } => Some(samples),
+            ColorModel::Rgb | ColorModel::Hero => None,
+        }
+    }
+
+    /// Whether lanes are spectral samples (every model but `Rgb`).
+    pub fn is_spectral(self) -> bool {
+        self != ColorModel::Rgb
+    }
+
+    /// The white the model's spectra are relative to.
+    pub fn white(self) -> White {
+        match self {
+            ColorModel::Smits { .. } => White::E,
+            _ => White::D65,
+        }
+    }
+
+    /// Bin centres in nm for the binned models,
+    /// `380 + (i + 0.5) · 400 / samples`; [`HERO_DEFAULT_WAVELENGTHS`] for
+    /// `Hero`; empty for `Rgb`.
     pub fn wavelengths(self) -> Vec<f32> {
         match self {
             ColorModel::Rgb => Vec::new(),
-            ColorModel::Spectral { samples } => {
+            ColorModel::Hero => HERO_DEFAULT_WAVELENGTHS.to_vec(),
+            ColorModel::Spectral { samples } | ColorModel::Smits { samples } => {
                 (0..samples).map(|i| to_f32(0.5 * (bin(samples, i).0 + bin(samples, i).1))).collect()
             }
         }
     }
 
-    /// `"rgb"` or `"spectral<N>"`, e.g. `"spectral16"`; [`ColorModel::parse`]
-    /// reads it back.
+    /// `"rgb"`, `"spectral<N>"` (e.g. `"spectral16"`), `"smits<N>"` or
+    /// `"hero"`; [`ColorModel::parse`] reads it back.
     pub fn name(self) -> String {
         match self {
             ColorModel::Rgb => "rgb".to_string(),
             ColorModel::Spectral { samples } => format!("spectral{samples}"),
+            ColorModel::Smits { samples } => format!("smits{samples}"),
+            ColorModel::Hero => "hero".to_string(),
         }
     }
 
-    /// Reads a [`ColorModel::name`]: `"rgb"` or `"spectral<N>"` with
-    /// `1 <= N <= MAX_SAMPLES`; `None` otherwise.
+    /// Reads a [`ColorModel::name`]: `"rgb"`, `"hero"`, or `"spectral<N>"`
+    /// or `"smits<N>"` with `1 <= N <= MAX_SAMPLES`; `None` otherwise.
     pub fn parse(name: &str) -> Option<ColorModel> {
-        if name == "rgb" {
-            return Some(ColorModel::Rgb);
+        match name {
+            "rgb" => return Some(ColorModel::Rgb),
+            "hero" => return Some(ColorModel::Hero),
+            _ => {}
         }
-        let digits = name.strip_prefix("spectral")?;
+        let (digits, smits) = match name.strip_prefix("spectral") {
+            Some(d) => (d, false),
+            None => (name.strip_prefix("smits")?, true),
+        };
         if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
             return None;
         }
-        ColorModel::spectral(digits.parse().ok()?)
+        let samples: usize = digits.parse().ok()?;
+        let model = if smits { ColorModel::Smits { samples } } else { ColorModel::Spectral { samples } };
+        model.is_valid().then_some(model)
     }
 }
 
 /// Weights of `brightness(c) = sum_i weights[i] * lane_i`: the CIE Y of
 /// [`to_xyz_weights`] (D65-relative Y of the displayed linear sRGB color).
 /// `Rgb`: exactly `[0.2126, 0.7152, 0.0722]` (Rec. 709 / IEC 61966-2-1).
-/// `Spectral`: the Y row of the spectral → XYZ weights described in the module
+/// Spectral: the Y row of the spectral → XYZ weights described in the module
 /// documentation; they sum to 1, so a flat spectrum of 1 has brightness 1.
+/// `Hero`: the weights at [`HERO_DEFAULT_WAVELENGTHS`] (a render computes
+/// its own per camera sample, [`hero_rgb_weights`]).
 pub fn luminance_weights(model: ColorModel) -> Vec<f32> {
     match model {
         ColorModel::Rgb => vec![0.2126, 0.7152, 0.0722],
-        ColorModel::Spectral { .. } => {
+        _ => {
             let [_, y, _] = to_xyz_weights(model);
             y
         }
@@ -223,33 +270,89 @@ pub fn luminance_weights(model: ColorModel) -> Vec<f32> {
 /// Weights of `to_xyz(c)`: rows X, Y, Z, each with one weight per lane, so
 /// `X = sum_i rows[0][i] * lane_i`. The result is the CIE XYZ (D65-relative)
 /// of the color's linear sRGB, `SRGB_TO_XYZ · to_rgb(c)`: for `Rgb` the rows
-/// of [`SRGB_TO_XYZ`]; for `Spectral` the CIE 1931 functions integrated over
-/// each bin, then white-balanced as described in the module documentation.
+/// of [`SRGB_TO_XYZ`]; otherwise those of [`to_rgb_weights`] mapped through it.
 pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
     match model {
         ColorModel::Rgb => SRGB_TO_XYZ.map(|row| row.iter().map(|&w| to_f32(w)).collect()),
-        ColorModel::Spectral { samples } => {
-            let rgb = spectral_rgb_weights(samples);
+        _ => {
+            let rgb = rgb_weights_f64(model);
             mat_times_rows(&SRGB_TO_XYZ, &rgb).map(|row| to_f32s(&row))
         }
     }
 }
 
 /// Weights of `to_rgb(c)`: linear sRGB rows R, G, B, one weight per lane.
-/// `Rgb`: the identity. `Spectral`: CIE 1931 integrated over each bin
-/// (illuminant E, Y of the flat spectrum = 1), [`XYZ_TO_SRGB`], then a
+/// `Rgb`: the identity. Binned models: CIE 1931 times the model's white
+/// integrated over each bin (Y of the white = 1), [`XYZ_TO_SRGB`], then a
 /// per-channel scale that makes the flat spectrum exactly `(1, 1, 1)`.
+/// `Hero`: [`hero_rgb_weights`] at [`HERO_DEFAULT_WAVELENGTHS`] drawn
+/// uniformly.
 pub fn to_rgb_weights(model: ColorModel) -> [Vec<f32>; 3] {
     match model {
         ColorModel::Rgb => [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
-        ColorModel::Spectral { samples } => spectral_rgb_weights(samples).map(|row| to_f32s(&row)),
+        _ => rgb_weights_f64(model).map(|row| to_f32s(&row)),
     }
+}
+
+fn rgb_weights_f64(model: ColorModel) -> [Vec<f64>; 3] {
+    match model {
+        ColorModel::Rgb => [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+        ColorModel::Hero => {
+            let pdf = [1.0 / (HI - LO) as f32; HERO_LANES];
+            hero_rgb_weights(&HERO_DEFAULT_WAVELENGTHS, &pdf).map(|row| row.iter().map(|&w| f64::from(w)).collect())
+        }
+        ColorModel::Spectral { samples } | ColorModel::Smits { samples } => {
+            spectral_rgb_weights(samples, model.white())
+        }
+    }
+}
+
+/// The reflectance → linear sRGB matching functions at `nm`, for spectra
+/// relative to `white`: `∫ S(λ) rgb_matching(λ) dλ` over 380–780 nm is the
+/// `to_rgb` of `S` in the limit of infinitely many lanes.
+pub fn rgb_matching(white: White, nm: f64) -> [f64; 3] {
+    let norm = white_norm(white);
+    let w = white_spd(white, nm);
+    let xyz = cmf(nm).map(|v| v * w / norm.y);
+    let rgb = mat_apply(&XYZ_TO_SRGB, xyz);
+    [0, 1, 2].map(|c| rgb[c] * norm.scale[c])
+}
+
+/// The `to_rgb` weights of one hero sample: `wavelengths` drawn with
+/// densities `pdf` (per nm). The film's unbiased estimate of a radiance's
+/// linear sRGB is `Σ_c rows[c] · lanes` with the rows *unnormalised*,
+/// `rgb_matching(λ_i) / (pdf_i · n)` ([`hero_film_weights`]); the weights
+/// shaders see (`to_rgb`, `to_xyz`, `brightness`) are these divided by their
+/// luminance sum, so that a flat spectrum has brightness exactly 1 on
+/// every sample.
+pub fn hero_rgb_weights(wavelengths: &[f32; HERO_LANES], pdf: &[f32; HERO_LANES]) -> [[f32; HERO_LANES]; 3] {
+    let film = hero_film_weights(wavelengths, pdf);
+    let y: f32 = (0..HERO_LANES).map(|i| (0..3).map(|c| SRGB_TO_XYZ[1][c] as f32 * film[c][i]).sum::<f32>()).sum();
+    let norm = if y > 0.0 && y.is_finite() { 1.0 / y } else { 0.0 };
+    film.map(|row| row.map(|w| w * norm))
+}
+
+/// The film's weights of one hero sample: `rgb_matching(λ_i) / (pdf_i · n)`
+/// per lane (0 where the pdf is 0).
+pub fn hero_film_weights(wavelengths: &[f32; HERO_LANES], pdf: &[f32; HERO_LANES]) -> [[f32; HERO_LANES]; 3] {
+    let mut rows = [[0.0f32; HERO_LANES]; 3];
+    for i in 0..HERO_LANES {
+        if pdf[i].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            continue;
+        }
+        let m = rgb_matching(White::D65, f64::from(wavelengths[i]));
+        for c in 0..3 {
+            rows[c][i] = (m[c] / (f64::from(pdf[i]) * HERO_LANES as f64)) as f32;
+        }
+    }
+    rows
 }
 
 /// The seven basis spectra of Smits (1999), each with one value per lane.
 ///
-/// For `Spectral`: the paper's 10-bin table (380–720 nm, last bin held to
-/// 780 nm) averaged over each lane's bin. For `Rgb`: the ideal colours
+/// For the spectral models: the paper's 10-bin table (380–720 nm, last bin
+/// held to 780 nm) averaged over each lane's bin (`Hero`: its values at
+/// [`HERO_DEFAULT_WAVELENGTHS`]). For `Rgb`: the ideal colours
 /// (white = (1, 1, 1), cyan = (0, 1, 1), …, blue = (0, 0, 1)), with which
 /// Smits' algorithm is exactly the identity.
 #[derive(Debug, Clone, PartialEq)]
@@ -278,7 +381,13 @@ pub fn smits_basis(model: ColorModel) -> SmitsBasis {
             [[1., 1., 1.], [0., 1., 1.], [1., 0., 1.], [1., 1., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]]
                 .map(|c: [f32; 3]| c.to_vec())
         }
-        ColorModel::Spectral { samples } => {
+        ColorModel::Hero => SMITS_1999.map(|table| {
+            HERO_DEFAULT_WAVELENGTHS
+                .iter()
+                .map(|&l| to_f32(smits_average(&table, f64::from(l), f64::from(l))))
+                .collect()
+        }),
+        ColorModel::Spectral { samples } | ColorModel::Smits { samples } => {
             SMITS_1999.map(|table| (0..samples).map(|i| to_f32(smits_bin_average(&table, samples, i))).collect())
         }
     };
@@ -338,13 +447,23 @@ pub fn smits_coefficients(rgb: [f32; 3]) -> [f32; 7] {
     c
 }
 
-/// The lanes of the constant `rgb(r, g, b)` (linear sRGB): `Rgb` → the triple
-/// itself; `Spectral` → Smits (1999) upsampling,
-/// `sum_k smits_coefficients(rgb)[k] * smits_basis(model)_k`.
+/// The lanes of the constant `rgb(r, g, b)` (linear sRGB): `Rgb` → the
+/// triple itself; `Spectral` → the Jakob–Hanika spectrum
+/// ([`jakob_hanika::upsample`]) at each bin's centre; `Smits` → Smits
+/// (1999), `sum_k smits_coefficients(rgb)[k] * smits_basis(model)_k`;
+/// `Hero` → the Jakob–Hanika spectrum at [`HERO_DEFAULT_WAVELENGTHS`].
 pub fn rgb_to_lanes(model: ColorModel, rgb: [f32; 3]) -> Vec<f32> {
     match model {
         ColorModel::Rgb => rgb.to_vec(),
-        ColorModel::Spectral { samples } => {
+        ColorModel::Spectral { .. } => {
+            let s = jakob_hanika::upsample(rgb);
+            model.wavelengths().iter().map(|&l| s.eval(l)).collect()
+        }
+        ColorModel::Hero => {
+            let s = jakob_hanika::upsample(rgb);
+            HERO_DEFAULT_WAVELENGTHS.iter().map(|&l| s.eval(l)).collect()
+        }
+        ColorModel::Smits { samples } => {
             let coef = smits_coefficients(rgb);
             let mut lanes = vec![0.0f64; samples];
             for (table, &k) in SMITS_1999.iter().zip(&coef) {
@@ -379,10 +498,11 @@ pub fn linear_srgb_to_xyz(rgb: [f32; 3]) -> [f32; 3] {
 /// sample is a constant curve). For `Spectral`, lane `i` is the exact average
 /// of the curve over bin `i`, so every row sums to 1 and a flat curve stays
 /// flat. For `Rgb`, the three rows give the linear sRGB of the curve through
-/// the spectral → XYZ → sRGB path of [`to_rgb_weights`], with the integrals of
-/// curve × colour matching function taken exactly (Simpson's rule on the
-/// merged knots, exact for these piecewise quadratics): a flat curve of 1
-/// gives `(1, 1, 1)`.
+/// the spectral → XYZ → sRGB path of [`to_rgb_weights`] (the curve lit by
+/// D65), with the integrals of curve × [`rgb_matching`] taken exactly
+/// (Simpson's rule on the merged knots, exact for these piecewise cubics): a
+/// flat curve of 1 gives `(1, 1, 1)`. For `Hero`, the rows interpolate the
+/// curve at [`HERO_DEFAULT_WAVELENGTHS`].
 ///
 /// Wavelengths need not be sorted (samples are sorted by wavelength, ties
 /// kept in order, which makes a step); a sample with a non-finite wavelength
@@ -394,20 +514,18 @@ pub fn resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f3
     let xs: Vec<f64> = order.iter().map(|&j| f64::from(wavelengths_nm[j])).collect();
     // Rows over the sorted samples, then scattered back to the caller's order.
     let sorted_rows: Vec<Vec<f64>> = match model {
-        ColorModel::Spectral { samples } => (0..samples)
+        ColorModel::Spectral { samples } | ColorModel::Smits { samples } => (0..samples)
             .map(|i| {
                 let (a, b) = bin(samples, i);
                 hat_integrals(&xs, a, b, |_| 1.0, &[]).into_iter().map(|w| w / (b - a)).collect()
             })
             .collect(),
+        ColorModel::Hero => {
+            HERO_DEFAULT_WAVELENGTHS.iter().map(|&l| interpolation_weights(&xs, f64::from(l))).collect()
+        }
         ColorModel::Rgb => {
             let knots = cmf_knots();
-            let y_norm = cmf_integral(LO, HI)[1];
-            let raw: [Vec<f64>; 3] = [0, 1, 2]
-                .map(|c| hat_integrals(&xs, LO, HI, |l| cmf(l)[c], &knots).into_iter().map(|w| w / y_norm).collect());
-            let scale = white_scale();
-            let rgb = mat_times_rows(&XYZ_TO_SRGB, &raw);
-            (0..3).map(|c| rgb[c].iter().map(|w| w * scale[c]).collect()).collect()
+            (0..3).map(|c| hat_integrals(&xs, LO, HI, |l| rgb_matching(model.white(), l)[c], &knots)).collect()
         }
     };
     sorted_rows
@@ -456,44 +574,132 @@ fn cmf_knots() -> Vec<f64> {
     (0..CMF_1931.len()).map(|k| CMF_START_NM + CMF_STEP_NM * k as f64).collect()
 }
 
-/// The CIE 1931 functions at `l` nm, interpolated linearly between the table
-/// rows and held constant beyond them (only 380–780 nm is ever integrated).
-fn cmf(l: f64) -> [f64; 3] {
+/// Row `k` and the fraction toward row `k + 1` of the 5 nm tables at `l`
+/// nm, held constant beyond them (only 380–780 nm is ever integrated).
+fn table_position(l: f64) -> (usize, f64) {
     let last = CMF_1931.len() - 1;
     let t = ((l - CMF_START_NM) / CMF_STEP_NM).clamp(0.0, last as f64);
     let k = (t.floor() as usize).min(last - 1);
-    let f = t - k as f64;
+    (k, t - k as f64)
+}
+
+/// The CIE 1931 functions at `l` nm, interpolated linearly between the table
+/// rows.
+fn cmf(l: f64) -> [f64; 3] {
+    let (k, f) = table_position(l);
     let (a, b) = (CMF_1931[k], CMF_1931[k + 1]);
     [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * f)
 }
 
-/// `∫_a^b` of each colour matching function.
-fn cmf_integral(a: f64, b: f64) -> [f64; 3] {
-    let w = hat_integrals(&cmf_knots(), a, b, |_| 1.0, &[]);
-    [0, 1, 2].map(|c| w.iter().zip(&CMF_1931).map(|(w, row)| w * row[c]).sum())
+/// CIE D65 at `l` nm (100 at 560 nm), interpolated linearly between the
+/// table rows.
+pub(crate) fn d65(l: f64) -> f64 {
+    let (k, f) = table_position(l);
+    d65::D65[k] + (d65::D65[k + 1] - d65::D65[k]) * f
 }
 
-/// Per-channel scale that makes the flat spectrum `(1, 1, 1)`:
-/// `1 / (XYZ_TO_SRGB · flat raw XYZ)`.
-fn white_scale() -> [f64; 3] {
-    let xyz = cmf_integral(LO, HI);
-    let flat = xyz.map(|v| v / xyz[1]);
-    [0, 1, 2].map(|c| 1.0 / (0..3).map(|k| XYZ_TO_SRGB[c][k] * flat[k]).sum::<f64>())
+/// The spectral power of `white` at `l` nm (unnormalised).
+fn white_spd(white: White, l: f64) -> f64 {
+    match white {
+        White::E => 1.0,
+        White::D65 => d65(l),
+    }
 }
 
-/// `to_rgb` weights of a spectral model with `n` lanes, in f64.
-fn spectral_rgb_weights(n: usize) -> [Vec<f64>; 3] {
-    let y_norm = cmf_integral(LO, HI)[1];
+/// `∫_a^b` of each colour matching function times `white`: exact (the
+/// integrand is a quadratic between table rows; four-point Gauss–Legendre
+/// on each piece).
+fn cmf_integral(a: f64, b: f64, white: White) -> [f64; 3] {
+    let mut cuts: Vec<f64> = std::iter::once(a).chain(cmf_knots().into_iter().filter(|&x| x > a && x < b)).collect();
+    cuts.push(b);
+    let mut sum = [0.0; 3];
+    for p in cuts.windows(2) {
+        let (u, v) = (p[0], p[1]);
+        for (x, w) in jakob_hanika::GAUSS_LEGENDRE_4 {
+            let l = u + 0.5 * (v - u) * (x + 1.0);
+            let f = cmf(l).map(|c| c * white_spd(white, l) * w * 0.5 * (v - u));
+            for c in 0..3 {
+                sum[c] += f[c];
+            }
+        }
+    }
+    sum
+}
+
+/// The normalisation of a white: `∫ ȳ · white` over 380–780 nm, and the
+/// per-channel scale that makes the flat spectrum `(1, 1, 1)`,
+/// `1 / (XYZ_TO_SRGB · ∫ cmf · white / ∫ ȳ · white)`.
+struct WhiteNorm {
+    y: f64,
+    scale: [f64; 3],
+}
+
+fn white_norm(white: White) -> &'static WhiteNorm {
+    fn compute(white: White) -> WhiteNorm {
+        let xyz = cmf_integral(LO, HI, white);
+        let flat = xyz.map(|v| v / xyz[1]);
+        let rgb = mat_apply(&XYZ_TO_SRGB, flat);
+        WhiteNorm { y: xyz[1], scale: rgb.map(|v| 1.0 / v) }
+    }
+    static E: std::sync::OnceLock<WhiteNorm> = std::sync::OnceLock::new();
+    static D65: std::sync::OnceLock<WhiteNorm> = std::sync::OnceLock::new();
+    match white {
+        White::E => E.get_or_init(|| compute(White::E)),
+        White::D65 => D65.get_or_init(|| compute(White::D65)),
+    }
+}
+
+/// `to_rgb` weights of a binned model with `n` lanes relative to `white`,
+/// in f64.
+fn spectral_rgb_weights(n: usize, white: White) -> [Vec<f64>; 3] {
+    let norm = white_norm(white);
     let per_bin: Vec<[f64; 3]> = (0..n)
         .map(|i| {
             let (a, b) = bin(n, i);
-            cmf_integral(a, b).map(|v| v / y_norm)
+            mat_apply(&XYZ_TO_SRGB, cmf_integral(a, b, white).map(|v| v / norm.y))
         })
         .collect();
-    let raw: [Vec<f64>; 3] = [0, 1, 2].map(|c| per_bin.iter().map(|v| v[c]).collect());
-    let scale = white_scale();
-    let rgb = mat_times_rows(&XYZ_TO_SRGB, &raw);
-    [0, 1, 2].map(|c| rgb[c].iter().map(|w| w * scale[c]).collect())
+    [0, 1, 2].map(|c| per_bin.iter().map(|v| v[c] * norm.scale[c]).collect())
+}
+
+/// Quadrature nodes over 380–780 nm and, per node, its weight times the
+/// reflectance → sRGB matching functions relative to D65, so that
+/// `Σ_k weights[k] · S(nodes[k])` is `∫ S · rgb_matching` (exact to ~1e-9
+/// for smooth `S`: four-point Gauss–Legendre on every 5 nm piece).
+pub(crate) fn reflectance_rgb_nodes() -> (Vec<f64>, Vec<[f64; 3]>) {
+    let knots = cmf_knots();
+    let mut nodes = Vec::new();
+    let mut weights = Vec::new();
+    for p in knots.windows(2) {
+        let (u, v) = (p[0], p[1]);
+        for (x, w) in jakob_hanika::GAUSS_LEGENDRE_4 {
+            let l = u + 0.5 * (v - u) * (x + 1.0);
+            nodes.push(l);
+            weights.push(rgb_matching(White::D65, l).map(|m| m * w * 0.5 * (v - u)));
+        }
+    }
+    (nodes, weights)
+}
+
+/// The weights that interpolate the curve through knots `xs` (sorted;
+/// linear, constant beyond the ends) at `l`.
+fn interpolation_weights(xs: &[f64], l: f64) -> Vec<f64> {
+    let n = xs.len();
+    let mut w = vec![0.0; n];
+    if n == 0 {
+        return w;
+    }
+    let m = xs.partition_point(|&x| x <= l);
+    if m == 0 {
+        w[0] = 1.0;
+    } else if m == n {
+        w[n - 1] = 1.0;
+    } else {
+        let t = (l - xs[m - 1]) / (xs[m] - xs[m - 1]);
+        w[m - 1] = 1.0 - t;
+        w[m] = t;
+    }
+    w
 }
 
 /// `m · rows`, where `rows` are three vectors of equal length.
@@ -503,7 +709,11 @@ fn mat_times_rows(m: &[[f64; 3]; 3], rows: &[Vec<f64>; 3]) -> [Vec<f64>; 3] {
 }
 
 fn mat3_apply(m: &[[f64; 3]; 3], v: [f32; 3]) -> [f32; 3] {
-    m.map(|row| to_f32(row[0] * f64::from(v[0]) + row[1] * f64::from(v[1]) + row[2] * f64::from(v[2])))
+    mat_apply(m, v.map(f64::from)).map(to_f32)
+}
+
+fn mat_apply(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
 }
 
 /// The inverse of a 3×3 matrix (by cofactors), usable in constants.
@@ -524,6 +734,17 @@ const fn invert3(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
 /// on 10 bins of 34 nm from 380 nm, the last bin held to 780 nm.
 fn smits_bin_average(table: &[f64; SMITS_BINS], n: usize, i: usize) -> f64 {
     let (a, b) = bin(n, i);
+    smits_average(table, a, b)
+}
+
+/// Average of a Smits basis spectrum over `[a, b]` nm (its value at `a`
+/// when `a == b`).
+fn smits_average(table: &[f64; SMITS_BINS], a: f64, b: f64) -> f64 {
+    if b <= a {
+        let width = (SMITS_END_NM - SMITS_START_NM) / SMITS_BINS as f64;
+        let k = (((a - SMITS_START_NM) / width).floor().max(0.0) as usize).min(SMITS_BINS - 1);
+        return table[k];
+    }
     let width = (SMITS_END_NM - SMITS_START_NM) / SMITS_BINS as f64;
     let mut sum = 0.0;
     for (k, value) in table.iter().enumerate() {

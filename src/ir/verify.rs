@@ -672,7 +672,7 @@ mod tests {
     fn words_exist_and_have_their_types() {
         caught(function(&[F32], vec![def(0, Op::Param(1))]), "args[1] is not a parameter word");
         caught(function(&[I32], vec![def(0, Op::Param(0))]), "the value is i32, but the operation gives f32");
-        caught(function(&[F32], vec![def(0, Op::Global(34))]), "globals[34] is past the shading globals");
+        caught(function(&[F32], vec![def(0, Op::Global(50))]), "globals[50] is past the shading globals");
         // Words 20 and 32 are `face` and `frame`, the ints.
         caught(function(&[F32], vec![def(0, Op::Global(20))]), "the value is f32, but the operation gives i32");
         caught(function(&[F32], vec![def(0, Op::Global(32))]), "the value is f32, but the operation gives i32");

@@ -12,6 +12,7 @@
 
 use super::Vec3;
 use super::sampling::{self, Distribution2D};
+use crate::color::HERO_LANES;
 use glam::Mat3A;
 use std::f32::consts::{PI, TAU};
 
@@ -82,20 +83,37 @@ impl Environment {
     }
 
     /// The radiance arriving along `-dir` (seen looking along unit `dir`),
-    /// into the first lanes of `out`.
-    pub fn radiance(&self, dir: Vec3, out: &mut [f32]) {
+    /// into the first lanes of `out`. With hero `wavelengths`, a constant
+    /// holds a curve at 64 bin centres (interpolated at them) and an image
+    /// linear sRGB texels (the bilinear lookup upsampled by Jakob–Hanika).
+    pub fn radiance(&self, dir: Vec3, wavelengths: Option<&[f32; HERO_LANES]>, out: &mut [f32]) {
         let d = match &self.rotation {
             Some((_, to_env)) => *to_env * dir,
             None => dir,
         };
-        let lanes = match &self.source {
-            EnvironmentSource::Constant(c) => {
+        let lanes = match (&self.source, wavelengths) {
+            (EnvironmentSource::Constant(c), None) => {
                 out[..c.len()].copy_from_slice(c);
                 c.len()
             }
-            EnvironmentSource::Image(map) => {
+            (EnvironmentSource::Constant(c), Some(wl)) => {
+                for (o, l) in out.iter_mut().zip(wl) {
+                    *o = super::wavelengths::interpolate_bins(c, *l);
+                }
+                HERO_LANES.min(out.len())
+            }
+            (EnvironmentSource::Image(map), None) => {
                 lookup(map, d, out);
                 map.lanes
+            }
+            (EnvironmentSource::Image(map), Some(wl)) => {
+                let mut rgb = [0.0f32; 3];
+                lookup(map, d, &mut rgb);
+                let s = crate::color::jakob_hanika::upsample(rgb);
+                for (o, l) in out.iter_mut().zip(wl) {
+                    *o = s.eval(*l);
+                }
+                HERO_LANES.min(out.len())
             }
         };
         if self.scale != 1.0 {
@@ -414,7 +432,7 @@ mod tests {
                     // Directions by lat-long coordinates, poles and seam included.
                     let (theta, phi) = (PI * i as f32 / 399.0, TAU * j as f32 / 799.0);
                     let d = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
-                    env.radiance(d, &mut out);
+                    env.radiance(d, None, &mut out);
                     if out.iter().any(|x| *x > 0.0) {
                         lit += 1;
                         let pdf = env.pdf(d);
@@ -431,7 +449,7 @@ mod tests {
         for (name, env) in environments() {
             let mut out = [0.0f32; 3];
             let numeric = over_sphere(400, |d| {
-                env.radiance(d, &mut out);
+                env.radiance(d, None, &mut out);
                 f64::from(mean_lane(&out))
             });
             // Texel sums against the bilinear lookup: close, not equal.
@@ -451,8 +469,8 @@ mod tests {
         let turned = Environment::new(EnvironmentSource::Image(sky()), 2.0, Vec3::new(0.0, 90.0, 0.0));
         let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
         for d in [Vec3::new(0.3, 0.5, -0.8).normalize(), Vec3::new(-0.9, -0.1, 0.4).normalize(), Vec3::Y] {
-            plain.radiance(d, &mut a);
-            turned.radiance(Mat3A::from_rotation_y(90f32.to_radians()) * d, &mut b);
+            plain.radiance(d, None, &mut a);
+            turned.radiance(Mat3A::from_rotation_y(90f32.to_radians()) * d, None, &mut b);
             for c in 0..3 {
                 assert!((b[c] - 2.0 * a[c]).abs() < 1e-4 * (1.0 + a[c]), "{d}: {a:?} vs {b:?}");
             }

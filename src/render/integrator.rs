@@ -25,6 +25,7 @@ use super::sampling::{self, Sampler};
 use super::scene::{LightSampling, Object, Scene, Strategy};
 use super::shape::SurfaceHit;
 use super::spectrum::Spectrum;
+use super::wavelengths::HeroSample;
 use super::{Ray, Vec3};
 use crate::ShadingGlobals;
 use crate::ir::lower::HitMethod;
@@ -117,6 +118,8 @@ const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
     dvdy: 0.0,
     frame: 0,
     time: 0.0,
+    wavelengths: crate::color::HERO_DEFAULT_WAVELENGTHS,
+    rgb_weights: [[0.0; crate::color::HERO_LANES]; 3],
 };
 
 /// A light sample closer than this (cosine) to a delta direction of the
@@ -156,6 +159,9 @@ pub struct Tracer<'s, const N: usize> {
     hit_words: Vec<u32>,
     /// The globals where the current camera sample's rays entered media.
     entered: Vec<ShadingGlobals>,
+    /// With hero wavelength sampling, the current camera sample's
+    /// wavelengths (set by the caller before each camera ray).
+    pub hero: Option<HeroSample>,
     pub counters: Counters,
 }
 
@@ -188,6 +194,8 @@ struct Depth {
     depth: u32,
     weight: f32,
     distance: f32,
+    /// Hero sampling: the companion wavelengths ended above this ray.
+    dispersed: bool,
 }
 
 /// Whitted rays whose weight in the pixel falls below this are not traced
@@ -230,6 +238,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             lobe_out: vec![0; 2 * (3 + lanes)],
             hit_words: Vec::new(),
             entered: Vec::new(),
+            hero: None,
             counters: Counters::default(),
         }
     }
@@ -246,10 +255,48 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let len = ray.dir.length();
         let wo = -ray.dir / len;
         let mut g = globals_of(&s, hit.t * len, self.scene.settings.frame);
+        self.wavelengths_into(&mut g);
         if object.reads_footprint {
             footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
         }
         Shading { object, surface: s, g, wo, hit }
+    }
+
+    /// The current sample's wavelengths into globals (hero sampling only).
+    fn wavelengths_into(&self, g: &mut ShadingGlobals) {
+        if let Some(h) = &self.hero {
+            g.wavelengths = h.wavelengths;
+            g.rgb_weights = h.shader;
+        }
+    }
+
+    /// A color of the scene description (a light's, an emitter's scale) in
+    /// this sample's lanes: hero samples interpolate it at their wavelengths.
+    fn scene_color(&self, c: &crate::Color) -> Spectrum<N> {
+        match &self.hero {
+            Some(h) => h.tabulated(c.lanes()),
+            None => Spectrum::from_lanes(c.lanes()),
+        }
+    }
+
+    /// With hero sampling, at a surface whose relative index varies over
+    /// the lanes: one direction cannot serve every wavelength, so the
+    /// companions end here and the hero carries the path on alone, weighed
+    /// as many times (pbrt-v4's `TerminateSecondary`). Returns the index
+    /// the surface is then shaded with (the hero's in every lane); `done`
+    /// says whether this path's companions ended already.
+    fn disperse(&self, eta: Spectrum<N>, beta: &mut Spectrum<N>, done: &mut bool) -> Spectrum<N> {
+        let lanes = self.lanes;
+        if self.hero.is_none() || eta.0[..lanes].iter().all(|x| *x == eta.0[0]) {
+            return eta;
+        }
+        if !*done {
+            *done = true;
+            let hero = beta.0[0] * lanes as f32;
+            *beta = Spectrum::ZERO;
+            beta.0[0] = hero;
+        }
+        Spectrum::splat(eta.0[0], lanes)
     }
 
     // ------------------------------------------------------------ material calls
@@ -307,7 +354,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut out = Spectrum::ZERO;
         object.material.emission_into(g, v3(wo), &mut out.0);
         if let Some(scale) = &object.emission_scale {
-            out *= Spectrum::from_lanes(scale.lanes());
+            out *= self.scene_color(scale);
         }
         out
     }
@@ -517,9 +564,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn delta_light(&self, kind: &LightKind, scale: f32) -> Spectrum<N> {
         match kind {
             LightKind::Point { intensity, .. } | LightKind::Spot { intensity, .. } => {
-                Spectrum::from_lanes(intensity.lanes()) * scale
+                self.scene_color(intensity) * scale
             }
-            LightKind::Directional { irradiance, .. } => Spectrum::from_lanes(irradiance.lanes()) * scale,
+            LightKind::Directional { irradiance, .. } => self.scene_color(irradiance) * scale,
             LightKind::Area { .. } | LightKind::Environment(_) => Spectrum::ZERO,
         }
     }
@@ -528,6 +575,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
         let object = &self.scene.objects[light_object as usize];
         let mut g = globals_of(surface, distance, self.scene.settings.frame);
+        self.wavelengths_into(&mut g);
         if object.reads_footprint {
             footprint(&mut g, surface, wi, distance, self.spread);
         }
@@ -705,7 +753,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn background(&self, dir: Vec3) -> Spectrum<N> {
         let mut out = Spectrum::ZERO;
         if let Some(env) = self.scene.environment() {
-            env.radiance(dir.normalize(), &mut out.0);
+            env.radiance(dir.normalize(), self.hero.as_ref().map(|h| &h.wavelengths), &mut out.0);
         }
         out
     }
@@ -713,7 +761,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn aov(&self, sh: &Shading) -> Aov {
         let mut albedo = Spectrum::<N>::ZERO;
         sh.object.material.diffuse_into(&sh.g, &mut albedo.0);
-        let albedo = crate::color::lanes_to_rgb(self.scene.model, &albedo.0[..self.lanes]);
+        let albedo = match &self.hero {
+            Some(h) => h.shader.map(|row| (0..self.lanes).map(|i| row[i] * albedo.0[i]).sum()),
+            None => crate::color::lanes_to_rgb(self.scene.model, &albedo.0[..self.lanes]),
+        };
         Aov { albedo, normal: v3(self.sampling_normal(sh)), depth: sh.g.t }
     }
 
@@ -724,7 +775,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         self.counters.camera_rays += 1;
         self.entered.clear();
         let mut aov = Aov { depth: f32::INFINITY, ..Aov::default() };
-        let start = Depth { depth: 1, weight: 1.0, distance: 0.0 };
+        let start = Depth { depth: 1, weight: 1.0, distance: 0.0, dispersed: false };
         let l = self.whitted_ray(ray, start, &NO_MEDIA, sampler, self.want_aov.then_some(&mut aov));
         (l, aov)
     }
@@ -732,7 +783,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn whitted_ray(
         &mut self,
         ray: &Ray,
-        Depth { depth, weight, distance }: Depth,
+        Depth { depth, weight, distance, dispersed }: Depth,
         media: &Media,
         sampler: &mut Sampler,
         aov: Option<&mut Aov>,
@@ -746,6 +797,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
         }
         let here = distance + sh.g.t;
         let (eta, entering) = self.crossing(&sh, media);
+        // A dispersive surface: this hit and what follows see the hero only.
+        let mut scale = self.ones;
+        let mut dispersed = dispersed;
+        let first = !dispersed;
+        let eta = self.disperse(eta, &mut scale, &mut dispersed);
+        let ends_companions = first && dispersed;
         // The record serves this hit's calls, all made before the recursion.
         self.prepare(&sh, &eta);
         let lobes = self.lobes(&sh, &eta, entering);
@@ -760,7 +817,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             {
                 self.counters.secondary_rays += 1;
                 let r = spawn(sh.surface.p, sh.surface.ng, dr);
-                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here, dispersed };
                 let lr = self.whitted_ray(&r, next, media, sampler, None);
                 l += w * lr;
             }
@@ -771,10 +828,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 let inner = self.crossed(&sh, media, entering, straight);
                 self.counters.secondary_rays += 1;
                 let r = spawn(sh.surface.p, sh.surface.ng, dt);
-                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here };
+                let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here, dispersed };
                 let lt = self.whitted_ray(&r, next, &inner, sampler, None);
                 l += w * lt;
             }
+        }
+        if ends_companions {
+            l *= scale;
         }
         // The light came to this point through the medium the ray is in.
         self.absorb(media.innermost(), l, sh.g.t)
@@ -797,6 +857,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         // from it (None after a delta lobe or at the camera: no MIS).
         let mut prev: Option<(Vec3, f32)> = None;
         let mut depth = 1u32;
+        let mut dispersed = false;
         loop {
             let Some(hit) = self.nearest(&ray) else {
                 // The environment found by following the path, weighed
@@ -835,6 +896,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 break;
             }
             let (eta, entering) = self.crossing(&sh, &media);
+            let eta = self.disperse(eta, &mut beta, &mut dispersed);
             // The per-hit stage once; every call below reads its record.
             self.prepare(&sh, &eta);
             // Light samples near a perfect direction are not the smooth part.
@@ -906,7 +968,7 @@ pub(super) fn globals_of(s: &SurfaceHit, t: f32, frame: Frame) -> ShadingGlobals
         t,
         frame: frame.number,
         time: frame.time,
-        ..ShadingGlobals::default()
+        ..ZERO_GLOBALS
     }
 }
 

@@ -31,6 +31,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shape;
 pub mod spectrum;
+pub mod wavelengths;
 
 pub use glam::Mat4;
 /// The renderer's vectors are glam's 16-byte SIMD vectors: arithmetic is one
@@ -167,6 +168,9 @@ pub fn image_metadata(scene: &Scene, content_hash: &str, tile: Option<(u32, u32)
     m
 }
 
+/// Mixed into the seed of the stream that draws hero wavelengths.
+const HERO_STREAM: u64 = 0x6865_726f_5f77_6c31;
+
 /// Tiles are this many pixels square.
 const TILE: u32 = 16;
 
@@ -175,7 +179,8 @@ pub fn render(scene: &Scene, options: &RenderOptions) -> Result<(RenderedImage, 
     // Radiance lanes rounded up to a capacity the integrators are built for.
     match scene.model.lanes() {
         0..=3 => render_lanes::<3>(scene, options),
-        4..=8 => render_lanes::<8>(scene, options),
+        4 => render_lanes::<4>(scene, options),
+        5..=8 => render_lanes::<8>(scene, options),
         9..=16 => render_lanes::<16>(scene, options),
         17..=32 => render_lanes::<32>(scene, options),
         _ => render_lanes::<{ crate::color::MAX_SAMPLES }>(scene, options),
@@ -312,6 +317,7 @@ fn render_tile<const N: usize>(
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let to_rgb = crate::color::to_rgb_weights(scene.model);
+    let hero = scene.model == crate::ColorModel::Hero;
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
     let mut objects = Vec::with_capacity(aovs.capacity());
@@ -322,10 +328,23 @@ fn render_tile<const N: usize>(
         }
         for px in x0..x0 + w {
             let mut sum = spectrum::Spectrum::<N>::ZERO;
+            // Hero samples go to RGB one by one (each has its wavelengths).
+            let mut rgb_sum = [0.0f32; 3];
+            let hero_phase = Sampler::new(seed ^ HERO_STREAM, px, py, u32::MAX).next_1d();
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
             for k in samples.clone() {
                 let mut sampler = Sampler::new(seed, px, py, k);
+                if hero {
+                    // Its own stream: the paths' numbers are those of the
+                    // other models, so renders compare sample for sample.
+                    // Stratified over the pixel's samples, from a random
+                    // phase per pixel: each u is uniform, and together they
+                    // cover [0, 1) evenly.
+                    let jitter = Sampler::new(seed ^ HERO_STREAM, px, py, k).next_1d();
+                    let u = ((k as f32 + jitter) / s.spp as f32 + hero_phase).fract();
+                    tracer.hero = Some(wavelengths::HeroSample::draw(u));
+                }
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
                 let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };
@@ -335,10 +354,15 @@ fn render_tile<const N: usize>(
                     IntegratorKind::Whitted => tracer.whitted(&ray, &mut sampler),
                     IntegratorKind::Path => tracer.path(&ray, &mut sampler),
                 };
-                if l.is_finite() {
-                    sum += l;
-                } else {
+                if !l.is_finite() {
                     dropped += 1;
+                } else if let Some(h) = &tracer.hero {
+                    let rgb = h.to_rgb(&l);
+                    for c in 0..3 {
+                        rgb_sum[c] += rgb[c];
+                    }
+                } else {
+                    sum += l;
                 }
                 if want_aov {
                     for c in 0..3 {
@@ -352,8 +376,12 @@ fn render_tile<const N: usize>(
                 }
             }
             let taken = (samples.end - samples.start) as f32;
-            let mean = sum * (1.0 / taken);
-            color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
+            if hero {
+                color.push(rgb_sum.map(|c| c / taken));
+            } else {
+                let mean = sum * (1.0 / taken);
+                color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
+            }
             if want_aov {
                 aovs.push(Aov {
                     albedo: aov_sum.albedo.map(|x| x / taken),

@@ -258,8 +258,14 @@ impl<'a> Builder<'a> {
         self.program.error(Diagnostic::error(span, message))
     }
 
+    /// A color of the scene description. A hero render's are tabulated at
+    /// the 64 bin centres (see `scene::describe`), interpolated per sample.
     fn color(&self, lanes: &[f32]) -> Color {
-        Color::from_lanes(self.model, lanes)
+        let model = match self.model {
+            ColorModel::Hero => ColorModel::Spectral { samples: crate::color::MAX_SAMPLES },
+            model => model,
+        };
+        Color::from_lanes(model, lanes)
     }
 
     fn settings(&self, overrides: &Overrides) -> Result<Settings, Error> {
@@ -326,11 +332,17 @@ impl<'a> Builder<'a> {
     /// The scene's environment: black without one.
     fn environment(&self) -> Environment {
         let Some(EnvironmentDesc { source, scale, rotate, .. }) = &self.desc.environment else {
-            let black = Color::black(self.model).lanes().to_vec();
+            let black = self.color(&[]).lanes().to_vec();
             return Environment::new(EnvironmentSource::Constant(black), 1.0, Vec3::ZERO);
         };
         let source = match source {
             EnvironmentSourceDesc::Constant(c) => EnvironmentSource::Constant(self.color(&c.value).lanes().to_vec()),
+            // Hero renders upsample at each lookup, at the sample's wavelengths.
+            EnvironmentSourceDesc::Image(image) if self.model == ColorModel::Hero => {
+                let image = &image.value;
+                let texels = image.rgb.iter().flatten().copied().collect();
+                EnvironmentSource::Image(EnvironmentMap { width: image.width, height: image.height, lanes: 3, texels })
+            }
             EnvironmentSourceDesc::Image(image) => {
                 let image = &image.value;
                 let lanes = self.model.lanes();

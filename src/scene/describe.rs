@@ -51,6 +51,10 @@ pub fn describe_frame(
         })
     });
     let Some((module, item, scene, file)) = found else { return (None, Vec::new()) };
+    // A hero render's wavelengths change per camera sample: its scene colors
+    // are tabulated at the 64 bin centres and interpolated when drawn.
+    let model =
+        if model == ColorModel::Hero { ColorModel::Spectral { samples: crate::color::MAX_SAMPLES } } else { model };
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
     let globals = ShadingGlobals { frame: request.frame, ..ShadingGlobals::default() }.words();
     let mut d = Describer { program, model, module, item, dir, reuse, globals, diags: Vec::new() };

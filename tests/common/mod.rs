@@ -114,6 +114,7 @@ pub fn shading_point(rng: &mut Rng) -> ShadingGlobals {
         dvdy: rng.range(0.0, 0.01),
         frame: (rng.next() % 100) as i32 - 10,
         time: rng.range(-1.0, 4.0),
+        ..Default::default()
     }
 }
 

@@ -69,7 +69,7 @@ struct EmitArgs {
     /// What to print.
     #[arg(long, value_enum, default_value_t = EmitKind::Ir)]
     emit: EmitKind,
-    /// The color model: `rgb` or `spectralN` (e.g. `spectral16`).
+    /// The color model: `rgb`, `hero`, `spectralN` (e.g. `spectral16`) or `smitsN`.
     #[arg(long, default_value = "rgb", value_parser = parse_color_model)]
     color_model: tsl::ColorModel,
     /// Only functions whose name starts with this (e.g. `wood.` or `rings`).
@@ -92,7 +92,7 @@ enum EmitKind {
 
 fn parse_color_model(s: &str) -> Result<tsl::ColorModel, String> {
     tsl::ColorModel::parse(s)
-        .ok_or_else(|| format!("`{s}` is not a color model: use rgb or spectralN with N in 1..=64"))
+        .ok_or_else(|| format!("`{s}` is not a color model: use rgb, hero, spectralN or smitsN with N in 1..=64"))
 }
 
 #[derive(clap::Args)]

@@ -348,14 +348,11 @@ impl<'p> Lowerer<'p> {
             NoSample => Val::Lanes(b.zeros(n)),
             Brightness => {
                 let c = arg(self, b, 0, self.lanes);
-                let w = color::luminance_weights(self.model);
-                Val::Lanes(vec![b.weighted(&w, &c)])
+                Val::Lanes(vec![self.brightness_of(b, &c)])
             }
             ToRgb | ToXyz => {
                 let c = arg(self, b, 0, self.lanes);
-                let rows =
-                    if f == ToRgb { color::to_rgb_weights(self.model) } else { color::to_xyz_weights(self.model) };
-                Val::Lanes(rows.iter().map(|w| b.weighted(w, &c)).collect())
+                Val::Lanes(self.color_rows(b, &c, f == ToXyz))
             }
             Translate => {
                 let v = arg(self, b, 0, 3);
@@ -525,27 +522,11 @@ impl<'p> Lowerer<'p> {
             }
         }
         let values: Vec<Value> = elems.iter().map(|e| e[1]).collect();
+        if self.model == ColorModel::Hero {
+            return Val::Lanes(self.hero_curve(b, &wavelengths, &values));
+        }
         let w = color::resample_weights(self.model, &wavelengths);
         Val::Lanes(w.iter().map(|row| b.weighted(row, &values)).collect())
-    }
-
-    /// An RGB triple in the color model: itself, or Smits' upsampling.
-    pub(super) fn rgb_to_lanes(&mut self, b: &mut Builder, rgb: [Value; 3]) -> Vec<Value> {
-        if let ColorModel::Rgb = self.model {
-            return rgb.to_vec();
-        }
-        if let (Some(r), Some(g), Some(bl)) = (b.fconst(rgb[0]), b.fconst(rgb[1]), b.fconst(rgb[2])) {
-            return color::rgb_to_lanes(self.model, [r, g, bl]).into_iter().map(|x| b.f(x)).collect();
-        }
-        let coef = smits_coefficients(b, rgb);
-        let basis = color::smits_basis(self.model);
-        let spectra = [&basis.white, &basis.cyan, &basis.magenta, &basis.yellow, &basis.red, &basis.green, &basis.blue];
-        (0..self.lanes)
-            .map(|i| {
-                let weights: Vec<Value> = spectra.iter().map(|s| b.f(s[i])).collect();
-                b.dot(&weights, &coef)
-            })
-            .collect()
     }
 }
 

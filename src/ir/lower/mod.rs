@@ -27,6 +27,7 @@ mod hit;
 mod material;
 mod noise;
 mod sampling;
+mod spectral;
 mod stmt;
 mod texture;
 mod tree;
@@ -37,6 +38,7 @@ use stmt::assigned_names;
 use tree::empty_def;
 
 pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, method_name};
+pub use spectral::curve_table_name;
 
 use super::builder::{Builder, Const, MemoKey};
 use super::*;
