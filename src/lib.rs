@@ -30,6 +30,7 @@ pub mod interp;
 pub mod ir;
 pub mod jit;
 pub mod load;
+pub mod lsp;
 pub mod render;
 pub mod runtime;
 pub mod scene;

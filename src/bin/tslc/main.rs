@@ -38,6 +38,20 @@ enum Command {
     /// Format TSL files in the canonical style (docs/fmt.md), in place;
     /// `-` or no file formats standard input to standard output.
     Fmt(FmtArgs),
+    /// Run the language server (LSP over standard input and output) for
+    /// editors: diagnostics, hover, completion, definitions, formatting.
+    Lsp(LspArgs),
+}
+
+#[derive(clap::Args)]
+struct LspArgs {
+    /// Add a directory to the import search path (after the client's
+    /// `importPaths` initialization option).
+    #[arg(short = 'I', value_name = "DIR")]
+    include: Vec<PathBuf>,
+    /// Accepted for clients that pass it: stdio is the only transport.
+    #[arg(long)]
+    stdio: bool,
 }
 
 #[derive(clap::Args)]
@@ -125,6 +139,17 @@ enum WarningLevel {
     Error,
 }
 
+fn lsp(args: LspArgs) -> ExitCode {
+    let _ = args.stdio;
+    match tsl::lsp::run_stdio(args.include) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // Interrupted (SIGINT, SIGTERM): the image being written, if any, is
@@ -142,6 +167,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => render::merge(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
+        Command::Lsp(args) => lsp(args),
     });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,
