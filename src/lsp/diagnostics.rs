@@ -1,18 +1,17 @@
 //! Diagnostics of a document: exactly what `tslc check` reports for its
-//! unsaved text (`tsl::check_source`: syntax, types, images, the scene),
-//! as LSP diagnostics. Errors inside an imported file are shown at the
+//! unsaved text (`tsl::check_source`: syntax, types, images, the scene;
+//! run by the server's worker thread), as LSP diagnostics. Errors inside an imported file are shown at the
 //! import that brings them in, pointing to where they are.
 
 use super::documents::{LineIndex, Workspace};
+use crate::Checked;
 use crate::diag::{Diagnostic, Severity, SourceMap, Span};
-use crate::load::LoadOptions;
 use crate::syntax::ast::Item;
 use lsp_types::{DiagnosticRelatedInformation, DiagnosticSeverity, Location, NumberOrString};
 use std::path::Path;
 
-/// The diagnostics of a document's text, loaded as `name`.
-pub fn diagnostics(workspace: &Workspace, name: &str, text: &str, options: &LoadOptions) -> Vec<lsp_types::Diagnostic> {
-    let checked = crate::check_source(name, text, options);
+/// The diagnostics of a document's text, checked (`tsl::check_source`).
+pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<lsp_types::Diagnostic> {
     let sources = &checked.program.loaded.sources;
     let modules = &checked.program.loaded.modules;
     let Some(root) = modules.iter().find(|m| !m.is_prelude).map(|m| m.file) else {

@@ -316,6 +316,7 @@ impl Server {
 
     fn request(&mut self, req: Request) -> Handled {
         use request::*;
+        let (workspace, snippets) = (self.workspace.clone(), self.snippets);
         match req.method.as_str() {
             HoverRequest::METHOD => handle::<HoverRequest>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position_params.text_document.uri)?;
@@ -329,12 +330,12 @@ impl Server {
             GotoDefinition::METHOD => handle::<GotoDefinition>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position_params.text_document.uri)?;
                 let offset = doc.offset(p.text_document_position_params.position);
-                navigation::definition(&self.workspace, &a, offset).map(GotoDefinitionResponse::Scalar)
+                navigation::definition(&workspace, &a, offset).map(GotoDefinitionResponse::Scalar)
             }),
             References::METHOD => handle::<References>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position.text_document.uri)?;
                 let offset = doc.offset(p.text_document_position.position);
-                Some(navigation::references(&self.workspace, &a, offset, p.context.include_declaration))
+                Some(navigation::references(&workspace, &a, offset, p.context.include_declaration))
             }),
             DocumentHighlightRequest::METHOD => handle::<DocumentHighlightRequest>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position_params.text_document.uri)?;
@@ -348,7 +349,7 @@ impl Server {
             Completion::METHOD => handle::<Completion>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position.text_document.uri)?;
                 let cx = context::context_at(&doc.text, doc.offset(p.text_document_position.position));
-                let completer = completion::Completer { analysis: &a, snippets: self.snippets };
+                let completer = completion::Completer { analysis: &a, snippets };
                 Some(CompletionResponse::Array(completer.complete(&cx)))
             }),
             SignatureHelpRequest::METHOD => handle::<SignatureHelpRequest>(req, |p| {
@@ -376,17 +377,20 @@ impl Server {
     }
 
     /// An open document and its analysis (cached per version).
-    fn at(&mut self, uri: &Url) -> Option<(Document, Rc<Analysis>)> {
+    fn at(&mut self, uri: &Url) -> Option<(&Document, Rc<Analysis>)> {
         let doc = self.docs.get(uri)?;
-        if let Some((version, analysis)) = self.analyses.get(uri)
-            && *version == doc.version
-        {
-            return Some((doc.clone(), analysis.clone()));
-        }
-        let name = Workspace::source_name(uri);
-        let analysis = Rc::new(Analysis::new(&name, &doc.text, &self.options, self.workspace.prelude_name(uri)));
-        self.analyses.insert(uri.clone(), (doc.version, analysis.clone()));
-        Some((doc.clone(), analysis))
+        let fresh = self.analyses.get(uri).filter(|(version, _)| *version == doc.version);
+        let analysis = match fresh {
+            Some((_, analysis)) => analysis.clone(),
+            None => {
+                let name = Workspace::source_name(uri);
+                let prelude = self.workspace.prelude_name(uri);
+                let analysis = Rc::new(Analysis::new(&name, &doc.text, &self.options, prelude));
+                self.analyses.insert(uri.clone(), (doc.version, analysis.clone()));
+                analysis
+            }
+        };
+        Some((self.docs.get(uri)?, analysis))
     }
 }
 
@@ -398,6 +402,9 @@ fn diagnostics_worker(
     ws: &Workspace,
     options: &crate::LoadOptions,
 ) {
+    // The last check of each document holds its images, so the texture
+    // manager's cache keeps them decoded for the next check.
+    let mut last: HashMap<Url, crate::Checked> = HashMap::new();
     while let Ok(first) = jobs.recv() {
         let mut batch = vec![first];
         batch.extend(jobs.try_iter());
@@ -408,10 +415,22 @@ fn diagnostics_worker(
         }
         for job in latest {
             let diagnostics = match &job.text {
-                None => Vec::new(),
+                None => {
+                    last.remove(&job.uri);
+                    Vec::new()
+                }
                 Some(text) => {
                     let name = Workspace::source_name(&job.uri);
-                    catch_unwind(AssertUnwindSafe(|| diagnostics::diagnostics(ws, &name, text, options)))
+                    let run = || {
+                        let checked = crate::check_source(&name, text, options);
+                        let shown = diagnostics::diagnostics(ws, &checked, text);
+                        (checked, shown)
+                    };
+                    catch_unwind(AssertUnwindSafe(run))
+                        .map(|(checked, shown)| {
+                            last.insert(job.uri.clone(), checked);
+                            shown
+                        })
                         .unwrap_or_else(|panic| {
                             vec![Diagnostic {
                                 message: format!(
