@@ -29,8 +29,10 @@ impl Client {
             match self.conn.receiver.recv_timeout(Duration::from_secs(60)).expect("an answer") {
                 Message::Response(r) if r.id == id => {
                     let ms = start.elapsed().as_secs_f64() * 1000.0;
-                    assert!(r.error.is_none(), "{method}: {:?}", r.error);
-                    return (r.result.unwrap_or(Value::Null), ms);
+                    match r.response_result {
+                        Ok(result) => return (result, ms),
+                        Err(e) => panic!("{method}: {}", e.message),
+                    }
                 }
                 _ => {}
             }
