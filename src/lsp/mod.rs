@@ -394,6 +394,25 @@ impl Server {
     }
 }
 
+/// A scene described by a check whose mesh and environment files have not been
+/// modified since it started (a 1M-triangle mesh takes seconds to read).
+fn unchanged_scene(
+    scene: &crate::scene::SceneDesc,
+    started: std::time::SystemTime,
+) -> Option<&crate::scene::SceneDesc> {
+    let meshes = scene.objects.iter().filter_map(|o| match &o.shape {
+        crate::scene::ShapeDesc::Mesh { file } => Some(file.value.path.clone()),
+        _ => None,
+    });
+    let environment = scene.environment.iter().filter_map(|e| match &e.source {
+        crate::scene::EnvironmentSourceDesc::Image(image) => Some(image.value.path.clone()),
+        crate::scene::EnvironmentSourceDesc::Constant(_) => None,
+    });
+    let unchanged =
+        |path: std::path::PathBuf| std::fs::metadata(path).and_then(|m| m.modified()).is_ok_and(|t| t < started);
+    meshes.chain(environment).all(unchanged).then_some(scene)
+}
+
 /// Computes and publishes diagnostics, newest text first: a burst of
 /// jobs for one document is one check.
 fn diagnostics_worker(
@@ -402,9 +421,11 @@ fn diagnostics_worker(
     ws: &Workspace,
     options: &crate::LoadOptions,
 ) {
-    // The last check of each document holds its images, so the texture
-    // manager's cache keeps them decoded for the next check.
-    let mut last: HashMap<Url, crate::Checked> = HashMap::new();
+    // The scene of each document's last check (and when it started): its
+    // meshes and environment image are reused while their files are
+    // unchanged. (Texture images are decoded again: the texture manager's
+    // cache cannot tell a file that changed.)
+    let mut last: HashMap<Url, (crate::scene::SceneDesc, std::time::SystemTime)> = HashMap::new();
     while let Ok(first) = jobs.recv() {
         let mut batch = vec![first];
         batch.extend(jobs.try_iter());
@@ -421,14 +442,20 @@ fn diagnostics_worker(
                 }
                 Some(text) => {
                     let name = Workspace::source_name(&job.uri);
+                    let previous = last.get(&job.uri).and_then(|(scene, at)| unchanged_scene(scene, *at));
                     let run = || {
-                        let checked = crate::check_source(&name, text, options);
+                        let started = std::time::SystemTime::now();
+                        let checked = crate::check_source_reusing(&name, text, options, previous);
                         let shown = diagnostics::diagnostics(ws, &checked, text);
-                        (checked, shown)
+                        (checked, started, shown)
                     };
                     catch_unwind(AssertUnwindSafe(run))
-                        .map(|(checked, shown)| {
-                            last.insert(job.uri.clone(), checked);
+                        .map(|(checked, started, shown)| {
+                            // The last scene described stays while the text
+                            // has errors: its files are reused once it is fixed.
+                            if let Some(scene) = checked.scene {
+                                last.insert(job.uri.clone(), (scene, started));
+                            }
                             shown
                         })
                         .unwrap_or_else(|panic| {
