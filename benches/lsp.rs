@@ -174,7 +174,7 @@ fn main() {
                 params["context"] = json!({ "includeDeclaration": true });
             }
             // Every other round of the methods follows an edit.
-            run(&mut c, method, params.clone(), (k / methods.len()) % 2 == 0, &mut version);
+            run(&mut c, method, params.clone(), (k / methods.len()).is_multiple_of(2), &mut version);
             run(&mut c, method, params, false, &mut version);
         }
         for method in whole {

@@ -219,7 +219,7 @@ impl Completer<'_> {
                 c.sort_text = Some(format!("0{k:03}"));
                 c.filter_text = Some(name.clone());
                 c.detail = Some(text);
-                c.documentation = meaning.map(|m| markdown(m));
+                c.documentation = meaning.map(markdown);
                 c.insert_text = Some(format!("{name}: "));
                 c.preselect = Some(k == 0);
                 c

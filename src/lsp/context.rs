@@ -306,13 +306,12 @@ impl Scan {
                 };
             }
             None if prev(1) == Some(&Tok::Scene) => return Frame::Scene,
-            None if prev(1) == Some(&Tok::RParen) => {
-                // `material name(params) {`: the item starts with `material`.
-                if toks.get(self.statement_start).map(|t| &t.1) == Some(&Tok::Material)
-                    && toks.get(self.statement_start + 2).map(|t| &t.1) == Some(&Tok::LParen)
-                {
-                    return Frame::Material { defined: Vec::new() };
-                }
+            // `material name(params) {`: the item starts with `material`.
+            None if prev(1) == Some(&Tok::RParen)
+                && toks.get(self.statement_start).map(|t| &t.1) == Some(&Tok::Material)
+                && toks.get(self.statement_start + 2).map(|t| &t.1) == Some(&Tok::LParen) =>
+            {
+                return Frame::Material { defined: Vec::new() };
             }
             _ => {}
         }

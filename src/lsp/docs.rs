@@ -202,10 +202,16 @@ fn split_row(line: &str) -> Vec<String> {
         match c {
             '\\' if chars.peek() == Some(&'|') => {
                 chars.next();
-                cells.last_mut().map(|s| s.push('|'));
+                if let Some(cell) = cells.last_mut() {
+                    cell.push('|');
+                }
             }
             '|' => cells.push(String::new()),
-            c => cells.last_mut().map_or((), |s| s.push(c)),
+            c => {
+                if let Some(cell) = cells.last_mut() {
+                    cell.push(c);
+                }
+            }
         }
     }
     if cells.last().is_some_and(|c| c.trim().is_empty()) {

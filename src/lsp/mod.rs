@@ -344,7 +344,7 @@ impl Server {
             }),
             DocumentSymbolRequest::METHOD => handle::<DocumentSymbolRequest>(req, |p| {
                 let (doc, a) = self.at(&p.text_document.uri)?;
-                Some(DocumentSymbolResponse::Nested(symbols::document_symbols(&a, &doc)))
+                Some(DocumentSymbolResponse::Nested(symbols::document_symbols(&a, doc)))
             }),
             Completion::METHOD => handle::<Completion>(req, |p| {
                 let (doc, a) = self.at(&p.text_document_position.text_document.uri)?;
@@ -370,7 +370,7 @@ impl Server {
             }),
             SemanticTokensFullRequest::METHOD => handle::<SemanticTokensFullRequest>(req, |p| {
                 let (doc, a) = self.at(&p.text_document.uri)?;
-                Some(SemanticTokensResult::Tokens(semantic::tokens(&a, &doc)))
+                Some(SemanticTokensResult::Tokens(semantic::tokens(&a, doc)))
             }),
             _ => Err((ErrorCode::MethodNotFound, format!("tslc lsp does not answer `{}`", req.method))),
         }
