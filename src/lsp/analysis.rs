@@ -454,8 +454,17 @@ impl Analysis {
     }
 
     /// The file a definition is in, as shown to people (`stdlib/materials.tsl`).
-    pub fn file_name(&self, span: Span) -> &str {
-        self.program.loaded.sources.name(span.file)
+    /// A definition's file as shown: `stdlib/x.tsl` for the prelude, an
+    /// import relative to the document's directory when it is under it.
+    pub fn file_name(&self, span: Span) -> String {
+        let sources = &self.program.loaded.sources;
+        let name = std::path::Path::new(sources.name(span.file));
+        let dir = std::path::Path::new(sources.name(self.file())).parent();
+        dir.and_then(|d| name.strip_prefix(d).ok())
+            .filter(|rest| !rest.as_os_str().is_empty())
+            .unwrap_or(name)
+            .display()
+            .to_string()
     }
 
     /// The documentation of a definition: its entry in a stdlib file's doc

@@ -61,7 +61,7 @@ impl Completer<'_> {
             Place::SceneKind(keyword) => self.scene_kinds(keyword),
             Place::SceneBlock { keyword, kind, given } => self.scene_props(Some(keyword), kind.as_deref(), given),
             Place::SceneValue { block, prop } => self.scene_value(block.as_ref(), prop),
-            Place::MaterialBody { defined, after_type } => self.methods(defined, *after_type),
+            Place::MaterialBody { defined, return_type } => self.methods(defined, return_type.as_deref()),
             Place::Code { in_material } => self.code(cx, *in_material),
         }
     }
@@ -228,19 +228,22 @@ impl Completer<'_> {
     }
 
     /// Interface methods a material does not define yet, with their
-    /// signatures and an empty body.
-    fn methods(&self, defined: &[String], after_type: bool) -> Vec<CompletionItem> {
+    /// signatures and an empty body; after a return type, those returning it.
+    fn methods(&self, defined: &[String], return_type: Option<&str>) -> Vec<CompletionItem> {
         INTERFACE
             .iter()
             .filter(|m| !defined.iter().any(|d| d == m.name))
+            .filter(|m| return_type.is_none_or(|t| m.ret.to_string() == t))
             .map(|m| {
                 let mut c = item(m.name, CompletionItemKind::METHOD, 0);
                 c.detail = Some(m.signature());
                 let meaning = super::docs::method_doc(m.name).unwrap_or_default();
                 c.documentation = Some(markdown(format!("{meaning}\n\nDefault: `{}`", m.default)));
                 let signature = m.signature();
-                let head =
-                    if after_type { signature.split_once(' ').map_or(signature.as_str(), |s| s.1) } else { &signature };
+                let head = match return_type {
+                    Some(_) => signature.split_once(' ').map_or(signature.as_str(), |s| s.1),
+                    None => &signature,
+                };
                 self.snippet(c, format!("{head} {{\n\t$0\n}}"), head)
             })
             .collect()
@@ -342,7 +345,13 @@ impl Completer<'_> {
             .filter(|p| p.repeats || !given.iter().any(|g| g == p.name))
             .map(|p| {
                 let mut c = item(p.name, CompletionItemKind::PROPERTY, if p.required { 0 } else { 1 });
-                let need = if p.required { "required" } else { "optional" };
+                let need = if p.required {
+                    "required"
+                } else if p.alternative {
+                    "this or an alternative is required"
+                } else {
+                    "optional"
+                };
                 c.detail = Some(format!("{}: {} ({need})", p.name, p.takes));
                 self.snippet(c, format!("{} $0;", p.name), p.name)
             })

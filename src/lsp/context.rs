@@ -23,9 +23,9 @@ pub enum Place {
     /// The value of a scene property (`block` is `None` in the scene itself).
     SceneValue { block: Option<(String, Option<String>)>, prop: String },
     /// Inside `material name(...) { }` between methods; `defined` are the
-    /// interface methods it already has, `after_type` whether a return type
-    /// has just been written.
-    MaterialBody { defined: Vec<String>, after_type: bool },
+    /// interface methods it already has, `return_type` the type just
+    /// written before the method's name, if any.
+    MaterialBody { defined: Vec<String>, return_type: Option<String> },
     /// Inside code: a body, a tree or constant's value, a default.
     Code { in_material: bool },
 }
@@ -378,9 +378,9 @@ impl Scan {
                 _ => Place::Code { in_material },
             },
             Some(Frame::Material { defined }) => match statement {
-                [] => Place::MaterialBody { defined: defined.clone(), after_type: false },
+                [] => Place::MaterialBody { defined: defined.clone(), return_type: None },
                 [(_, t, _)] if type_keyword(t).is_some() => {
-                    Place::MaterialBody { defined: defined.clone(), after_type: true }
+                    Place::MaterialBody { defined: defined.clone(), return_type: type_keyword(t).map(String::from) }
                 }
                 _ => Place::Code { in_material },
             },
@@ -478,9 +478,9 @@ mod tests {
     #[test]
     fn material_bodies_and_locals() {
         let c = at_cursor("material m(color kd = gray(1)) {\n    color diffuse() { return kd; }\n    |");
-        assert_eq!(c.place, Place::MaterialBody { defined: vec!["diffuse".into()], after_type: false });
+        assert_eq!(c.place, Place::MaterialBody { defined: vec!["diffuse".into()], return_type: None });
         let c = at_cursor("material m(color kd = gray(1)) { color |");
-        assert_eq!(c.place, Place::MaterialBody { defined: vec![], after_type: true });
+        assert_eq!(c.place, Place::MaterialBody { defined: vec![], return_type: Some("color".into()) });
         let c = at_cursor(
             "material m(color kd = gray(1)) { color reflection(vector wi, color light, vector wo) { float x = 1; |",
         );

@@ -152,6 +152,8 @@ pub fn param_doc(doc: &str, param: &str) -> Option<String> {
 enum MdBlock {
     Row(Vec<String>),
     Paragraph(String),
+    /// A row of a table left out.
+    Skipped,
 }
 
 /// `docs/language.md` cut into numbered sections of rows and paragraphs.
@@ -161,6 +163,7 @@ fn language_sections() -> &'static HashMap<u32, Vec<MdBlock>> {
         let mut sections: HashMap<u32, Vec<MdBlock>> = HashMap::new();
         let mut current: Option<u32> = None;
         let mut paragraph: Vec<&str> = Vec::new();
+        let mut sampling_table = false;
         let flush = |paragraph: &mut Vec<&str>, blocks: Option<&mut Vec<MdBlock>>| {
             if let (Some(blocks), false) = (blocks, paragraph.is_empty()) {
                 blocks.push(MdBlock::Paragraph(paragraph.join(" ")));
@@ -181,7 +184,16 @@ fn language_sections() -> &'static HashMap<u32, Vec<MdBlock>> {
             };
             if line.starts_with('|') {
                 flush(&mut paragraph, Some(blocks));
-                if !line.starts_with("|-") && !line.starts_with("|:") {
+                // A table's first row is its header; the table of how tree
+                // nodes sample (`| Node | `sample` | `pdf` |`) is not what
+                // a node is.
+                let header = !matches!(blocks.last(), Some(MdBlock::Row(_)) | Some(MdBlock::Skipped));
+                if header {
+                    sampling_table = line.contains("`sample`");
+                }
+                if sampling_table {
+                    blocks.push(MdBlock::Skipped);
+                } else if !line.starts_with("|-") && !line.starts_with("|:") {
                     blocks.push(MdBlock::Row(split_row(line)));
                 }
             } else if line.trim().is_empty() || line.starts_with("```") || line.starts_with('#') {
@@ -321,5 +333,6 @@ mod tests {
         assert!(builtin_doc("noise").unwrap().contains("Perlin"));
         assert!(builtin_doc("min").unwrap().contains("T|float b"), "escaped bars are cells' text");
         assert!(builtin_doc("vec2").unwrap().contains("Type constructors"));
+        assert!(!builtin_doc("transform").unwrap().contains("directions do not move"), "not the sampling table");
     }
 }

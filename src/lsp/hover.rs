@@ -68,7 +68,9 @@ fn target_hover(analysis: &Analysis, target: Target, node: &Node<'_>) -> Option<
             if let Some(doc) = analysis.doc(sym) {
                 out.push_str(&format!("\n\n{}", doc_block(&doc)));
             }
-            out.push_str(&format!("\n\n`{}`", analysis.file_name(sym.span)));
+            if sym.span.file != analysis.file() {
+                out.push_str(&format!("\n\n`{}`", analysis.file_name(sym.span)));
+            }
             out
         }
         Target::Local(decl) => {
