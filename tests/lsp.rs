@@ -464,3 +464,53 @@ fn random_edits_never_crash_the_server() {
     client.diagnostics(&doc, last);
     client.shutdown();
 }
+
+#[test]
+fn imports_are_followed() {
+    let mut client = Client::start("imports");
+    let path = repo().join("tests/check/ok/imports.tsl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let doc = uri(&path);
+    client.open(&doc, &text);
+    let ends = |location: &Value, file: &str| location["uri"].as_str().unwrap().ends_with(file);
+
+    let target = client.result(
+        "textDocument/definition",
+        json!({ "textDocument": { "uri": doc }, "position": at(&text, "material dartboard", "target") }),
+    );
+    assert!(ends(&target, "lib/shapes.tsl"), "{target}");
+    let file = repo().join("tests/check/ok/lib/shapes.tsl");
+    let line = target["range"]["start"]["line"].as_u64().unwrap() as usize;
+    assert!(std::fs::read_to_string(file).unwrap().lines().nth(line).unwrap().starts_with("float target("));
+
+    let import = client.result(
+        "textDocument/definition",
+        json!({ "textDocument": { "uri": doc }, "position": at(&text, "import \"lib/shapes", "shapes") }),
+    );
+    assert!(ends(&import, "lib/shapes.tsl") && import["range"]["start"]["line"] == 0, "{import}");
+
+    // `ring_count` is defined in lib/rings.tsl and used here and in lib/shapes.tsl.
+    let refs = client.result(
+        "textDocument/references",
+        json!({ "textDocument": { "uri": doc }, "position": at(&text, "float both", "ring_count"),
+                "context": { "includeDeclaration": true } }),
+    );
+    let refs = refs.as_array().unwrap();
+    for file in ["imports.tsl", "lib/shapes.tsl", "lib/rings.tsl"] {
+        assert!(refs.iter().any(|r| ends(r, file)), "a reference in {file}: {refs:?}");
+    }
+
+    // An error inside an imported file is shown at the import.
+    let dir = tempfile_dir::TempDir::new("broken-import");
+    std::fs::write(dir.path().join("lib.tsl"), "float half() {\n    return 0.5 +;\n}\n").unwrap();
+    let main = "import \"lib.tsl\";\nfloat f() { return half(); }\n";
+    let main_uri = uri(&dir.path().join("main.tsl"));
+    client.open(&main_uri, main);
+    let diagnostics = client.diagnostics(&main_uri, 1);
+    assert!(!diagnostics.is_empty(), "the imported file's error is reported");
+    let d = &diagnostics[0];
+    assert_eq!(d["range"]["start"]["line"], 0, "at the import: {d}");
+    assert!(d["message"].as_str().unwrap().contains("lib.tsl"), "{d}");
+    assert!(d["relatedInformation"][0]["location"]["uri"].as_str().unwrap().ends_with("lib.tsl"), "{d}");
+    client.shutdown();
+}
