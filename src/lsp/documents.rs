@@ -175,9 +175,13 @@ fn write_prelude() -> Option<PathBuf> {
             continue;
         }
         std::fs::create_dir_all(path.parent()?).ok()?;
-        // Written beside and renamed, so a reader never sees half a file.
+        // Written beside and renamed, so a reader never sees half a file;
+        // read-only, since editing it would change nothing.
         let temporary = path.with_extension(format!("tsl.{}", std::process::id()));
         std::fs::write(&temporary, text).ok()?;
+        let mut permissions = std::fs::metadata(&temporary).ok()?.permissions();
+        permissions.set_readonly(true);
+        std::fs::set_permissions(&temporary, permissions).ok()?;
         std::fs::rename(&temporary, &path).ok()?;
     }
     Some(dir)
