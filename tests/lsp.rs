@@ -368,6 +368,7 @@ fn random_edits_never_crash_the_server() {
     let mut text = std::fs::read_to_string(&path).unwrap();
     let doc = uri(&path);
     client.open(&doc, &text);
+    let (deep, chain) = ("(".repeat(300), "x + ".repeat(500));
     let pieces = [
         "(",
         ")",
@@ -404,6 +405,10 @@ fn random_edits_never_crash_the_server() {
         ".x",
         "select(face, [",
         "camera { from (0, 0, 0); }",
+        "material m(float x) { color reflection(vector wi, color light, vector wo) { return ",
+        // Deeper than the parser's nesting limit, and a long flat chain.
+        &deep,
+        &chain,
     ];
     let requests = [
         "textDocument/hover",
@@ -416,8 +421,10 @@ fn random_edits_never_crash_the_server() {
         "textDocument/semanticTokens/full",
         "textDocument/formatting",
     ];
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let edits = 120;
+    // A longer campaign: TSL_LSP_FUZZ_SEED=N TSL_LSP_FUZZ_EDITS=M cargo test --test lsp random.
+    let env = |name: &str, default: u64| std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default);
+    let mut rng = Rng(env("TSL_LSP_FUZZ_SEED", 0x9e37_79b9_7f4a_7c15) | 1);
+    let edits = env("TSL_LSP_FUZZ_EDITS", 120) as usize;
     for version in 2..2 + edits {
         // An edit: delete a few characters and insert a piece, in UTF-16
         // positions as an editor sends them.
