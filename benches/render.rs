@@ -6,11 +6,15 @@
 //! rays per second; for `heavy`, the BVH build of its 999,698 triangles
 //! (the mesh is generated into `target/bench-gen/` first). Whole-process
 //! comparisons with POV-Ray and Mitsuba are in `scripts/compare-peers.sh`.
+//! A generated scene of a million spheres: `tslc check` and a small render
+//! of it, whole processes, with peak memory (`-- objects` runs it alone).
 //!
 //! The per-hit split (`ir::split`): path-traced `bump_procedural`, `room`
 //! and `texture_tree` rendered with each method compiled on its own (the
-//! code before the split) and split, alternately, three times each; the
-//! medians, their ratio, both scene builds, and the noise evaluated at
+//! code before the split), split, and split with the optimising tier for
+//! large functions (what renders of `render::OPTIMIZE_FROM_SAMPLES` or more
+//! get), in turn, three times each; the medians, their ratios, the scene
+//! builds, and the noise evaluated at
 //! each camera hit of a textured object by the path tracer's calls there
 //! (run through the interpreter, which counts).
 
@@ -131,18 +135,22 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
 
 fn bench_split(name: &str, file: &Path) {
     let Ok(program) = tsl::Compiler::new().file(file).compile() else { return };
-    let overrides = |unsplit| Overrides {
-        resolution: Some((160, 120)),
-        spp: Some(4),
-        integrator: Some(IntegratorKind::Path),
-        unsplit,
-        ..Default::default()
-    };
-    let mut builds = [0.0; 2];
+    // Per method (quick code), split (quick code), split with the
+    // optimising tier for large functions (long renders get it).
+    let variants = [("per method", true, false), ("split", false, false), ("split optimised", false, true)];
+    let mut builds = [0.0; 3];
     let mut scenes = Vec::new();
-    for (k, unsplit) in [true, false].into_iter().enumerate() {
+    for (k, (_, unsplit, optimize)) in variants.into_iter().enumerate() {
+        let overrides = Overrides {
+            resolution: Some((160, 120)),
+            spp: Some(4),
+            integrator: Some(IntegratorKind::Path),
+            unsplit,
+            optimize_code: Some(optimize),
+            ..Default::default()
+        };
         let start = Instant::now();
-        match Scene::build(&program, &overrides(unsplit)) {
+        match Scene::build(&program, &overrides) {
             Ok(s) => scenes.push(s),
             Err(e) => {
                 eprintln!("{e}");
@@ -151,7 +159,7 @@ fn bench_split(name: &str, file: &Path) {
         }
         builds[k] = start.elapsed().as_secs_f64() * 1e3;
     }
-    let mut times = [Vec::new(), Vec::new()];
+    let mut times = [Vec::new(), Vec::new(), Vec::new()];
     for _ in 0..3 {
         for (k, scene) in scenes.iter().enumerate() {
             let Ok((_, stats)) = render::render(scene, &RenderOptions::default()) else { return };
@@ -162,13 +170,14 @@ fn bench_split(name: &str, file: &Path) {
         t.sort_by(f64::total_cmp);
         t[t.len() / 2]
     };
-    let (before, after) = (median(&mut times[0]), median(&mut times[1]));
     let label = format!("{name} path 160x120 4spp");
-    figure(&format!("{label} scene build per method"), builds[0], "ms");
-    figure(&format!("{label} scene build split"), builds[1], "ms");
-    figure(&format!("{label} render per method"), before, "s");
-    figure(&format!("{label} render split"), after, "s");
-    figure(&format!("{label} split speed-up"), before / after, "x");
+    let medians: Vec<f64> = times.iter_mut().map(median).collect();
+    for (k, (which, _, _)) in variants.iter().enumerate() {
+        figure(&format!("{label} scene build {which}"), builds[k], "ms");
+        figure(&format!("{label} render {which}"), medians[k], "s");
+    }
+    figure(&format!("{label} split speed-up"), medians[0] / medians[1], "x");
+    figure(&format!("{label} split optimised speed-up"), medians[0] / medians[2], "x");
     let prepared = scenes[1].objects.iter().filter(|o| o.hit.is_some()).count();
     figure(&format!("{label} objects prepared (of {})", scenes[1].objects.len()), prepared as f64, "");
     // Noise run at the camera hits of textured objects, counted by the interpreter.
@@ -179,7 +188,85 @@ fn bench_split(name: &str, file: &Path) {
     }
 }
 
+/// A scene of `TSL_BENCH_OBJECTS` (default 1,000,000) spheres written out
+/// one `object` block each, as generated scenes are: `tslc check` and a
+/// 64x64, 1 spp `tslc render` of it, whole processes (issue 13's goals:
+/// 3 s and 6 s, under 1 GB), with their peak memory from GNU time.
+fn bench_many_objects() {
+    let count: u64 = std::env::var("TSL_BENCH_OBJECTS").ok().and_then(|s| s.parse().ok()).unwrap_or(1_000_000);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-gen");
+    let file = dir.join(format!("spheres-{count}.tsl"));
+    if !file.exists() {
+        use std::io::Write;
+        let _ = std::fs::create_dir_all(&dir);
+        let written = std::fs::File::create(&file).and_then(|f| {
+            let mut w = std::io::BufWriter::new(f);
+            writeln!(w, "material red = lambert(kd: rgb(0.8, 0.2, 0.2));")?;
+            writeln!(w, "scene {{")?;
+            writeln!(w, "    camera {{ from (0, 0, -60); to (0, 0, 0); fov 40; }}")?;
+            writeln!(w, "    light point {{ at (0, 50, -50); intensity rgb(5000, 5000, 5000); }}")?;
+            // A fixed pseudo-random cloud (a 64-bit LCG), the same every run.
+            let mut state = 0x2545_f491_4f6c_dd1du64;
+            let mut next = || {
+                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                ((state >> 40) as f64 / (1u64 << 24) as f64) * 40.0 - 20.0
+            };
+            for _ in 0..count {
+                let (x, y, z) = (next(), next(), next());
+                writeln!(w, "    object sphere {{ center ({x:.3}, {y:.3}, {z:.3}); radius 0.05; material red; }}")?;
+            }
+            writeln!(w, "}}")?;
+            w.flush()
+        });
+        if let Err(e) = written {
+            eprintln!("cannot write {}: {e}", file.display());
+            return;
+        }
+    }
+    let tslc = env!("CARGO_BIN_EXE_tslc");
+    let image = dir.join("spheres.png");
+    let runs: [(&str, Vec<&std::ffi::OsStr>); 2] = [
+        ("check", vec!["check".as_ref(), file.as_os_str()]),
+        (
+            "render 64x64 1spp",
+            vec![
+                "render".as_ref(),
+                file.as_os_str(),
+                "--res".as_ref(),
+                "64x64".as_ref(),
+                "--spp".as_ref(),
+                "1".as_ref(),
+                "--quiet".as_ref(),
+                "-o".as_ref(),
+                image.as_os_str(),
+            ],
+        ),
+    ];
+    for (what, args) in runs {
+        // GNU time prints the peak resident set (KB) on its last line.
+        let start = Instant::now();
+        let out = std::process::Command::new("/usr/bin/time").arg("-f").arg("%M").arg(tslc).args(&args).output();
+        let seconds = start.elapsed().as_secs_f64();
+        let Ok(out) = out else {
+            eprintln!("{count} spheres {what}: needs GNU time (/usr/bin/time)");
+            return;
+        };
+        if !out.status.success() {
+            eprintln!("{count} spheres {what} failed: {}", String::from_utf8_lossy(&out.stderr));
+            return;
+        }
+        let peak_kb: f64 =
+            String::from_utf8_lossy(&out.stderr).lines().last().and_then(|l| l.trim().parse().ok()).unwrap_or(f64::NAN);
+        figure(&format!("{count} spheres {what}"), seconds, "s");
+        figure(&format!("{count} spheres {what} peak memory"), peak_kb / 1024.0, "MB");
+    }
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "objects") {
+        bench_many_objects();
+        return;
+    }
     let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
     bench_split("bump_procedural", &examples.join("techniques/bump_procedural.tsl"));
     bench_split("room", &examples.join("room.tsl"));
@@ -190,6 +277,7 @@ fn main() {
     if std::env::args().any(|a| a == "split") {
         return;
     }
+    bench_many_objects();
     bench_scene("whitted", &examples.join("whitted.tsl"), None);
     bench_scene("whitted", &examples.join("whitted.tsl"), Some(10));
     bench_scene("procedural", &examples.join("procedural.tsl"), None);

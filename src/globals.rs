@@ -1,7 +1,7 @@
 //! The shading globals: the surface-point record every material method and
 //! generator reads, shared with generated code.
 //!
-//! Invariant: the layout is 32 consecutive 4-byte words in the order of
+//! Invariant: the layout is 34 consecutive 4-byte words in the order of
 //! `check::GLOBALS`; `word_of` gives each global's first word. Generated
 //! code reads words by offset, so the layout test below must never fail.
 
@@ -39,10 +39,14 @@ pub struct ShadingGlobals {
     pub dudy: f32,
     pub dvdx: f32,
     pub dvdy: f32,
+    /// `frame`: the frame being rendered (the same at every point).
+    pub frame: i32,
+    /// `time`: the frame's time in seconds (the same at every point).
+    pub time: f32,
 }
 
 /// Number of 4-byte words in [`ShadingGlobals`].
-pub const GLOBAL_WORDS: u32 = 32;
+pub const GLOBAL_WORDS: u32 = 34;
 
 /// Lanes of a global's type.
 fn lanes(ty: &Ty) -> u32 {
@@ -75,8 +79,8 @@ pub fn word_global(word: u32) -> Option<(&'static str, Ty, u32)> {
     None
 }
 
-/// The type of the global that word `word` belongs to (`face` is the one
-/// `int`; every other word is a float lane), or `None` past the record.
+/// The type of the global that word `word` belongs to (`face` and `frame`
+/// are `int`; every other word is a float lane), or `None` past the record.
 pub fn word_type(word: u32) -> Option<Ty> {
     word_global(word).map(|(_, ty, _)| ty)
 }
@@ -90,7 +94,7 @@ pub fn word_name(word: u32) -> Option<String> {
 impl ShadingGlobals {
     /// The record as words, for the interpreter.
     pub fn words(&self) -> [u32; GLOBAL_WORDS as usize] {
-        // SAFETY: `ShadingGlobals` is `repr(C)`, 128 bytes of 4-byte fields
+        // SAFETY: `ShadingGlobals` is `repr(C)`, 136 bytes of 4-byte fields
         // with no padding (asserted in the tests), so it is 32 valid words.
         unsafe { std::mem::transmute::<ShadingGlobals, [u32; GLOBAL_WORDS as usize]>(*self) }
     }
@@ -122,6 +126,8 @@ mod tests {
             ("dudy", offset_of!(ShadingGlobals, dudy)),
             ("dvdx", offset_of!(ShadingGlobals, dvdx)),
             ("dvdy", offset_of!(ShadingGlobals, dvdy)),
+            ("frame", offset_of!(ShadingGlobals, frame)),
+            ("time", offset_of!(ShadingGlobals, time)),
         ];
         assert_eq!(fields.len(), GLOBALS.len());
         for (name, offset) in fields {
@@ -132,6 +138,7 @@ mod tests {
         assert_eq!(f32::from_bits(g.words()[12]), 0.5);
         assert_eq!(word_type(20), Some(Ty::Int));
         assert_eq!((word_type(2), word_type(GLOBAL_WORDS - 1)), (Some(Ty::Point), Some(Ty::Float)));
+        assert_eq!(word_type(GLOBAL_WORDS - 2), Some(Ty::Int));
         assert_eq!(word_type(GLOBAL_WORDS), None);
         assert_eq!(
             [word_name(12), word_name(7), word_name(GLOBAL_WORDS)],

@@ -25,6 +25,12 @@
 //! as float so any EXR reader takes it, for masks that compare images
 //! object by object.
 
+mod merge;
+mod metadata;
+
+pub use merge::{array_spec, merge};
+pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning};
+
 use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -210,11 +216,17 @@ pub fn check_output(path: &Path) -> Result<(), String> {
 /// A PNG holds just the window's pixels; an EXR keeps the window's place
 /// in the full frame.
 pub fn write_image(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    write_image_with(path, image, &Metadata::default())
+}
+
+/// [`write_image`], with `metadata` in an EXR's header (a PNG has none).
+/// The same image and metadata are the same bytes.
+pub fn write_image_with(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
     let format = format_of(path)?;
     image.check().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     atomic_write(path, |tmp| match format {
         Format::Png => write_png(tmp, image),
-        Format::Exr => write_exr(tmp, image),
+        Format::Exr => write_exr(tmp, image, metadata),
     })
 }
 
@@ -278,22 +290,26 @@ pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>
 }
 
 fn write_png(path: &Path, image: &RenderedImage) -> Result<(), String> {
+    let bytes = encode_png(image)?;
+    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// The image's color as an 8-bit sRGB PNG file in memory (what
+/// [`write_image`] writes to a `.png`; `tslc watch --serve` sends it).
+pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
     let mut bytes = Vec::with_capacity(image.color.len() * 3);
     for p in &image.color {
         bytes.extend(p.map(srgb_encode));
     }
-    image::save_buffer_with_format(
-        path,
-        &bytes,
-        image.width,
-        image.height,
-        image::ColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let mut png = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("cannot encode a PNG image: {e}"))?;
+    Ok(png)
 }
 
-fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
+fn write_exr(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
     use exrp::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
     let plane = |k: usize, v: &[[f32; 3]]| v.iter().map(|p| p[k]).collect::<Vec<f32>>();
     let mut channels = vec![
@@ -318,15 +334,61 @@ fn write_exr(path: &Path, image: &RenderedImage) -> Result<(), String> {
         channels.push(AnyChannel::new("object", FlatSamples::F32(o.iter().map(|&k| k as f32).collect())));
     }
     let position = Vec2(image.x0 as i32, image.y0 as i32);
+    let mut attributes = LayerAttributes::default().with_position(position);
+    let (software, other) = metadata.to_exr();
+    attributes.software_name = software;
+    attributes.other.extend(other);
+    // Blocks in increasing order (compressed in parallel, written in
+    // order), so the file does not depend on which thread finished first.
+    let encoding = Encoding { line_order: exrp::LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
     let layer = Layer::new(
         (image.width as usize, image.height as usize),
-        LayerAttributes::default().with_position(position),
-        Encoding::FAST_LOSSLESS,
+        attributes,
+        encoding,
         AnyChannels::sort(channels.into()),
     );
     let frame = exrp::IntegerBounds::from_dimensions((image.full_width as usize, image.full_height as usize));
     let out = Image::new(ImageAttributes::new(frame), layer);
-    out.write().to_file(path).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let fail = |e: String| format!("cannot write {}: {e}", path.display());
+    out.write().to_file(path).map_err(|e| fail(e.to_string()))?;
+    metadata::sort_header_attributes_of(path).map_err(fail)
+}
+
+/// An EXR file's header: the frame, the window, the channels and the
+/// metadata, read without the pixels (for `tslc info`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExrHeader {
+    /// The display window's size: the full image.
+    pub full_width: u32,
+    pub full_height: u32,
+    /// The data window: the pixels the file holds, in the full image.
+    pub x0: i32,
+    pub y0: i32,
+    pub width: u32,
+    pub height: u32,
+    pub channels: Vec<String>,
+    pub compression: String,
+    pub metadata: Metadata,
+}
+
+/// Reads the header of an EXR file (its first part).
+pub fn read_exr_header(path: &Path) -> Result<ExrHeader, String> {
+    let fail = |e: String| format!("cannot read {}: {e}", path.display());
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| fail(e.to_string()))?;
+    let header = meta.headers.first().ok_or_else(|| fail("it has no header".into()))?;
+    let frame = header.shared_attributes.display_window;
+    let pos = header.own_attributes.layer_position;
+    Ok(ExrHeader {
+        full_width: frame.size.0 as u32,
+        full_height: frame.size.1 as u32,
+        x0: pos.0 - frame.position.0,
+        y0: pos.1 - frame.position.1,
+        width: header.layer_size.0 as u32,
+        height: header.layer_size.1 as u32,
+        channels: header.channels.list.iter().map(|c| c.name.to_string()).collect(),
+        compression: format!("{:?}", header.compression),
+        metadata: Metadata::from_exr(&header.own_attributes, &header.shared_attributes),
+    })
 }
 
 /// The first layer of an EXR file: its channels by name, its size, and
@@ -338,6 +400,7 @@ struct ExrLayer {
     /// The data window's position relative to the display window's.
     pub offset: (i32, i32),
     channels: Vec<(String, Vec<f32>)>,
+    metadata: Metadata,
 }
 
 impl ExrLayer {
@@ -365,6 +428,7 @@ impl ExrLayer {
             display_size: (frame.size.0, frame.size.1),
             offset: (pos.0 - frame.position.0, pos.1 - frame.position.1),
             channels,
+            metadata: Metadata::from_exr(&layer.attributes, &image.attributes),
         })
     }
 
@@ -376,6 +440,11 @@ impl ExrLayer {
 
 /// Reads an EXR written by [`write_image`] (or any EXR with R, G, B).
 pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
+    read_exr_with_metadata(path).map(|(image, _)| image)
+}
+
+/// [`read_exr`], and the metadata in the file's header.
+pub fn read_exr_with_metadata(path: &Path) -> Result<(RenderedImage, Metadata), String> {
     let fail = |e: String| format!("cannot read {}: {e}", path.display());
     let layer = ExrLayer::read(path).map_err(fail)?;
     let triple = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
@@ -402,92 +471,7 @@ pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
         object: layer.channel("object").map(|o| o.iter().map(|&k| k as i32).collect()),
     };
     out.check().map_err(fail)?;
-    Ok(out)
-}
-
-/// Joins tiles or crops of one image (EXR files) into the full frame.
-/// They must share the frame size and AOVs, must not overlap, and must
-/// cover every pixel.
-pub fn merge(inputs: &[PathBuf]) -> Result<RenderedImage, String> {
-    let first_path = inputs.first().ok_or("nothing to merge")?;
-    let parts: Vec<RenderedImage> = inputs.iter().map(|p| read_exr(p)).collect::<Result<_, _>>()?;
-    let first = &parts[0];
-    let (fw, fh) = (first.full_width, first.full_height);
-    let n = fw as usize * fh as usize;
-    let aovs = first.albedo.is_some();
-    let mut out = RenderedImage {
-        full_width: fw,
-        full_height: fh,
-        x0: 0,
-        y0: 0,
-        width: fw,
-        height: fh,
-        color: vec![[0.0; 3]; n],
-        albedo: aovs.then(|| vec![[0.0; 3]; n]),
-        normal: aovs.then(|| vec![[0.0; 3]; n]),
-        depth: aovs.then(|| vec![0.0; n]),
-        object: first.object.is_some().then(|| vec![NO_OBJECT; n]),
-    };
-    let mut owner: Vec<Option<usize>> = vec![None; n];
-    for (k, part) in parts.iter().enumerate() {
-        let path = inputs[k].display();
-        if (part.full_width, part.full_height) != (fw, fh) {
-            return Err(format!(
-                "{path} is a part of a {}x{} image, but {} is of a {fw}x{fh} one",
-                part.full_width,
-                part.full_height,
-                first_path.display()
-            ));
-        }
-        if part.albedo.is_some() != aovs
-            || part.normal.is_some() != aovs
-            || part.depth.is_some() != aovs
-            || part.object.is_some() != first.object.is_some()
-        {
-            return Err(format!("{path} and {} differ in their AOV layers", first_path.display()));
-        }
-        for y in 0..part.height {
-            for x in 0..part.width {
-                let src = (y * part.width + x) as usize;
-                let dst = ((part.y0 + y) * fw + part.x0 + x) as usize;
-                if let Some(other) = owner[dst] {
-                    return Err(format!(
-                        "{path} and {} overlap at pixel ({}, {})",
-                        inputs[other].display(),
-                        part.x0 + x,
-                        part.y0 + y
-                    ));
-                }
-                owner[dst] = Some(k);
-                out.color[dst] = part.color[src];
-                if let (Some(a), Some(pa)) = (&mut out.albedo, &part.albedo) {
-                    a[dst] = pa[src];
-                }
-                if let (Some(a), Some(pa)) = (&mut out.normal, &part.normal) {
-                    a[dst] = pa[src];
-                }
-                if let (Some(a), Some(pa)) = (&mut out.depth, &part.depth) {
-                    a[dst] = pa[src];
-                }
-                if let (Some(a), Some(pa)) = (&mut out.object, &part.object) {
-                    a[dst] = pa[src];
-                }
-            }
-        }
-    }
-    if let Some(missing) = owner.iter().position(Option::is_none) {
-        let rows: Vec<u32> = (0..fh).filter(|y| (0..fw).any(|x| owner[(y * fw + x) as usize].is_none())).collect();
-        return Err(format!(
-            "the parts do not cover the {fw}x{fh} image: pixel ({}, {}) is missing, in {} row{} from {} to {}",
-            missing as u32 % fw,
-            missing as u32 / fw,
-            rows.len(),
-            if rows.len() == 1 { "" } else { "s" },
-            rows[0],
-            rows[rows.len() - 1]
-        ));
-    }
-    Ok(out)
+    Ok((out, layer.metadata))
 }
 
 /// A lat-long environment image as linear RGB: EXR and Radiance HDR as
@@ -511,6 +495,34 @@ pub fn tile_window(full_width: u32, full_height: u32, index: u32, count: u32) ->
     let y0 = (u64::from(full_height) * u64::from(index) / u64::from(count)) as u32;
     let y1 = (u64::from(full_height) * u64::from(index + 1) / u64::from(count)) as u32;
     Ok((0, y0, full_width, y1 - y0))
+}
+
+/// Whether an output path has a frame pattern: a run of `#` in its file
+/// name (`shot.####.exr`).
+pub fn has_frame_pattern(path: &Path) -> bool {
+    path.file_name().is_some_and(|n| n.to_string_lossy().contains('#'))
+}
+
+/// The output path of frame `frame`: each run of `#` in the file name is
+/// replaced by the frame number, zero-padded to the run's length (as
+/// Blender and Houdini name frames: `shot.####.exr` gives `shot.0007.exr`,
+/// frame -3 `shot.-003.exr`); a path without `#` is returned as is.
+pub fn frame_path(path: &Path, frame: i32) -> PathBuf {
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else { return path.to_path_buf() };
+    let mut out = String::with_capacity(name.len() + 8);
+    let mut chars = name.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c != '#' {
+            out.push(c);
+            continue;
+        }
+        let mut width = 1;
+        while chars.next_if_eq(&'#').is_some() {
+            width += 1;
+        }
+        out.push_str(&format!("{frame:0width$}"));
+    }
+    path.with_file_name(out)
 }
 
 /// A crop window `x0,x1,y0,y1`: fractions of the image in [0, 1] (as
@@ -665,7 +677,7 @@ mod tests {
             write_image(&path, &image((7, 5), (x0, y0, w, h), true, i as f32)).unwrap();
             paths.push(path);
         }
-        let full = merge(&paths).unwrap();
+        let (full, _) = merge(&paths).unwrap();
         assert_eq!((full.width, full.height, full.color.len()), (7, 5, 35));
         // Row 0 comes from tile 0 (seed 0), the last row from tile 2.
         assert_eq!(full.color[0][0], 0.0);
@@ -678,6 +690,41 @@ mod tests {
         let other = dir.join("other.exr");
         write_image(&other, &image((8, 5), (0, 0, 8, 5), true, 0.0)).unwrap();
         assert!(merge(&[paths[0].clone(), other]).unwrap_err().contains("8x5"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn metadata_round_trips_and_a_header_is_the_same_bytes_every_time() {
+        let dir = temp_dir("metadata");
+        let mut meta = Metadata::default();
+        meta.set_text(SOFTWARE, "tslc 9.9").set_int("tsl:spp", 64).set_float("tsl:time", 0.5);
+        for k in 0..12 {
+            meta.set_text(&format!("tsl:extra{k}"), format!("välue {k} ☃"));
+        }
+        let img = image((6, 4), (0, 1, 6, 2), true, 0.5);
+        let bytes: Vec<Vec<u8>> = (0..4)
+            .map(|k| {
+                let path = dir.join(format!("m{k}.exr"));
+                write_image_with(&path, &img, &meta).unwrap();
+                std::fs::read(&path).unwrap()
+            })
+            .collect();
+        assert!(bytes.iter().all(|b| *b == bytes[0]), "the same image and metadata gave other bytes");
+        let (back, read) = read_exr_with_metadata(&dir.join("m0.exr")).unwrap();
+        assert_eq!(back.color, img.color);
+        // Text is Latin-1 in EXR: what it cannot hold reads back as `?`.
+        meta.attributes.values_mut().for_each(|v| {
+            if let AttributeValue::Text(t) = v {
+                *t = t.replace('☃', "?");
+            }
+        });
+        assert_eq!(read, meta);
+        let header = read_exr_header(&dir.join("m0.exr")).unwrap();
+        assert_eq!((header.full_width, header.full_height, header.y0, header.height), (6, 4, 1, 2));
+        assert!(header.channels.contains(&"albedo.R".to_string()));
+        assert_eq!(header.metadata, meta);
+        let mut garbage = b"v/1\x01not an exr".to_vec();
+        assert!(metadata::sort_header_attributes(&mut garbage).is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -695,6 +742,17 @@ mod tests {
         assert!(parse_crop("a,b,c,d", 100, 50).is_err());
         // A fraction among pixel numbers is not one pixel wide: it is refused.
         assert!(parse_crop("0,1.5,0,1", 100, 50).unwrap_err().contains("neither a fraction"));
+    }
+
+    #[test]
+    fn frame_patterns_take_the_frame_number_padded() {
+        let p = |s: &str, f: i32| frame_path(Path::new(s), f).display().to_string();
+        assert_eq!(p("out/shot.####.exr", 7), "out/shot.0007.exr");
+        assert_eq!(p("out/shot.#.exr", 123), "out/shot.123.exr");
+        assert_eq!(p("shot_##_v#.png", 5), "shot_05_v5.png");
+        assert_eq!(p("shot.####.exr", -3), "shot.-003.exr");
+        assert_eq!(p("dir#/shot.exr", 3), "dir#/shot.exr");
+        assert!(has_frame_pattern(Path::new("a/b.##.exr")) && !has_frame_pattern(Path::new("a#/b.exr")));
     }
 
     #[test]

@@ -198,7 +198,9 @@ impl Gen {
                 if env.globals {
                     arms.push((
                         4,
-                        pick(&["u", "v", "t", "dudx", "dvdy", "P.x", "Pl.y", "N.z", "Ng.x", "dPdu.y", "dPdv.z"]),
+                        pick(&[
+                            "u", "v", "t", "dudx", "dvdy", "P.x", "Pl.y", "N.z", "Ng.x", "dPdu.y", "dPdv.z", "time",
+                        ]),
                     ));
                 }
                 if env.consts {

@@ -176,25 +176,51 @@ fn array_choices_and_assigned_material_parameters() {
     assert_eq!(q.emission(&g, [0.0, 0.0, 1.0]).lanes(), [0.5; 3]);
 }
 
-// FIXME: the checker accepts template parameters of type `material[N]`,
-// but lowering does not support them: an element (`ms[0]`) or the whole
-// array given to `blend` or `select` lowers to the zero material (black,
-// and not opaque). Either lowering learns them or the checker refuses them;
-// until then this test pins today's output.
+/// `material[N]` template parameters: an element (`ms[i]`, clamped like
+/// `select`), the whole array given to `blend` or `select`, an array passed
+/// on to another template, and a default array. They were once accepted by
+/// the checker and lowered as the zero material (black, not opaque).
 #[test]
-fn material_array_parameters_are_not_lowered_yet() {
+fn material_array_parameters() {
     let p = compile(
         r#"
-        material pair(material[2] ms) = mix(u, ms[0], ms[1]);
-        material picked(material[2] ms) = select(face, ms);
+        material pair(material[2] ms) = mix(0.25, ms[0], ms[1]);
+        material picked(material[2] ms, int i) = select(i, ms);
+        material element(material[3] ms, int i) = ms[i];
+        material blended(material[2] ms) = blend(0.5, ms);
+        material passed(material[2] ms) = pair(ms);
+        material defaulted(material[2] ms = [lambert(kd: gray(0.6)), lambert(kd: gray(0.8))]) = ms[1];
         material a = pair([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
-        material b = picked([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
+        material b0 = picked([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))], 0);
+        material b1 = picked([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))], 7);
+        material c = element([lambert(kd: gray(0.1)), lambert(kd: gray(0.3)), lambert(kd: gray(0.5))], 1);
+        material c_low = element([lambert(kd: gray(0.1)), lambert(kd: gray(0.3)), lambert(kd: gray(0.5))], -4);
+        material d = blended([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
+        material e = passed([lambert(kd: gray(0.2)), lambert(kd: gray(0.4))]);
+        material f = defaulted();
+        material varying = element([lambert(kd: gray(0.1)), lambert(kd: gray(0.3)), lambert(kd: gray(0.5))], face);
         "#,
     );
-    let g = ShadingGlobals::default();
-    for name in ["a", "b"] {
+    let expected =
+        [("a", 0.25), ("b0", 0.2), ("b1", 0.4), ("c", 0.3), ("c_low", 0.1), ("d", 0.3), ("e", 0.25), ("f", 0.8)];
+    // The method's result words through either back end.
+    let call = |name: &str, method: &str, backend: Backend, g: &ShadingGlobals| {
         let m = p.material(name).unwrap();
-        assert_eq!(m.diffuse(&g).lanes(), [0.0; 3], "{name}: should be 0.2 (FIXME)");
-        assert!(!m.opaque(&g), "{name}: should be opaque (FIXME)");
+        let mut out = [0u32; 3];
+        m.method(method).unwrap().call_words(backend, g, &[], &mut out).unwrap();
+        out
+    };
+    for backend in [Backend::Jit, Backend::Interpreter] {
+        let g = ShadingGlobals::default();
+        for (name, kd) in expected {
+            let diffuse = call(name, "diffuse", backend, &g).map(f32::from_bits);
+            assert!(diffuse.iter().all(|x| (x - kd).abs() < 1e-6), "{name} ({backend:?}): {diffuse:?}, not {kd}");
+            assert_ne!(call(name, "opaque", backend, &g)[0], 0, "{name} ({backend:?}): lambert is opaque");
+        }
+        // The index may vary over the surface (here the face).
+        for (face, kd) in [(0, 0.1), (1, 0.3), (2, 0.5), (9, 0.5)] {
+            let g = ShadingGlobals { face, ..Default::default() };
+            assert_eq!(call("varying", "diffuse", backend, &g).map(f32::from_bits), [kd; 3], "face {face}");
+        }
     }
 }

@@ -151,6 +151,54 @@ fn images_do_not_depend_on_the_thread_count() {
 }
 
 #[test]
+fn sample_ranges_average_to_the_render_of_the_whole_range() {
+    // A progressive renderer (`tslc watch`) renders 0..2, then 2..8, and
+    // averages them by their lengths: the image of 0..8, up to rounding.
+    let src = std::fs::read_to_string("examples/cornell.tsl").unwrap();
+    let program = Compiler::new().source("examples/cornell.tsl", &src).compile().unwrap();
+    let overrides = Overrides { resolution: Some((16, 16)), spp: Some(8), ..Default::default() };
+    let scene = Scene::build(&program, &overrides).unwrap();
+    let part = |samples| render::render(&scene, &RenderOptions { samples, ..Default::default() }).unwrap();
+    let (whole, stats) = part(None);
+    assert_eq!(stats.samples, 16 * 16 * 8);
+    let (first, _) = part(Some(0..2));
+    let (rest, stats) = part(Some(2..8));
+    assert_eq!(stats.samples, 16 * 16 * 6);
+    let mut differs = 0;
+    for ((w, a), b) in whole.color.iter().zip(&first.color).zip(&rest.color) {
+        for c in 0..3 {
+            let averaged = (a[c] * 2.0 + b[c] * 6.0) / 8.0;
+            assert!((averaged - w[c]).abs() <= 1e-5 * w[c].abs().max(1.0), "{averaged} vs {}", w[c]);
+            differs += usize::from(a[c] != w[c]);
+        }
+    }
+    assert!(differs > 100, "two samples should give a noisier image than eight");
+    assert!(render::render(&scene, &RenderOptions { samples: Some(3..3), ..Default::default() }).is_err());
+}
+
+#[test]
+fn a_cancelled_render_stops_at_the_next_tile_with_an_error() {
+    use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+    let src = std::fs::read_to_string("examples/cornell.tsl").unwrap();
+    let program = Compiler::new().source("examples/cornell.tsl", &src).compile().unwrap();
+    let overrides = Overrides { resolution: Some((64, 64)), spp: Some(1), ..Default::default() };
+    let scene = Scene::build(&program, &overrides).unwrap();
+    let cancel = AtomicBool::new(true);
+    let before = RenderOptions { cancel: Some(&cancel), ..Default::default() };
+    assert_eq!(render::render(&scene, &before).unwrap_err(), render::CANCELLED);
+    // Cancelled when the first tile finishes: the other 15 tiles are not rendered.
+    let cancel = AtomicBool::new(false);
+    let tiles_done = AtomicU32::new(0);
+    let on_tile = |_, _| {
+        tiles_done.fetch_add(1, Ordering::Relaxed);
+        cancel.store(true, Ordering::Relaxed);
+    };
+    let during = RenderOptions { threads: 1, cancel: Some(&cancel), progress: Some(&on_tile), ..Default::default() };
+    assert_eq!(render::render(&scene, &during).unwrap_err(), render::CANCELLED);
+    assert_eq!(tiles_done.load(Ordering::Relaxed), 1);
+}
+
+#[test]
 fn bad_scenes_are_located_errors() {
     let missing = common::build_error(
         r#"scene { camera { from (0, 0, 5); to (0, 0, 0); } object mesh { file "no/such/mesh.obj"; material lambert; } }"#,
@@ -673,6 +721,28 @@ fn prepared_hits_render_what_per_method_calls_render() {
         let pixels = split.color.len();
         assert!(close * 100 >= pixels * 97, "{example} ({integrator:?}): {close} of {pixels} pixels agree");
     }
+}
+
+/// The optimising tier for large functions (chosen for long renders) runs
+/// the same operations as the quick one: the same image, bit for bit.
+#[test]
+fn optimised_code_renders_the_same_bits() {
+    let program =
+        Compiler::new().file("examples/techniques/bump_procedural.tsl").compile().unwrap_or_else(|e| panic!("{e}"));
+    let render = |optimize| {
+        let overrides = Overrides {
+            resolution: Some((40, 30)),
+            spp: Some(2),
+            integrator: Some(IntegratorKind::Path),
+            optimize_code: Some(optimize),
+            ..Default::default()
+        };
+        let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
+        render::render(&scene, &RenderOptions::default()).unwrap().0
+    };
+    let (quick, optimised) = (render(false), render(true));
+    assert!(quick.color.iter().any(|p| p.iter().any(|x| *x > 0.0)), "a black image proves nothing");
+    assert_eq!(quick.color, optimised.color);
 }
 
 /// A film beyond the memory budget is refused before it is allocated, with

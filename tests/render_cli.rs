@@ -2,22 +2,11 @@
 //! outputs, tiles joined bit for bit, progress on pipes, clear errors that
 //! leave no file behind.
 
+mod common;
+
+use common::{stderr, tslc};
 use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
-
-fn tslc(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tslc"))
-        .args(args)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .output()
-        .expect("tslc runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use std::process::{Command, Stdio};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("tslc-render-{}-{name}", std::process::id()));

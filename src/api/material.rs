@@ -23,7 +23,7 @@ struct Facts {
     may_reflect_dir: bool,
     may_refract: bool,
     /// Bit `k` is set when some method reads word `k` of the globals.
-    globals_read: u32,
+    globals_read: u64,
     /// `absorption` returns its light unchanged (a clear medium).
     clear: bool,
 }
@@ -32,11 +32,11 @@ impl Facts {
     fn of(methods: &[Function]) -> Facts {
         let constant = |k: usize| methods[k].ir().constant_results();
         let zero = |k: usize| constant(k).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
-        let mut globals_read = 0u32;
+        let mut globals_read = 0u64;
         for m in methods {
             crate::ir::for_each_op(&m.ir().body, &mut |op| {
                 if let crate::ir::Op::Global(w) = op {
-                    globals_read |= 1u32.checked_shl(*w).unwrap_or(0);
+                    globals_read |= 1u64.checked_shl(*w).unwrap_or(0);
                 }
             });
         }
@@ -165,7 +165,7 @@ impl Material {
     /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]
     /// (see `globals::word_of`): a renderer can skip computing what no
     /// method reads, such as the pixel footprint.
-    pub fn globals_read(&self) -> u32 {
+    pub fn globals_read(&self) -> u64 {
         self.facts.globals_read
     }
 

@@ -78,18 +78,21 @@ impl Program {
     /// Compiles materials of the program (scene objects' `material`
     /// values) for prepared hits, one [`HitMaterial`] per reference.
     /// Only materials whose `prepare` saves work are compiled
-    /// ([`worth_preparing`]); the others get `None`.
+    /// ([`worth_preparing`]); the others get `None`. `optimize_large`
+    /// gives large functions the optimising tier whatever the program's
+    /// own setting ([`crate::Compiler::optimize_large`]).
     pub(crate) fn compile_hit_group_refs(
         &self,
         materials: &[(String, MaterialRef)],
         methods: &[HitMethod],
+        optimize_large: bool,
     ) -> Result<Vec<Option<HitMaterial>>, Error> {
         let exprs = self.material_exprs(materials)?;
         let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, &exprs, methods);
         self.lowering_errors(diags)?;
         let worth: Vec<bool> = groups.iter().map(|g| worth_preparing(&g.split.prepare)).collect();
         let chosen: Vec<HitGroup> = groups.into_iter().zip(&worth).filter(|(_, w)| **w).map(|(g, _)| g).collect();
-        let mut compiled = self.compile_split_groups(chosen)?.into_iter();
+        let mut compiled = self.compile_split_groups(chosen, optimize_large)?.into_iter();
         Ok(worth.iter().map(|w| if *w { compiled.next() } else { None }).collect())
     }
 
@@ -101,11 +104,11 @@ impl Program {
     ) -> Result<Vec<HitMaterial>, Error> {
         let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, materials, methods);
         self.lowering_errors(diags)?;
-        self.compile_split_groups(groups)
+        self.compile_split_groups(groups, false)
     }
 
     /// Compiles lowered hit groups together, one [`HitMaterial`] each.
-    fn compile_split_groups(&self, groups: Vec<HitGroup>) -> Result<Vec<HitMaterial>, Error> {
+    fn compile_split_groups(&self, groups: Vec<HitGroup>, optimize_large: bool) -> Result<Vec<HitMaterial>, Error> {
         let mut ir = IrModule::default();
         let mut entries = Vec::new();
         for HitGroup { split, entries: methods, .. } in &groups {
@@ -123,7 +126,9 @@ impl Program {
                 entries.push(Entry { name: f.name.clone(), kind: EntryKind::Hit(*method), params, ret: ret.clone() });
             }
         }
-        let part = self.jit_part(ir, entries)?;
+        let mut options = self.inner.jit_options.clone();
+        options.optimize_large |= optimize_large;
+        let part = self.jit_part_with(ir, entries, &options)?;
         let mut out = Vec::with_capacity(groups.len());
         let mut index = 0;
         let handle = |index: &mut usize| -> Result<Function, Error> {

@@ -84,54 +84,99 @@ impl<'a> Checker<'a> {
         d
     }
 
-    /// A constant may not depend on the shading point, not even through the
-    /// functions it calls.
-    pub(super) fn report_varying_constants(&mut self) {
-        let mut consts: Vec<Node> = self.graph.keys().filter(|n| self.is_const(n)).cloned().collect();
-        consts.sort();
-        for start in consts {
-            // Depth-first search for a node that reads a global, keeping the
-            // path for the message.
-            let mut seen: HashMap<Node, ()> = HashMap::new();
-            let mut stack: Vec<(Node, usize)> = vec![(start.clone(), 0)];
-            seen.insert(start.clone(), ());
-            let mut found: Option<Vec<Node>> = None;
-            while let Some((node, next)) = stack.last().cloned() {
-                if self.reads_globals.contains_key(&node) {
-                    found = Some(stack.iter().map(|(n, _)| n.clone()).collect());
-                    break;
+    /// The path of dependencies from `start` to the first node `reads`
+    /// gives a span for (depth first; constants on the way are skipped
+    /// when `skip_consts`, as they are reported for themselves), with that
+    /// span and the span of `start`'s first step on the path.
+    fn path_to(
+        &self,
+        start: &Node,
+        skip_consts: bool,
+        reads: impl Fn(&Node) -> Option<Span>,
+    ) -> Option<(Vec<Node>, Span, Span)> {
+        let mut seen: HashMap<Node, ()> = HashMap::new();
+        let mut stack: Vec<(Node, usize)> = vec![(start.clone(), 0)];
+        seen.insert(start.clone(), ());
+        while let Some((node, next)) = stack.last().cloned() {
+            if let Some(read) = reads(&node).filter(|_| stack.len() > 1) {
+                let path: Vec<Node> = stack.iter().map(|(n, _)| n.clone()).collect();
+                let out = self.graph.get(start)?;
+                let first_use = out.iter().find(|(n, _)| path.get(1) == Some(n)).map(|(_, span)| *span)?;
+                return Some((path, read, first_use));
+            }
+            let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+            match out.get(next) {
+                Some((to, _)) => {
+                    if let Some(top) = stack.last_mut() {
+                        top.1 += 1;
+                    }
+                    if seen.insert(to.clone(), ()).is_none() && !(skip_consts && self.is_const(to)) {
+                        stack.push((to.clone(), 0));
+                    }
                 }
-                let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
-                match out.get(next) {
-                    Some((to, _)) => {
-                        if let Some(top) = stack.last_mut() {
-                            top.1 += 1;
-                        }
-                        if seen.insert(to.clone(), ()).is_none() {
-                            stack.push((to.clone(), 0));
-                        }
-                    }
-                    None => {
-                        stack.pop();
-                    }
+                None => {
+                    stack.pop();
                 }
             }
-            let Some(path) = found else { continue };
-            let Some(first_use) = self
-                .graph
-                .get(&start)
-                .and_then(|out| out.iter().find(|(n, _)| path.get(1) == Some(n)).map(|(_, span)| *span))
+        }
+        None
+    }
+
+    /// A constant or a scene value (other than a material) may not depend
+    /// on the shading point, not even through the functions it calls; a
+    /// render setting may not depend on the frame (the `time` mapping may
+    /// read `frame`).
+    pub(super) fn report_varying_values(&mut self) {
+        let is_root = |n: &Node| self.is_const(n) || matches!(n, Node::SceneValue(..));
+        let mut roots: Vec<Node> = self.graph.keys().filter(|n| is_root(n)).cloned().collect();
+        roots.sort();
+        for start in roots {
+            let scene = matches!(start, Node::SceneValue(..));
+            // A direct read was refused where it is written.
+            let Some((path, read, first_use)) = self.path_to(&start, scene, |n| self.reads_globals.get(n).copied())
             else {
                 continue;
             };
             let reader = &path[path.len() - 1];
-            let global_span = self.reads_globals[reader];
             let names: Vec<String> = path.iter().map(Node::describe).collect();
+            let (what, help) = if scene {
+                ("scene value", "scene values are fixed for a frame; only a `material` may vary over the surface")
+            } else {
+                ("constant", "a constant is fixed for a frame; make it a function instead")
+            };
             self.diags.push(
-                Diagnostic::error(first_use, format!("constant {} depends on the shading point", start.describe()))
-                    .with_label(global_span, format!("{} reads a shading global here", reader.describe()))
+                Diagnostic::error(first_use, format!("{what} {} depends on the shading point", start.describe()))
+                    .with_label(read, format!("{} reads a shading global here", reader.describe()))
                     .with_note(format!("through {}", names.join(" -> ")))
-                    .with_help("a constant is fixed before shading starts; make it a function instead"),
+                    .with_help(help),
+            );
+        }
+        let mut limited: Vec<(Node, FrameGlobals)> = self.frame_limits.iter().map(|(n, l)| (n.clone(), *l)).collect();
+        limited.sort_by(|a, b| a.0.cmp(&b.0));
+        for (start, limit) in limited {
+            let refused = |name: &str| limit == FrameGlobals::Neither || name == "time";
+            let reads = |n: &Node| {
+                FRAME_GLOBALS.iter().find_map(|g| self.reads_frame.get(&(n.clone(), *g)).filter(|_| refused(g)))
+            };
+            let Some((path, read, first_use)) = self.path_to(&start, false, |n| reads(n).map(|r| r.0)) else {
+                continue;
+            };
+            let reader = &path[path.len() - 1];
+            let global = reads(reader).map_or("frame", |r| r.1);
+            let names: Vec<String> = path.iter().map(Node::describe).collect();
+            let (message, help) = if limit == FrameGlobals::FrameOnly {
+                ("the `time` mapping depends on `time`".to_string(), "it defines `time`: compute it from `frame`")
+            } else {
+                (
+                    format!("render setting {} depends on the frame", start.describe()),
+                    "render settings hold for every frame of an animation",
+                )
+            };
+            self.diags.push(
+                Diagnostic::error(first_use, message)
+                    .with_label(read, format!("{} reads `{global}` here", reader.describe()))
+                    .with_note(format!("through {}", names.join(" -> ")))
+                    .with_help(help),
             );
         }
     }

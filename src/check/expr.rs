@@ -108,6 +108,14 @@ impl<'a> Checker<'a> {
                         );
                         Ty::Error
                     }
+                    // Texture trees take their children's lists as written.
+                    Some(Ty::Array(elem, _)) if *elem == Ty::Material => {
+                        self.error(
+                            Diagnostic::error(e.span, "a list of materials cannot be chosen with `?:`")
+                                .with_help("choose each element instead: `[c ? a : b, c ? d : e]`"),
+                        );
+                        Ty::Error
+                    }
                     Some(t) => t,
                     None => {
                         self.error(
@@ -127,6 +135,32 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// `frame` or `time`, where the body may read them.
+    fn frame_global(&mut self, name: &str, span: Span, ty: Ty) -> Ty {
+        let allowed = match self.body.frame_globals {
+            FrameGlobals::Both => true,
+            FrameGlobals::FrameOnly => name == "frame",
+            FrameGlobals::Neither => false,
+        };
+        if allowed {
+            if let (Some(node), Some(global)) = (&self.body.node, FRAME_GLOBALS.iter().find(|g| **g == name)) {
+                self.reads_frame.entry((node.clone(), *global)).or_insert((span, *global));
+            }
+            return ty;
+        }
+        let refused = match self.body.frame_globals {
+            FrameGlobals::Both => return ty,
+            FrameGlobals::FrameOnly => Diagnostic::error(span, "the `time` mapping cannot read `time`")
+                .with_help("it defines `time`: compute it from `frame`, e.g. `time frame / 24.0;`"),
+            FrameGlobals::Neither => Diagnostic::error(span, format!("`{name}` cannot be used in render settings"))
+                .with_help(
+                    "render settings hold for every frame of an animation; only the `time` mapping reads `frame`",
+                ),
+        };
+        self.error(refused);
+        Ty::Error
+    }
+
     pub(super) fn name(&mut self, name: &str, span: Span) -> Ty {
         if let Some(local) = self.lookup_local(name) {
             local.used = true;
@@ -135,11 +169,14 @@ impl<'a> Checker<'a> {
             return ty;
         }
         if let Some(t) = interface::global(name) {
+            if interface::is_frame_global(name) {
+                return self.frame_global(name, span, t);
+            }
             if !self.body.globals_allowed {
                 let help = if self.body.context == "the scene" {
-                    "scene values are fixed before shading starts; only a `material` may vary over the surface"
+                    "scene values are fixed for a frame (they may read `frame` and `time`); only a `material` may vary over the surface"
                 } else {
-                    "constants are fixed before shading starts; use a function to compute a value per shading point"
+                    "constants are fixed for a frame (they may read `frame` and `time`); use a function to compute a value per shading point"
                 };
                 self.error(
                     Diagnostic::error(
@@ -227,6 +264,8 @@ impl<'a> Checker<'a> {
         }
         if self.body.globals_allowed {
             candidates.extend(GLOBALS.iter().map(|g| g.0));
+        } else {
+            candidates.extend(interface::FRAME_GLOBALS);
         }
         let table = if self.in_prelude { self.prelude_symbols } else { self.symbols };
         candidates.extend(table.keys().map(String::as_str));

@@ -79,7 +79,8 @@ impl InterfaceMethod {
     }
 }
 
-/// The read-only shading globals: the surface-point record.
+/// The read-only shading globals: the surface-point record, then the
+/// frame's number and time.
 pub const GLOBALS: &[(&str, Ty, &str)] = &[
     ("P", Ty::Point, "hit point, world space"),
     ("Pl", Ty::Point, "hit point, object space"),
@@ -97,7 +98,18 @@ pub const GLOBALS: &[(&str, Ty, &str)] = &[
     ("dudy", Ty::Float, "change of u to the next pixel in y"),
     ("dvdx", Ty::Float, "change of v to the next pixel in x"),
     ("dvdy", Ty::Float, "change of v to the next pixel in y"),
+    ("frame", Ty::Int, "the frame being rendered (0 unless the render asks for one)"),
+    ("time", Ty::Float, "the frame's time in seconds (frame / fps, or the render block's `time`)"),
 ];
+
+/// The globals that are the same at every point of a frame: besides
+/// shading code, constants and scene values may read them.
+pub const FRAME_GLOBALS: &[&str] = &["frame", "time"];
+
+/// Whether `name` is a global that is fixed for a whole frame.
+pub fn is_frame_global(name: &str) -> bool {
+    FRAME_GLOBALS.contains(&name)
+}
 
 pub fn global(name: &str) -> Option<Ty> {
     GLOBALS.iter().find(|g| g.0 == name).map(|g| g.1.clone())

@@ -25,7 +25,7 @@ mod stmt;
 mod ty;
 
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
-pub use interface::{GLOBALS, INTERFACE, InterfaceMethod, interface_method};
+pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
 pub use ty::{SAMPLE_FIELDS, Ty};
 
@@ -168,6 +168,8 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         resolutions: FxHashMap::default(),
         local_uses: FxHashMap::default(),
         reads_globals: HashMap::new(),
+        reads_frame: HashMap::new(),
+        frame_limits: HashMap::new(),
         diags: &mut diags,
         expr_types: FxHashMap::default(),
         graph: HashMap::new(),
@@ -181,7 +183,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.check_items();
     checker.report_string_options();
     checker.report_recursion();
-    checker.report_varying_constants();
+    checker.report_varying_values();
     let expr_types = std::mem::take(&mut checker.expr_types);
     let resolutions = std::mem::take(&mut checker.resolutions);
     let local_uses = std::mem::take(&mut checker.local_uses);
@@ -230,11 +232,15 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                 );
                 continue;
             }
-            if interface::global(&name.name).is_some() {
-                diags.push(Diagnostic::error(
-                    name.span,
-                    format!("`{}` is a shading global and cannot be redefined", name.name),
-                ));
+            if let Some((_, _, meaning)) = GLOBALS.iter().find(|g| g.0 == name.name) {
+                diags.push(
+                    Diagnostic::error(
+                        name.span,
+                        format!("`{}` is a shading global and cannot be redefined", name.name),
+                    )
+                    .with_note(format!("`{}` is {meaning}", name.name))
+                    .with_help("choose another name"),
+                );
                 continue;
             }
             let symbol = Symbol { kind, module: m, item: i, span: name.span };
@@ -274,19 +280,22 @@ type ItemId = (usize, usize);
 enum Node {
     Item(ItemId, String),
     Method(ItemId, String, &'static str),
+    /// A value of the scene (item `ItemId`): its entry (block or top-level
+    /// property) and `block.property`.
+    SceneValue(ItemId, usize, String),
 }
 
 impl Node {
     fn describe(&self) -> String {
         match self {
-            Node::Item(_, n) => format!("`{n}`"),
+            Node::Item(_, n) | Node::SceneValue(_, _, n) => format!("`{n}`"),
             Node::Method(_, m, f) => format!("`{m}.{f}`"),
         }
     }
 
     fn id(&self) -> ItemId {
         match self {
-            Node::Item(id, _) | Node::Method(id, _, _) => *id,
+            Node::Item(id, _) | Node::Method(id, _, _) | Node::SceneValue(id, _, _) => *id,
         }
     }
 }
@@ -320,11 +329,28 @@ struct Body {
     /// Inside a material definition: its name and the methods it defines.
     material: Option<(String, Vec<&'static str>)>,
     globals_allowed: bool,
+    /// Which of the frame globals (`frame`, `time`) may be read.
+    frame_globals: FrameGlobals,
+    /// In the scene: the entry being checked and its name (`camera`), so
+    /// each value is a node of the dependency graph.
+    scene_entry: Option<(usize, String)>,
     /// Whether material values may appear (material trees only).
     materials_allowed: bool,
     /// What is being checked, for messages: "a function", "a constant", ...
     context: &'static str,
     node: Option<Node>,
+}
+
+/// Where the frame globals may be read. They are the same at every point
+/// of a frame, so shading code, constants and scene values may read them;
+/// render settings hold for every frame and may not, except the `time`
+/// mapping, which reads `frame`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+enum FrameGlobals {
+    #[default]
+    Both,
+    FrameOnly,
+    Neither,
 }
 
 struct Checker<'a> {
@@ -340,6 +366,12 @@ struct Checker<'a> {
     local_uses: FxHashMap<Span, Span>,
     /// Items whose own code reads a shading global, with the first use.
     reads_globals: HashMap<Node, Span>,
+    /// Items and scene values whose own code reads `frame` or `time`, by
+    /// the global's name, with the first read and that name.
+    reads_frame: HashMap<(Node, &'static str), (Span, &'static str)>,
+    /// Scene values that may not depend on (all of) the frame globals: the
+    /// render settings.
+    frame_limits: HashMap<Node, FrameGlobals>,
     diags: &'a mut Vec<Diagnostic>,
     expr_types: FxHashMap<Span, Ty>,
     /// Dependencies between items, with the span of the first use.
@@ -398,7 +430,7 @@ impl<'a> Checker<'a> {
 
     fn check_items(&mut self) {
         let loaded = self.loaded;
-        let mut scenes: Vec<&Scene> = Vec::new();
+        let mut scenes: Vec<(ItemId, &Scene)> = Vec::new();
         for (m, module) in loaded.modules.iter().enumerate() {
             self.in_prelude = module.is_prelude;
             for (i, item) in module.ast.items.iter().enumerate() {
@@ -413,20 +445,24 @@ impl<'a> Checker<'a> {
                     Item::Function(_) | Item::Material(_) | Item::MaterialTree(_) | Item::Const(_) => {}
                     Item::Scene(s) => {
                         if !module.is_prelude {
-                            scenes.push(s);
+                            scenes.push(((m, i), s));
                         }
                     }
                 }
             }
         }
-        for extra in scenes.iter().skip(1) {
+        for (_, extra) in scenes.iter().skip(1) {
             self.error(
                 Diagnostic::error(Span { end: extra.span.start + 5, ..extra.span }, "a program has at most one scene")
-                    .with_label(Span { end: scenes[0].span.start + 5, ..scenes[0].span }, "the first scene is here"),
+                    .with_label(
+                        Span { end: scenes[0].1.span.start + 5, ..scenes[0].1.span },
+                        "the first scene is here",
+                    ),
             );
         }
-        for s in scenes {
+        for (id, s) in scenes {
             self.in_prelude = false;
+            self.current = id;
             self.body = Body { context: "the scene", ..Body::default() };
             scene::check_scene(self, s);
         }

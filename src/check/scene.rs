@@ -2,7 +2,7 @@
 //! the type each property takes. Rendering gives them meaning later; here
 //! they are only checked.
 
-use super::{Checker, Ty};
+use super::{Checker, FrameGlobals, Node, Ty};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
 use std::collections::HashMap;
@@ -61,22 +61,33 @@ struct Prop {
     /// Transforms may be given several times; they apply in order.
     repeats: bool,
     /// Properties with the same non-zero group are alternatives: exactly
-    /// one of them must be given (`intensity` or `power`).
+    /// one of them must be given (`intensity` or `power`) in group
+    /// [`EXACTLY_ONE`], at most one in group [`AT_MOST_ONE`].
     group: u8,
+    /// Which of `frame` and `time` the value may read.
+    frame: FrameGlobals,
 }
 
+const EXACTLY_ONE: u8 = 1;
+const AT_MOST_ONE: u8 = 2;
+
 const fn req(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: true, repeats: false, group: 0 }
+    Prop { name, want, required: true, repeats: false, group: 0, frame: FrameGlobals::Both }
 }
 const fn opt(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: false, repeats: false, group: 0 }
+    Prop { name, want, required: false, repeats: false, group: 0, frame: FrameGlobals::Both }
 }
 const fn many(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: false, repeats: true, group: 0 }
+    Prop { name, want, required: false, repeats: true, group: 0, frame: FrameGlobals::Both }
 }
 /// One of a group of alternatives (see `Prop::group`).
 const fn alt(name: &'static str, want: Want) -> Prop {
-    Prop { name, want, required: false, repeats: false, group: 1 }
+    Prop { name, want, required: false, repeats: false, group: EXACTLY_ONE, frame: FrameGlobals::Both }
+}
+/// A render setting: the same for every frame, so it reads neither `frame`
+/// nor `time`.
+const fn setting(name: &'static str, want: Want) -> Prop {
+    Prop { name, want, required: false, repeats: false, group: 0, frame: FrameGlobals::Neither }
 }
 
 const TOP: &[Prop] = &[opt("background", Want::ColorOrString)];
@@ -91,13 +102,16 @@ const CAMERA: &[Prop] = &[
 ];
 
 const RENDER: &[Prop] = &[
-    opt("width", Want::Count),
-    opt("height", Want::Count),
-    opt("spp", Want::Count),
-    opt("max_depth", Want::Count),
-    opt("seed", Want::Int),
-    opt("integrator", Want::Choice(&["whitted", "path"])),
-    opt("light_sampling", Want::Choice(&["all", "power"])),
+    setting("width", Want::Count),
+    setting("height", Want::Count),
+    setting("spp", Want::Count),
+    setting("max_depth", Want::Count),
+    setting("seed", Want::Int),
+    setting("integrator", Want::Choice(&["whitted", "path"])),
+    setting("light_sampling", Want::Choice(&["all", "power"])),
+    // A frame's time: `frame / fps`, or the `time` mapping of `frame`.
+    Prop { group: AT_MOST_ONE, ..setting("fps", Want::Positive) },
+    Prop { group: AT_MOST_ONE, frame: FrameGlobals::FrameOnly, ..setting("time", Want::Float) },
 ];
 
 const LIGHTS: &[(&str, &[Prop])] = &[
@@ -240,7 +254,12 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     let mut top_props: Vec<&SceneProp> = Vec::new();
     // `light environment` blocks and `background`: at most one in all.
     let mut environments: Vec<Span> = Vec::new();
-    for entry in &scene.entries {
+    for (k, entry) in scene.entries.iter().enumerate() {
+        let name = match entry {
+            SceneEntry::Prop(_) => "scene",
+            SceneEntry::Block(b) => b.keyword.name.as_str(),
+        };
+        cx.body.scene_entry = Some((k, name.to_string()));
         match entry {
             SceneEntry::Prop(p) => {
                 if p.name.name == "background" {
@@ -283,7 +302,9 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
             },
         }
     }
+    cx.body.scene_entry = Some((usize::MAX, "scene".into()));
     check_prop_list(cx, &top_props, TOP, &[]);
+    cx.body.scene_entry = None;
     if cameras.is_empty() {
         cx.error(
             Diagnostic::error(Span { end: scene.span.start + 5, ..scene.span }, "the scene has no camera")
@@ -352,11 +373,14 @@ fn check_props(
     b: &SceneBlock,
 ) {
     let given = check_prop_list(cx, &props, own, common);
-    let alternatives: Vec<&str> = own.iter().filter(|p| p.group != 0).map(|p| p.name).collect();
-    if !alternatives.is_empty() {
+    for group in [EXACTLY_ONE, AT_MOST_ONE] {
+        let alternatives: Vec<&str> = own.iter().filter(|p| p.group == group).map(|p| p.name).collect();
+        if alternatives.is_empty() {
+            continue;
+        }
         let named: Vec<&str> = alternatives.iter().copied().filter(|n| given.contains_key(n)).collect();
         let list = alternatives.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(" or ");
-        if named.is_empty() {
+        if named.is_empty() && group == EXACTLY_ONE {
             cx.error(
                 Diagnostic::error(b.span, format!("{what} needs {list}"))
                     .with_help(format!("add `{} ...;` inside the block", alternatives[0])),
@@ -402,6 +426,7 @@ fn check_prop_list<'p>(
             if let Some(v) = &p.value {
                 cx.body.globals_allowed = true;
                 cx.body.materials_allowed = true;
+                cx.body.frame_globals = FrameGlobals::Both;
                 cx.expr(v, None);
             }
             continue;
@@ -428,9 +453,23 @@ fn check_prop_list<'p>(
 
 fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     // Materials are evaluated per hit point, so they may read the globals;
-    // everything else is fixed before rendering starts.
+    // everything else is fixed before rendering a frame starts.
     cx.body.globals_allowed = spec.want == Want::Material;
     cx.body.materials_allowed = spec.want == Want::Material;
+    cx.body.frame_globals = spec.frame;
+    // A value other than a material is fixed for a frame: the functions it
+    // calls are followed to shading globals (`report_varying_values`).
+    cx.body.node = match &cx.body.scene_entry {
+        Some((entry, block)) if spec.want != Want::Material => {
+            Some(Node::SceneValue(cx.current, *entry, format!("{block}.{}", spec.name)))
+        }
+        _ => None,
+    };
+    if let Some(node) = &cx.body.node
+        && spec.frame != FrameGlobals::Both
+    {
+        cx.frame_limits.insert(node.clone(), spec.frame);
+    }
     let expected = match spec.want {
         Want::Positive | Want::NonNegative | Want::Float => Some(Ty::Float),
         Want::Count | Want::Int => Some(Ty::Int),

@@ -102,6 +102,10 @@ enum Doc {
     Blank,
     /// Printed only when the group breaks (a trailing comma).
     IfBreak(&'static str),
+    /// In a broken group, a space when the element after it (and a comma)
+    /// still fits on the line, else a newline: rows of data filled like
+    /// text. A space in a flat group.
+    FillLine,
     /// Forces the enclosing groups to break, prints nothing.
     BreakParent,
     /// A comment: a space before unless at a line start or after an opening
@@ -147,6 +151,17 @@ fn render(doc: &Doc) -> String {
                     put(&mut out, " ", &mut col, &mut pending_indent);
                 }
             }
+            Doc::FillLine => {
+                let next = stack.last().map(|x| x.2);
+                let room = WIDTH as isize - col as isize - 2;
+                if flat || next.is_some_and(|n| fits(room, n, &[])) {
+                    put(&mut out, " ", &mut col, &mut pending_indent);
+                } else {
+                    out.push('\n');
+                    col = 0;
+                    pending_indent = Some(ind);
+                }
+            }
             Doc::Line | Doc::SoftLine | Doc::HardLine => {
                 out.push('\n');
                 col = 0;
@@ -177,38 +192,43 @@ fn render(doc: &Doc) -> String {
 }
 
 /// Whether `group` fits flat in `room` columns, with what follows it up to
-/// the next line break.
+/// the next line break. A comment after the group does not count: it stays
+/// at the end of its line wherever the group breaks (as in rustfmt).
 fn fits(mut room: isize, group: &Doc, rest: &[(usize, bool, &Doc)]) -> bool {
-    let mut local: Vec<(bool, &Doc)> = vec![(true, group)];
+    // (flat, doc, whether it follows the group)
+    let mut local: Vec<(bool, &Doc, bool)> = vec![(true, group, false)];
     let mut rest_i = rest.len();
     loop {
-        let (flat, d) = match local.pop() {
+        let (flat, d, after) = match local.pop() {
             Some(x) => x,
             None => {
                 if rest_i == 0 {
                     return true;
                 }
                 rest_i -= 1;
-                (rest[rest_i].1, rest[rest_i].2)
+                (rest[rest_i].1, rest[rest_i].2, true)
             }
         };
         match d {
+            Doc::Comment(_) if after => return true,
             Doc::Text(s) | Doc::Comment(s) => {
                 if s.contains('\n') {
                     return !flat;
                 }
                 room -= s.chars().count() as isize + isize::from(matches!(d, Doc::Comment(_)));
             }
-            Doc::Line if flat => room -= 1,
+            Doc::Line | Doc::FillLine if flat => room -= 1,
             Doc::SoftLine if flat => {}
-            Doc::Line | Doc::SoftLine => return true,
+            Doc::Line | Doc::SoftLine | Doc::FillLine => return true,
             Doc::HardLine | Doc::Blank | Doc::BreakParent => return !flat,
             Doc::IfBreak(s) => {
                 if !flat {
                     room -= s.len() as isize;
                 }
             }
-            Doc::Indent(ds) | Doc::Concat(ds) | Doc::Group(ds) => local.extend(ds.iter().rev().map(|x| (flat, x))),
+            Doc::Indent(ds) | Doc::Concat(ds) | Doc::Group(ds) => {
+                local.extend(ds.iter().rev().map(|x| (flat, x, after)))
+            }
         }
         if room < 0 {
             return false;
@@ -307,16 +327,31 @@ impl Printer<'_> {
         Doc::Concat(out)
     }
 
+    /// Skips the next token (a trailing comma the style drops or puts
+    /// back itself), keeping the comments before it.
+    fn skip(&mut self) -> Vec<Doc> {
+        let out = self.flush();
+        self.ti += 1;
+        out
+    }
+
     fn is_next(&self, t: &Tok) -> bool {
         self.tokens.get(self.ti).is_some_and(|x| &x.1 == t)
     }
 
-    /// Items, statements, methods or scene entries, one per line.
-    fn lines<T>(&mut self, items: &[T], mut one: impl FnMut(&mut Self, &T) -> Doc, top: bool) -> Vec<Doc> {
+    /// Items, statements, methods or scene entries, one per line (`break_`
+    /// is the line break: hard, or a group's `Line`).
+    fn lines<T>(
+        &mut self,
+        items: &[T],
+        mut one: impl FnMut(&mut Self, &T) -> Doc,
+        top: bool,
+        break_: fn() -> Doc,
+    ) -> Vec<Doc> {
         let mut out = Vec::new();
         for (i, item) in items.iter().enumerate() {
             if i > 0 || !top {
-                out.push(if i > 0 && self.blank_before() { Doc::Blank } else { Doc::HardLine });
+                out.push(if i > 0 && self.blank_before() { Doc::Blank } else { break_() });
             }
             out.extend(self.leading());
             let item_doc = one(self, item);
@@ -328,9 +363,19 @@ impl Printer<'_> {
 
     /// `{ lines }` with the comments left before `}` inside.
     fn braced<T>(&mut self, items: &[T], one: impl FnMut(&mut Self, &T) -> Doc) -> Doc {
+        self.braced_with(items, one, || Doc::HardLine)
+    }
+
+    /// `{ a; b; }` on one line when it fits and holds no line comment or
+    /// blank line, else one entry a line (scene blocks).
+    fn braced_group<T>(&mut self, items: &[T], one: impl FnMut(&mut Self, &T) -> Doc) -> Doc {
+        Doc::Group(vec![self.braced_with(items, one, || Doc::Line)])
+    }
+
+    fn braced_with<T>(&mut self, items: &[T], one: impl FnMut(&mut Self, &T) -> Doc, break_: fn() -> Doc) -> Doc {
         let open = self.tok();
         let after_open = self.trailing();
-        let mut inner = self.lines(items, one, false);
+        let mut inner = self.lines(items, one, false, break_);
         let mut rest = Vec::new();
         let next = self.next_start();
         if self.ci < self.comments.len() && self.comments[self.ci].start < next {
@@ -346,11 +391,11 @@ impl Printer<'_> {
         if empty {
             return Doc::Concat(vec![open, close]);
         }
-        Doc::Concat(vec![open, Doc::Concat(after_open), Doc::Indent(inner), Doc::HardLine, close])
+        Doc::Concat(vec![open, Doc::Concat(after_open), Doc::Indent(inner), break_(), close])
     }
 
     fn file(&mut self, f: &SourceFile) -> Doc {
-        let mut out = self.lines(&f.items, Self::item, true);
+        let mut out = self.lines(&f.items, Self::item, true, || Doc::HardLine);
         if self.ci < self.comments.len() {
             if !f.items.is_empty() {
                 out.push(if self.blank_before() { Doc::Blank } else { Doc::HardLine });
@@ -405,7 +450,7 @@ impl Printer<'_> {
                             out.extend([text(" "), p.tok()]);
                         }
                         out.push(text(" "));
-                        out.push(p.braced(&b.props, Self::prop));
+                        out.push(p.braced_group(&b.props, Self::prop));
                         Doc::Concat(out)
                     }
                     SceneEntry::Prop(prop) => p.prop(prop),
@@ -492,6 +537,38 @@ impl Printer<'_> {
         Doc::Group(vec![open, Doc::Indent(inner), Doc::SoftLine, close])
     }
 
+    /// `[a, b, c]` on one line when it fits, else as many elements a line
+    /// as fit, with a trailing comma: for arrays of literals and tuples of
+    /// them (measured spectra, spline knots).
+    fn filled(&mut self, items: &[Expr]) -> Doc {
+        let open = self.tok();
+        let mut inner = vec![Doc::SoftLine];
+        for (i, item) in items.iter().enumerate() {
+            inner.push(self.expr(item));
+            if i + 1 < items.len() {
+                inner.push(self.tok());
+                inner.extend(self.trailing());
+                inner.push(Doc::FillLine);
+            } else {
+                if self.is_next(&Tok::Comma) {
+                    inner.extend(self.skip());
+                }
+                inner.push(Doc::IfBreak(","));
+                inner.extend(self.trailing());
+            }
+        }
+        let next = self.next_start();
+        if self.ci < self.comments.len() && self.comments[self.ci].start < next {
+            inner.push(Doc::HardLine);
+            let mut lead = self.leading();
+            lead.pop();
+            inner.extend(lead);
+            inner.push(Doc::BreakParent);
+        }
+        let close = self.tok();
+        Doc::Group(vec![open, Doc::Indent(inner), Doc::SoftLine, close])
+    }
+
     fn block(&mut self, b: &Block) -> Doc {
         self.braced(&b.stmts, Self::stmt)
     }
@@ -547,6 +624,18 @@ impl Printer<'_> {
     }
 
     fn args(&mut self, args: &[Arg]) -> Doc {
+        // A sole array argument opens and closes with the call's
+        // parentheses: `spectrum([` ... `])`.
+        if let [Arg { name: None, value }] = args
+            && matches!(value.kind, ExprKind::Array(_))
+        {
+            let mut out = vec![self.tok(), self.expr(value)];
+            if self.is_next(&Tok::Comma) {
+                out.extend(self.skip());
+            }
+            out.push(self.tok());
+            return Doc::Concat(out);
+        }
         self.list(args, false, |p, a| {
             let mut out = Vec::new();
             if a.name.is_some() {
@@ -572,13 +661,19 @@ impl Printer<'_> {
             first = lhs;
         }
         let ExprKind::Binary { lhs, .. } = &first.kind else { return Doc::Concat(Vec::new()) };
-        let mut parts = vec![self.expr(lhs)];
+        let loosest = nodes
+            .iter()
+            .filter_map(|n| if let ExprKind::Binary { op, .. } = &n.kind { Some(binding(*op)) } else { None })
+            .min();
+        let first = self.expr(lhs);
+        let mut rest = Vec::new();
         for node in nodes.iter().rev() {
-            if let ExprKind::Binary { rhs, .. } = &node.kind {
-                parts.extend([text(" "), self.tok(), text(" "), self.expr(rhs)]);
+            if let ExprKind::Binary { op, rhs, .. } = &node.kind {
+                rest.push(if Some(binding(*op)) == loosest { Doc::Line } else { text(" ") });
+                rest.extend([self.tok(), text(" "), self.expr(rhs)]);
             }
         }
-        Doc::Concat(parts)
+        Doc::Group(vec![first, Doc::Indent(rest)])
     }
 
     fn expr(&mut self, e: &Expr) -> Doc {
@@ -608,17 +703,23 @@ impl Printer<'_> {
             }
             ExprKind::Unary { operand, .. } => Doc::Concat(vec![self.tok(), self.expr(operand)]),
             ExprKind::Binary { .. } => self.chain(e),
-            ExprKind::Ternary { cond, then_expr, else_expr } => Doc::Concat(vec![
-                self.expr(cond),
-                text(" "),
-                self.tok(),
-                text(" "),
-                self.expr(then_expr),
-                text(" "),
-                self.tok(),
-                text(" "),
-                self.expr(else_expr),
-            ]),
+            ExprKind::Ternary { cond, then_expr, else_expr } => {
+                let cond = self.expr(cond);
+                Doc::Group(vec![
+                    cond,
+                    Doc::Indent(vec![
+                        Doc::Line,
+                        self.tok(),
+                        text(" "),
+                        self.expr(then_expr),
+                        Doc::Line,
+                        self.tok(),
+                        text(" "),
+                        self.expr(else_expr),
+                    ]),
+                ])
+            }
+            ExprKind::Array(items) if items.len() > 1 && items.iter().all(is_data) => self.filled(items),
             ExprKind::Array(items) => self.list(items, false, Self::expr),
             ExprKind::Tuple(items) => self.list(items, items.len() == 1, Self::expr),
         });
@@ -626,6 +727,27 @@ impl Printer<'_> {
             out.push(self.tok());
         }
         Doc::Concat(out)
+    }
+}
+
+/// How tightly an operator binds (a chain breaks before its loosest).
+fn binding(op: BinaryOp) -> u8 {
+    match op {
+        BinaryOp::Or => 0,
+        BinaryOp::And => 1,
+        BinaryOp::Eq | BinaryOp::Ne | BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge => 2,
+        BinaryOp::Add | BinaryOp::Sub => 3,
+        BinaryOp::Mul | BinaryOp::Div | BinaryOp::Rem => 4,
+    }
+}
+
+/// A literal, a negated one, or a tuple of them: an element of a data table.
+fn is_data(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Int(_) | ExprKind::Float(_) | ExprKind::Bool(_) | ExprKind::Str(_) => true,
+        ExprKind::Unary { operand, .. } => is_data(operand),
+        ExprKind::Tuple(items) => items.iter().all(is_data),
+        _ => false,
     }
 }
 

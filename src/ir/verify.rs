@@ -672,9 +672,10 @@ mod tests {
     fn words_exist_and_have_their_types() {
         caught(function(&[F32], vec![def(0, Op::Param(1))]), "args[1] is not a parameter word");
         caught(function(&[I32], vec![def(0, Op::Param(0))]), "the value is i32, but the operation gives f32");
-        caught(function(&[F32], vec![def(0, Op::Global(32))]), "globals[32] is past the shading globals");
-        // Word 20 is `face`, the one int.
+        caught(function(&[F32], vec![def(0, Op::Global(34))]), "globals[34] is past the shading globals");
+        // Words 20 and 32 are `face` and `frame`, the ints.
         caught(function(&[F32], vec![def(0, Op::Global(20))]), "the value is f32, but the operation gives i32");
+        caught(function(&[F32], vec![def(0, Op::Global(32))]), "the value is f32, but the operation gives i32");
         caught(
             function(&[F32], vec![def(0, Op::Param(0)), Inst::Output(1, Value(0))]),
             "out[1] is not a result word (the function has 0)",

@@ -28,6 +28,7 @@ use super::spectrum::Spectrum;
 use super::{Ray, Vec3};
 use crate::ShadingGlobals;
 use crate::ir::lower::HitMethod;
+use crate::scene::Frame;
 
 /// Per-sample auxiliary outputs of the first surface seen (for denoisers).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -114,6 +115,8 @@ const ZERO_GLOBALS: ShadingGlobals = ShadingGlobals {
     dudy: 0.0,
     dvdx: 0.0,
     dvdy: 0.0,
+    frame: 0,
+    time: 0.0,
 };
 
 /// A light sample closer than this (cosine) to a delta direction of the
@@ -242,7 +245,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let s = self.scene.geometry.surface(ray, &hit, object.reads_uv);
         let len = ray.dir.length();
         let wo = -ray.dir / len;
-        let mut g = globals_of(&s, hit.t * len);
+        let mut g = globals_of(&s, hit.t * len, self.scene.settings.frame);
         if object.reads_footprint {
             footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
         }
@@ -524,7 +527,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// Emission of a sampled light point toward `-wi`.
     fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
         let object = &self.scene.objects[light_object as usize];
-        let mut g = globals_of(surface, distance);
+        let mut g = globals_of(surface, distance, self.scene.settings.frame);
         if object.reads_footprint {
             footprint(&mut g, surface, wi, distance, self.spread);
         }
@@ -889,7 +892,7 @@ fn push_words(words: &mut Vec<u32>, xs: &[f32]) {
 
 /// The shading globals of a surface record (the footprint is filled by
 /// [`footprint`]).
-pub(super) fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
+pub(super) fn globals_of(s: &SurfaceHit, t: f32, frame: Frame) -> ShadingGlobals {
     ShadingGlobals {
         p: v3(s.p),
         pl: v3(s.pl),
@@ -901,6 +904,8 @@ pub(super) fn globals_of(s: &SurfaceHit, t: f32) -> ShadingGlobals {
         dpdv: v3(s.dpdv),
         face: s.face,
         t,
+        frame: frame.number,
+        time: frame.time,
         ..ShadingGlobals::default()
     }
 }
@@ -960,7 +965,7 @@ pub fn camera_hit(scene: &Scene, px: u32, py: u32) -> Option<(usize, ShadingGlob
     let object = &scene.objects[hit.object as usize];
     let s = scene.geometry.surface(&ray, &hit, object.reads_uv);
     let len = ray.dir.length();
-    let mut g = globals_of(&s, hit.t * len);
+    let mut g = globals_of(&s, hit.t * len, scene.settings.frame);
     if object.reads_footprint {
         footprint(&mut g, &s, ray.dir / len, hit.t * len, scene.camera.pixel_spread());
     }

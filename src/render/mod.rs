@@ -13,9 +13,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Invariant: every random number is a pure function of (seed, pixel,
-//! sample index, dimension), so an image does not depend on the number of
-//! threads, the tiling, or the window rendered.
+//! Invariant: every random number is a pure function of (seed, frame,
+//! pixel, sample index, dimension), so an image does not depend on the
+//! number of threads, the tiling, the window rendered, or the other frames
+//! rendered by the same command.
 
 pub mod accel;
 pub mod camera;
@@ -47,7 +48,8 @@ pub use scene::{IntegratorKind, LightSampling, Overrides, Scene, Settings};
 use integrator::{Aov, Tracer};
 use rayon::prelude::*;
 use sampling::Sampler;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// A ray `origin + t * dir`. `dir` need not be unit length; every `t` is in
 /// units of `dir`.
@@ -94,7 +96,20 @@ pub struct RenderOptions<'a> {
     pub aov: bool,
     /// Called from worker threads as pixels finish: (pixels done, total).
     pub progress: Option<&'a (dyn Fn(u64, u64) + Sync)>,
+    /// The samples to take at each pixel, as indices into its sample
+    /// sequence; `None` for `0..spp`. A progressive renderer takes
+    /// successive ranges and averages the images by their lengths: the
+    /// result is the image of the whole range (up to rounding), since each
+    /// sample depends only on (seed, pixel, index).
+    pub samples: Option<Range<u32>>,
+    /// Set from another thread to stop the render: workers look at it
+    /// before each tile and each row, and the render returns
+    /// `Err(`[`CANCELLED`]`)`.
+    pub cancel: Option<&'a AtomicBool>,
 }
+
+/// The error of a render stopped through [`RenderOptions::cancel`].
+pub const CANCELLED: &str = "the render was cancelled";
 
 /// What a render did.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -112,6 +127,44 @@ impl RenderStats {
     pub fn total_rays(&self) -> u64 {
         self.rays.camera_rays + self.rays.secondary_rays + self.rays.shadow_rays
     }
+}
+
+/// What made an image of `scene`, for its EXR header: the software and
+/// TSL's version, the scene's content hash (from
+/// [`crate::scene::content_hash`]), the render settings and color model,
+/// the frame, and the tile (`(index, count)`) when it is one. `tslc merge`
+/// refuses parts that disagree on any of it but the tile.
+pub fn image_metadata(scene: &Scene, content_hash: &str, tile: Option<(u32, u32)>) -> image_io::Metadata {
+    let s = &scene.settings;
+    let version = env!("CARGO_PKG_VERSION");
+    let mut m = image_io::Metadata::default();
+    m.set_text(image_io::SOFTWARE, format!("tslc {version}"))
+        .set_text("tsl:version", version)
+        .set_text("tsl:sceneHash", content_hash)
+        .set_int("tsl:spp", s.spp as i32)
+        .set_text("tsl:seed", s.seed.to_string())
+        .set_int("tsl:maxDepth", s.max_depth as i32)
+        .set_text(
+            "tsl:integrator",
+            match s.integrator {
+                IntegratorKind::Whitted => "whitted",
+                IntegratorKind::Path => "path",
+            },
+        )
+        .set_text(
+            "tsl:lightSampling",
+            match s.light_sampling {
+                LightSampling::All => "all",
+                LightSampling::Power => "power",
+            },
+        )
+        .set_text("tsl:colorModel", scene.model.name())
+        .set_int("tsl:frame", s.frame.number)
+        .set_float("tsl:time", s.frame.time);
+    if let Some((index, count)) = tile {
+        m.set_int("tsl:tile", index as i32).set_int("tsl:tiles", count as i32);
+    }
+    m
 }
 
 /// Tiles are this many pixels square.
@@ -182,22 +235,29 @@ fn render_lanes<const N: usize>(
         .build()
         .map_err(|e| format!("cannot start render threads: {e}"))?;
     let threads = pool.current_num_threads();
+    let samples = options.samples.clone().unwrap_or(0..s.spp);
+    if samples.is_empty() || samples.end > crate::scene::MAX_SPP {
+        return Err(format!("the sample range {samples:?} is empty or beyond {}", crate::scene::MAX_SPP));
+    }
+    let cancelled = || options.cancel.is_some_and(|c| c.load(Ordering::Relaxed));
     let total = u64::from(width) * u64::from(height);
     let done = AtomicU64::new(0);
     let start = std::time::Instant::now();
-    let outs: Vec<TileOut> = pool.install(|| {
+    // A cancelled tile is `None`, which stops the collection.
+    let outs: Option<Vec<TileOut>> = pool.install(|| {
         tiles
             .par_iter()
             .map(|&(tx, ty, w, h)| {
-                let out = render_tile::<N>(scene, tx, ty, w, h, options.aov);
+                let out = render_tile::<N>(scene, (tx, ty, w, h), &samples, options.aov, &cancelled)?;
                 let now = done.fetch_add(u64::from(w * h), Ordering::Relaxed) + u64::from(w * h);
                 if let Some(progress) = options.progress {
                     progress(now, total);
                 }
-                out
+                Some(out)
             })
             .collect()
     });
+    let Some(outs) = outs else { return Err(CANCELLED.into()) };
     let mut image = RenderedImage {
         full_width: s.width,
         full_height: s.height,
@@ -233,13 +293,22 @@ fn render_lanes<const N: usize>(
         stats.rays.shadow_rays += t.counters.shadow_rays;
         stats.dropped_samples += t.dropped;
     }
-    stats.samples = total * u64::from(s.spp);
+    stats.samples = total * u64::from(samples.end - samples.start);
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((image, stats))
 }
 
-fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, want_aov: bool) -> TileOut {
+/// Renders the pixels of one tile `(x0, y0, w, h)`, taking `samples` at
+/// each; `None` when `cancelled` (asked before each row).
+fn render_tile<const N: usize>(
+    scene: &Scene,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    samples: &Range<u32>,
+    want_aov: bool,
+    cancelled: &dyn Fn() -> bool,
+) -> Option<TileOut> {
     let s = &scene.settings;
+    let seed = s.frame_seed();
     let mut tracer = Tracer::<N>::new(scene, want_aov);
     let lanes = scene.model.lanes();
     let to_rgb = crate::color::to_rgb_weights(scene.model);
@@ -248,12 +317,15 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
     let mut objects = Vec::with_capacity(aovs.capacity());
     let mut dropped = 0;
     for py in y0..y0 + h {
+        if cancelled() {
+            return None;
+        }
         for px in x0..x0 + w {
             let mut sum = spectrum::Spectrum::<N>::ZERO;
             let mut aov_sum = Aov::default();
             let mut hits = 0u32;
-            for k in 0..s.spp {
-                let mut sampler = Sampler::new(s.seed, px, py, k);
+            for k in samples.clone() {
+                let mut sampler = Sampler::new(seed, px, py, k);
                 // One sample per pixel looks through the pixel centre, as
                 // the benchmark scenes and POV-Ray's -A expect.
                 let (jx, jy) = if s.spp == 1 { (0.5, 0.5) } else { sampler.next_2d().into() };
@@ -279,20 +351,20 @@ fn render_tile<const N: usize>(scene: &Scene, x0: u32, y0: u32, w: u32, h: u32, 
                     }
                 }
             }
-            let mean = sum * (1.0 / s.spp as f32);
+            let taken = (samples.end - samples.start) as f32;
+            let mean = sum * (1.0 / taken);
             color.push(crate::color::weighted_rgb(&to_rgb, &mean.0[..lanes]));
             if want_aov {
-                let n = s.spp as f32;
                 aovs.push(Aov {
-                    albedo: aov_sum.albedo.map(|x| x / n),
-                    normal: aov_sum.normal.map(|x| x / n),
+                    albedo: aov_sum.albedo.map(|x| x / taken),
+                    normal: aov_sum.normal.map(|x| x / taken),
                     depth: if hits > 0 { aov_sum.depth / hits as f32 } else { f32::INFINITY },
                 });
                 objects.push(object_at_centre(scene, px, py));
             }
         }
     }
-    TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped }
+    Some(TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped })
 }
 
 /// The index (in [`Scene::objects`], scene order) of the first surface the

@@ -25,7 +25,7 @@ pub struct Sampler {
 
 /// A 64-bit finaliser (splitmix64's): every input bit affects every
 /// output bit, so neighbouring keys give unrelated numbers.
-fn mix64(mut x: u64) -> u64 {
+pub fn mix64(mut x: u64) -> u64 {
     x ^= x >> 30;
     x = x.wrapping_mul(0xbf58_476d_1ce4_e5b9);
     x ^= x >> 27;

@@ -18,8 +18,8 @@ use super::mesh::Mesh;
 use super::shape::Shape;
 use crate::diag::{Diagnostic, Span};
 use crate::scene::{
-    AreaEmission, EnvironmentDesc, EnvironmentSourceDesc, LightColor, LightDesc, MaterialRef, SceneDesc, ShapeDesc,
-    Surface,
+    AreaEmission, EnvironmentDesc, EnvironmentSourceDesc, Frame, LightColor, LightDesc, MaterialRef, SceneDesc,
+    ShapeDesc, Surface,
 };
 use crate::{Color, ColorModel, Error, Material, Program};
 use std::collections::HashMap;
@@ -54,8 +54,24 @@ pub struct Settings {
     pub seed: u64,
     pub integrator: IntegratorKind,
     pub light_sampling: LightSampling,
+    /// The frame rendered: its number and time, which shaders read as
+    /// `frame` and `time`. The number enters the seed (see [`Settings::frame_seed`]).
+    pub frame: Frame,
     #[doc(hidden)]
     pub strategy: Strategy,
+}
+
+impl Settings {
+    /// The seed of the frame's random numbers: `seed` itself at frame 0,
+    /// and for other frames `seed` mixed with the frame number, so each
+    /// frame of an animation has its own noise, and a frame is the same
+    /// bits whether rendered alone or in a sequence.
+    pub fn frame_seed(&self) -> u64 {
+        match self.frame.number {
+            0 => self.seed,
+            n => self.seed ^ super::sampling::mix64(u64::from(n as u32) | 1 << 32),
+        }
+    }
 }
 
 impl Default for Settings {
@@ -68,6 +84,7 @@ impl Default for Settings {
             seed: 0,
             integrator: IntegratorKind::Path,
             light_sampling: LightSampling::Power,
+            frame: Frame::default(),
             strategy: Strategy::Mis,
         }
     }
@@ -87,7 +104,18 @@ pub struct Overrides {
     /// before the split, kept for `cargo bench --bench render`.
     #[doc(hidden)]
     pub unsplit: bool,
+    /// Whether the hit groups' large functions get Cranelift's optimising
+    /// tier ([`crate::Compiler::optimize_large`]); `None` decides by the
+    /// image's sample count ([`OPTIMIZE_FROM_SAMPLES`]).
+    pub optimize_code: Option<bool>,
 }
+
+/// Renders of at least this many camera samples (width x height x spp)
+/// compile their hit groups with the optimising tier: it costs a deep
+/// texture tree a few tenths of a second more to compile and renders it
+/// about 1.3x faster, which pays from about a second of rendering on.
+/// Previews stay quick to start.
+pub const OPTIMIZE_FROM_SAMPLES: u64 = 1 << 19;
 
 /// The number of delta lights when a reflection sum shades them (2 to
 /// [`MAX_SUMMED_LIGHTS`]), else `None`.
@@ -196,8 +224,14 @@ impl Scene {
     /// ([`Program::scene`]), which checking has validated and whose files
     /// it has read.
     pub fn build(program: &Program, overrides: &Overrides) -> Result<Scene, Error> {
+        Scene::build_from(program, program.scene(), overrides)
+    }
+
+    /// Builds a scene from a description of `program`'s scene, such as one
+    /// frame of an animation ([`Program::scene_at`]).
+    pub fn build_from(program: &Program, desc: Option<&SceneDesc>, overrides: &Overrides) -> Result<Scene, Error> {
         let start = std::time::Instant::now();
-        let Some(desc) = program.scene() else {
+        let Some(desc) = desc else {
             // Said at the top of the user's file.
             let root = program.checked().loaded.modules.iter().find(|m| !m.is_prelude).map(|m| m.file);
             let message = "the program has no `scene { ... }` block to render";
@@ -239,6 +273,7 @@ impl<'a> Builder<'a> {
             seed: r.seed.as_ref().map_or(d.seed, |p| p.value),
             integrator: r.integrator.as_ref().map_or(d.integrator, |p| p.value),
             light_sampling: r.light_sampling.as_ref().map_or(d.light_sampling, |p| p.value),
+            frame: self.desc.frame,
             strategy: d.strategy,
         };
         if let Some((w, h)) = overrides.resolution {
@@ -410,11 +445,14 @@ impl<'a> Builder<'a> {
                 let material = m?;
                 let emissive =
                     material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
-                // dPdx .. dvdy are the last words of the globals.
-                let word = |name: &str| crate::globals::word_of(name).map_or(0, |w| w.0);
-                let footprint_words = !0u32 << word("dPdx");
-                // u, v, dPdu, dPdv are consecutive, and the footprint needs them.
-                let uv_words = (!0u32 << word("u")) & !(!0u32 << (word("dPdv") + 3)) | footprint_words;
+                // dPdx .. dvdy are consecutive words of the globals, and so
+                // are u, v, dPdu, dPdv; the footprint needs the latter too.
+                let ends = |name: &str| {
+                    crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
+                };
+                let words = |first: &str, last: &str| (!0u64 << ends(first).0) & !(!0u64 << ends(last).1);
+                let footprint_words = words("dPdx", "dvdy");
+                let uv_words = words("u", "dPdv") | footprint_words;
                 Some(Object {
                     hit: None,
                     reflection_sum: None,
@@ -449,7 +487,9 @@ impl<'a> Builder<'a> {
                 IntegratorKind::Whitted => crate::WHITTED_METHODS,
             };
             let skip = |o: &Object| summed_alone && takes_reflection_sum(o);
-            self.hit_groups(&mut objects, &materials, methods, skip)?;
+            let samples = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+            let optimize = overrides.optimize_code.unwrap_or(samples >= OPTIMIZE_FROM_SAMPLES);
+            self.hit_groups(&mut objects, &materials, methods, skip, optimize)?;
         }
         // Summed delta lights serve the integrators that sample every light,
         // for objects without a prepared hit (whose eval_pdf per light reads
@@ -481,7 +521,7 @@ impl<'a> Builder<'a> {
                 light_of_object[o as usize] = Some(k);
             }
         }
-        let light_sampler = light_sampler(&lights, &objects, &geometry, self.model.lanes());
+        let light_sampler = light_sampler(&lights, &objects, &geometry, self.model.lanes(), settings.frame);
         Ok(Scene {
             camera,
             settings,
@@ -545,6 +585,7 @@ impl<'a> Builder<'a> {
         materials: &[Option<MaterialRef>],
         methods: &[crate::ir::lower::HitMethod],
         skip: impl Fn(&Object) -> bool,
+        optimize: bool,
     ) -> Result<(), Error> {
         // A tree without lookups or noise in its methods has none in its
         // `prepare` either: not worth lowering a group for.
@@ -560,7 +601,7 @@ impl<'a> Builder<'a> {
             .filter(|(k, _)| !skip(&objects[*k]) && textured(&objects[*k]))
             .filter_map(|(k, m)| Some((k, (*m)?)))
             .collect();
-        for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods))? {
+        for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods, optimize))? {
             objects[k].hit = h;
         }
         Ok(())
@@ -621,14 +662,20 @@ const EMISSION_PROBES: u32 = 64;
 /// least a thousandth of the strongest light's power, so it stays
 /// sampled (material sampling alone would still find it, unbiased, but
 /// noisily).
-fn light_sampler(lights: &[Light], objects: &[Object], geometry: &Geometry, lanes: usize) -> LightSampler {
+fn light_sampler(
+    lights: &[Light],
+    objects: &[Object],
+    geometry: &Geometry,
+    lanes: usize,
+    frame: Frame,
+) -> LightSampler {
     let radius = geometry.bounding_sphere().1;
     let mut powers: Vec<f32> = lights
         .iter()
         .enumerate()
         .map(|(k, light)| {
             let radiance =
-                light.object().map_or(0.0, |o| mean_emission(light, k, &objects[o as usize], geometry, lanes));
+                light.object().map_or(0.0, |o| mean_emission(light, k, &objects[o as usize], geometry, lanes, frame));
             light.power(radius, radiance)
         })
         .collect();
@@ -643,7 +690,7 @@ fn light_sampler(lights: &[Light], objects: &[Object], geometry: &Geometry, lane
 
 /// The mean radiance (over probes and lanes) area light `light`, number
 /// `k`, emits along the normal of its surface, `object`'s.
-fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, lanes: usize) -> f32 {
+fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, lanes: usize, frame: Frame) -> f32 {
     let scale = object.emission_scale.as_ref().map_or(&[][..], |c| c.lanes());
     let mut out = vec![0.0f32; lanes];
     let mut sum = 0.0f64;
@@ -653,7 +700,8 @@ fn mean_emission(light: &Light, k: usize, object: &Object, geometry: &Geometry, 
         let (uv, u3) = (u.next_2d(), u.next_1d());
         let Some((surface, _)) = light.area_point(geometry, uv, u3) else { continue };
         out.fill(0.0);
-        object.material.emission_into(&super::integrator::globals_of(&surface, 0.0), surface.n.to_array(), &mut out);
+        let g = super::integrator::globals_of(&surface, 0.0, frame);
+        object.material.emission_into(&g, surface.n.to_array(), &mut out);
         for (c, x) in out.iter().enumerate() {
             let x = x * scale.get(c).copied().unwrap_or(1.0);
             if x.is_finite() && x > 0.0 {

@@ -5,10 +5,10 @@
 //! property at fault; all of them are reported, not only the first.
 
 use super::{
-    AreaEmission, CameraDesc, EnvironmentDesc, EnvironmentImage, EnvironmentSourceDesc, IntegratorKind, Lanes,
-    LightColor, LightDesc, LightSampling, MAX_DEPTH, MAX_IMAGE_SIDE, MAX_PIXELS, MAX_SPP, MaterialDesc, MaterialRef,
-    MeshData, ObjectDesc, Prop, RenderDesc, SceneDesc, ShapeDesc, Surface, Transform, Vec3, affine_rows, compose,
-    mesh_transform_error, shape_transform_error,
+    AreaEmission, CameraDesc, DEFAULT_FPS, EnvironmentDesc, EnvironmentImage, EnvironmentSourceDesc, Frame,
+    FrameRequest, IntegratorKind, Lanes, LightColor, LightDesc, LightSampling, MAX_DEPTH, MAX_FRAME, MAX_IMAGE_SIDE,
+    MAX_PIXELS, MAX_SPP, MaterialDesc, MaterialRef, MeshData, ObjectDesc, Prop, RenderDesc, SceneDesc, ShapeDesc,
+    Surface, Transform, Vec3, affine_rows, compose, mesh_transform_error, shape_transform_error,
 };
 use crate::check::{Program, SymbolKind, Ty};
 use crate::color::ColorModel;
@@ -31,6 +31,19 @@ pub fn describe(
     model: ColorModel,
     reuse: Option<&SceneDesc>,
 ) -> (Option<SceneDesc>, Vec<Diagnostic>) {
+    describe_frame(program, model, reuse, &FrameRequest::default())
+}
+
+/// [`describe`] at one frame of an animation: `frame` and `time` read in
+/// scene values take the frame's values. A frame number beyond
+/// [`MAX_FRAME`] or an `fps` that is not a positive number is an error at
+/// the scene.
+pub fn describe_frame(
+    program: &Program,
+    model: ColorModel,
+    reuse: Option<&SceneDesc>,
+    request: &FrameRequest,
+) -> (Option<SceneDesc>, Vec<Diagnostic>) {
     let found = program.loaded.modules.iter().enumerate().filter(|(_, m)| !m.is_prelude).find_map(|(m, module)| {
         module.ast.items.iter().enumerate().find_map(|(i, item)| match item {
             Item::Scene(scene) => Some((m, i, scene, module.file)),
@@ -39,8 +52,9 @@ pub fn describe(
     });
     let Some((module, item, scene, file)) = found else { return (None, Vec::new()) };
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut d = Describer { program, model, module, item, dir, reuse, diags: Vec::new() };
-    let desc = d.scene(scene);
+    let globals = ShadingGlobals { frame: request.frame, ..ShadingGlobals::default() }.words();
+    let mut d = Describer { program, model, module, item, dir, reuse, globals, diags: Vec::new() };
+    let desc = d.scene(scene, request);
     let failed = d.diags.iter().any(Diagnostic::is_error);
     (desc.filter(|_| !failed), d.diags)
 }
@@ -55,6 +69,9 @@ struct Describer<'a> {
     /// the file that holds the scene.
     dir: PathBuf,
     reuse: Option<&'a SceneDesc>,
+    /// The shading globals values are evaluated with: zero but for the
+    /// frame globals.
+    globals: [u32; crate::globals::GLOBAL_WORDS as usize],
     diags: Vec<Diagnostic>,
 }
 
@@ -112,9 +129,8 @@ impl<'a> Describer<'a> {
             self.diags.extend(diags);
             return None;
         }
-        let globals = ShadingGlobals::default().words();
         let mut out = vec![0u32; f.results.len()];
-        crate::interp::run(&f, &globals, &[], &mut out);
+        crate::interp::run(&f, &self.globals, &[], &mut out);
         Some(out)
     }
 
@@ -222,7 +238,7 @@ impl<'a> Describer<'a> {
 
     // ---------------------------------------------------------- blocks
 
-    fn scene(&mut self, scene: &Scene) -> Option<SceneDesc> {
+    fn scene(&mut self, scene: &Scene, request: &FrameRequest) -> Option<SceneDesc> {
         let blocks = || {
             scene.entries.iter().enumerate().filter_map(|(k, e)| match e {
                 SceneEntry::Block(b) => Some((k, b)),
@@ -230,6 +246,14 @@ impl<'a> Describer<'a> {
             })
         };
         let keyword = Span { end: scene.span.start + 5, ..scene.span };
+        // The render settings first: they say what `time` is.
+        let mut render = Some(RenderDesc::default());
+        for (_, b) in blocks().filter(|(_, b)| b.keyword.name == "render") {
+            if !self.render(b, render.as_mut()) {
+                render = None;
+            }
+        }
+        let frame = self.frame(keyword, request, render.as_ref());
         let camera = match blocks().find(|(_, b)| b.keyword.name == "camera") {
             Some((_, b)) => self.camera(b),
             None => {
@@ -237,12 +261,6 @@ impl<'a> Describer<'a> {
                 None
             }
         };
-        let mut render = Some(RenderDesc::default());
-        for (_, b) in blocks().filter(|(_, b)| b.keyword.name == "render") {
-            if !self.render(b, render.as_mut()) {
-                render = None;
-            }
-        }
         let environment = self.environment(scene);
         let mut lights = Some(Vec::new());
         let mut objects = Some(Vec::new());
@@ -272,7 +290,29 @@ impl<'a> Describer<'a> {
             environment: environment?,
             lights: lights?,
             objects: objects?,
+            frame: frame?,
         })
+    }
+
+    /// The frame described, its time found from the request and the
+    /// render settings; the frame globals are set for every value after.
+    fn frame(&mut self, scene: Span, request: &FrameRequest, render: Option<&RenderDesc>) -> Option<Frame> {
+        let number = request.frame;
+        if number.unsigned_abs() > MAX_FRAME as u32 {
+            self.error(scene, format!("frame {number} is out of range: frames go from -{MAX_FRAME} to {MAX_FRAME}"));
+            return None;
+        }
+        let time = match (request.fps, render?) {
+            (Some(fps), _) if !(fps.is_finite() && fps > 0.0) => {
+                self.error(scene, format!("the frame rate must be a positive number, found {fps}"));
+                return None;
+            }
+            (Some(fps), _) => number as f32 / fps,
+            (None, RenderDesc { time: Some(time), .. }) => time.value,
+            (None, r) => number as f32 / r.fps.as_ref().map_or(DEFAULT_FPS, |f| f.value),
+        };
+        self.globals = ShadingGlobals { frame: number, time, ..ShadingGlobals::default() }.words();
+        Some(Frame { number, time })
     }
 
     fn camera(&mut self, b: &SceneBlock) -> Option<CameraDesc> {
@@ -373,6 +413,8 @@ impl<'a> Describer<'a> {
                         None
                     }
                 }),
+                "fps" => self.positive(p).map(|x| s.fps = Some(x)),
+                "time" => self.float(p).map(|x| s.time = Some(x)),
                 _ => Some(()),
             };
             ok &= valid.is_some();
@@ -386,7 +428,9 @@ impl<'a> Describer<'a> {
         }
         if let Some(out) = out {
             // Later blocks override earlier ones (the checker allows one).
-            let RenderDesc { width, height, spp, max_depth, seed, integrator, light_sampling } = s;
+            let RenderDesc { width, height, spp, max_depth, seed, integrator, light_sampling, fps, time } = s;
+            out.fps = fps.or(out.fps.take());
+            out.time = time.or(out.time.take());
             out.width = width.or(out.width.take());
             out.height = height.or(out.height.take());
             out.spp = spp.or(out.spp.take());

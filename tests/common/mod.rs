@@ -21,6 +21,23 @@ pub fn build_error(src: &str) -> String {
     }
 }
 
+/// Runs `tslc` with `args` (no standard input), capturing its output.
+pub fn tslc(args: &[&str]) -> std::process::Output {
+    use std::process::{Command, Stdio};
+    Command::new(env!("CARGO_BIN_EXE_tslc"))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .expect("tslc runs")
+}
+
+/// What a `tslc` run wrote to stderr.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 /// A fresh, empty directory for one test, unique to this process.
 pub fn temp_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("tsl-test-{name}-{}", std::process::id()));
@@ -95,6 +112,8 @@ pub fn shading_point(rng: &mut Rng) -> ShadingGlobals {
         dudy: 0.0,
         dvdx: 0.0,
         dvdy: rng.range(0.0, 0.01),
+        frame: (rng.next() % 100) as i32 - 10,
+        time: rng.range(-1.0, 4.0),
     }
 }
 

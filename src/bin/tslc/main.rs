@@ -4,9 +4,13 @@
 //! terminal) or as JSON lines for editors and CI. Diagnostics go to stderr;
 //! requested data (JSON messages) to stdout.
 //! Exit codes: 0 clean, 1 errors (or warnings under `-W error`), 2 usage.
-//! `render`, `merge` and `make-mesh` live in `render.rs`.
+//! `render`, `merge` and `make-mesh` live in `render.rs`; `watch` in
+//! `watch.rs` (its web page in `serve.rs`).
 
+mod info;
 mod render;
+mod serve;
+mod watch;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use std::io::{IsTerminal, Read, Write};
@@ -33,11 +37,17 @@ enum Command {
     Render(render::RenderArgs),
     /// Join tiles rendered with `render --tile I/N` into one image.
     Merge(render::MergeArgs),
+    /// Print what an EXR says about itself: frame, window, channels and
+    /// the render settings, scene hash and tile it was made with.
+    Info(info::InfoArgs),
     /// Write a generated mesh that an example scene needs (`heavy`).
     MakeMesh(render::MakeMeshArgs),
     /// Format TSL files in the canonical style (docs/fmt.md), in place;
     /// `-` or no file formats standard input to standard output.
     Fmt(FmtArgs),
+    /// Re-check and re-render a scene whenever it, a file it imports or an
+    /// image it reads changes, refining the image while nothing changes.
+    Watch(watch::WatchArgs),
     /// Run the language server (LSP over standard input and output) for
     /// editors: diagnostics, hover, completion, definitions, formatting.
     Lsp(LspArgs),
@@ -165,8 +175,10 @@ fn main() -> ExitCode {
         Command::Emit(args) => emit(args),
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
+        Command::Info(args) => info::info(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
+        Command::Watch(args) => watch::watch(args),
         Command::Lsp(args) => lsp(args),
     });
     match worker.map(|w| w.join()) {
@@ -183,13 +195,7 @@ fn check(args: CheckArgs) -> ExitCode {
     let colors = match args.color {
         ColorChoice::Always => Colors::Always,
         ColorChoice::Never => Colors::Never,
-        ColorChoice::Auto => {
-            if std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none() {
-                Colors::Always
-            } else {
-                Colors::Never
-            }
-        }
+        ColorChoice::Auto => stderr_colors(),
     };
     let mut failed = false;
     let mut stdin_used = false;
@@ -325,21 +331,34 @@ fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
             }
         }
         MessageFormat::Human => {
-            let text = diag::render_text(sources, &checked.diagnostics, colors);
-            let mut err = std::io::stderr().lock();
-            let _ = err.write_all(text.as_bytes());
-            let (errors, warnings) = (checked.count(Severity::Error), checked.count(Severity::Warning));
-            if errors > 0 {
-                let also =
-                    if warnings > 0 { format!("; {warnings} warning{} emitted", s(warnings)) } else { String::new() };
-                let _ = writeln!(err, "error: could not check due to {errors} error{}{also}", s(errors));
-            } else if warnings > 0 {
-                let _ = writeln!(err, "warning: {warnings} warning{} emitted", s(warnings));
-            }
+            let _ = std::io::stderr().lock().write_all(human_report(checked, colors).as_bytes());
         }
     }
     let warnings_fail = args.warnings == Some(WarningLevel::Error) && checked.count(Severity::Warning) > 0;
     !checked.is_ok() || warnings_fail
+}
+
+/// Colours on a terminal, unless `NO_COLOR` is set.
+fn stderr_colors() -> Colors {
+    if std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none() {
+        Colors::Always
+    } else {
+        Colors::Never
+    }
+}
+
+/// The diagnostics of one file as `tslc check` prints them, with the
+/// closing count of errors and warnings.
+fn human_report(checked: &Checked, colors: Colors) -> String {
+    let mut text = diag::render_text(&checked.program.loaded.sources, &checked.diagnostics, colors);
+    let (errors, warnings) = (checked.count(Severity::Error), checked.count(Severity::Warning));
+    if errors > 0 {
+        let also = if warnings > 0 { format!("; {warnings} warning{} emitted", s(warnings)) } else { String::new() };
+        text += &format!("error: could not check due to {errors} error{}{also}\n", s(errors));
+    } else if warnings > 0 {
+        text += &format!("warning: {warnings} warning{} emitted\n", s(warnings));
+    }
+    text
 }
 
 fn s(n: usize) -> &'static str {
@@ -361,31 +380,14 @@ fn tsl_files(path: &std::path::Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// A line diff (longest common subsequence), unified-style markers.
+/// A unified diff (as `diff -u` and `git diff` print it, 3 lines of
+/// context) from `old` to its formatted text.
 fn line_diff(name: &str, old: &str, new: &str) -> String {
-    let a: Vec<&str> = old.lines().collect();
-    let b: Vec<&str> = new.lines().collect();
-    let mut lcs = vec![vec![0u32; b.len() + 1]; a.len() + 1];
-    for i in (0..a.len()).rev() {
-        for j in (0..b.len()).rev() {
-            lcs[i][j] = if a[i] == b[j] { lcs[i + 1][j + 1] + 1 } else { lcs[i + 1][j].max(lcs[i][j + 1]) };
-        }
-    }
-    let mut out = format!("--- {name}\n+++ {name} (formatted)\n");
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() || j < b.len() {
-        if i < a.len() && j < b.len() && a[i] == b[j] {
-            i += 1;
-            j += 1;
-        } else if j < b.len() && (i == a.len() || lcs[i][j + 1] >= lcs[i + 1][j]) {
-            out.push_str(&format!("@@ {} @@\n+{}\n", i + 1, b[j]));
-            j += 1;
-        } else {
-            out.push_str(&format!("@@ {} @@\n-{}\n", i + 1, a[i]));
-            i += 1;
-        }
-    }
-    out
+    similar::TextDiff::from_lines(old, new)
+        .unified_diff()
+        .context_radius(3)
+        .header(name, &format!("{name} (formatted)"))
+        .to_string()
 }
 
 fn fmt(args: FmtArgs) -> ExitCode {

@@ -9,6 +9,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 use tsl::image_io;
 use tsl::render::{self, IntegratorKind, LightSampling, Overrides, RenderOptions, Scene};
+use tsl::scene::FrameRequest;
 
 #[derive(clap::Args)]
 pub struct RenderArgs {
@@ -54,6 +55,19 @@ pub struct RenderArgs {
     /// Also write albedo, normal and depth layers (EXR only).
     #[arg(long)]
     aov: bool,
+    /// Render frame N of an animation: shaders and scene values read it as
+    /// `frame`, and its time as `time`. A `#` run in the output's file name
+    /// becomes the frame number (`-o out/shot.####.exr`).
+    #[arg(long, value_name = "N", allow_negative_numbers = true, value_parser = parse_frame, conflicts_with = "frames")]
+    frame: Option<i32>,
+    /// Render frames A to B, both included, one image each; the output's
+    /// file name must have a `#` run for the frame number.
+    #[arg(long, value_name = "A..B", allow_negative_numbers = true, value_parser = parse_frames)]
+    frames: Option<(i32, i32)>,
+    /// Frames per second: a frame's time is `frame / fps` (overrides the
+    /// scene's `fps` and `time`; default 24).
+    #[arg(long, value_name = "FPS", value_parser = parse_fps)]
+    fps: Option<f32>,
     /// No progress and no summary.
     #[arg(short, long)]
     quiet: bool,
@@ -83,7 +97,7 @@ pub struct MakeMeshArgs {
     output: PathBuf,
 }
 
-fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("`{s}` is not a resolution: write WIDTHxHEIGHT, e.g. 640x480");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h) = (w.trim().parse::<u32>().map_err(|_| bad())?, h.trim().parse::<u32>().map_err(|_| bad())?);
@@ -107,31 +121,31 @@ fn whole(s: &str, what: &str, lo: u64, hi: u64) -> Result<u64, String> {
     Ok(x as u64)
 }
 
-fn parse_spp(s: &str) -> Result<u32, String> {
+pub(crate) fn parse_spp(s: &str) -> Result<u32, String> {
     whole(s, "samples per pixel", 1, u64::from(tsl::scene::MAX_SPP)).map(|x| x as u32)
 }
 
-fn parse_depth(s: &str) -> Result<u32, String> {
+pub(crate) fn parse_depth(s: &str) -> Result<u32, String> {
     whole(s, "the maximum depth", 1, u64::from(tsl::scene::MAX_DEPTH)).map(|x| x as u32)
 }
 
-fn parse_threads(s: &str) -> Result<usize, String> {
+pub(crate) fn parse_threads(s: &str) -> Result<usize, String> {
     whole(s, "the thread count", 0, render::MAX_THREADS as u64).map(|x| x as usize)
 }
 
-fn parse_seed(s: &str) -> Result<u64, String> {
+pub(crate) fn parse_seed(s: &str) -> Result<u64, String> {
     whole(s, "the seed", 0, u64::MAX)
 }
 
-fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
+pub(crate) fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     IntegratorKind::parse(s).ok_or_else(|| format!("`{s}` is not an integrator: use whitted or path"))
 }
 
-fn parse_light_sampling(s: &str) -> Result<LightSampling, String> {
+pub(crate) fn parse_light_sampling(s: &str) -> Result<LightSampling, String> {
     LightSampling::parse(s).ok_or_else(|| format!("`{s}` is not a light sampling: use all or power"))
 }
 
-fn parse_color(s: &str) -> Result<tsl::ColorModel, String> {
+pub(crate) fn parse_color(s: &str) -> Result<tsl::ColorModel, String> {
     if s == "spectral" {
         return Ok(tsl::ColorModel::Spectral { samples: 16 });
     }
@@ -149,15 +163,57 @@ fn parse_tile(s: &str) -> Result<(u32, u32), String> {
     Ok((i, n))
 }
 
-fn fail(message: impl std::fmt::Display) -> ExitCode {
+fn parse_frame(s: &str) -> Result<i32, String> {
+    let max = tsl::scene::MAX_FRAME;
+    let x: i64 = s.trim().parse().map_err(|_| format!("a frame must be a whole number, found `{s}`"))?;
+    if x.unsigned_abs() > max as u64 {
+        return Err(format!("frame {x} is out of range: frames go from -{max} to {max}"));
+    }
+    Ok(x as i32)
+}
+
+/// `A..B` (both included, as frame ranges on farms are), or one frame `N`.
+fn parse_frames(s: &str) -> Result<(i32, i32), String> {
+    let Some((a, b)) = s.split_once("..") else {
+        let n = parse_frame(s)?;
+        return Ok((n, n));
+    };
+    let (a, b) = (parse_frame(a)?, parse_frame(b)?);
+    if b < a {
+        return Err(format!("the frame range `{s}` is empty: write A..B with A <= B (both are rendered)"));
+    }
+    Ok((a, b))
+}
+
+fn parse_fps(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(x) if x.is_finite() && x > 0.0 && x <= 1e6 => Ok(x),
+        _ => Err(format!("frames per second must be a positive number up to 1000000, found `{s}`")),
+    }
+}
+
+pub(crate) fn fail(message: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {message}");
     ExitCode::from(1)
 }
 
 pub fn render(args: RenderArgs) -> ExitCode {
     let start = Instant::now();
-    // Everything about the output is checked before any work starts.
-    if let Err(e) = image_io::check_output(&args.output) {
+    let frames: Vec<i32> = match (args.frame, args.frames) {
+        (Some(n), _) => vec![n],
+        (None, Some((a, b))) => (a..=b).collect(),
+        (None, None) => vec![0],
+    };
+    if frames.len() > 1 && !image_io::has_frame_pattern(&args.output) {
+        return fail(format!(
+            "--frames renders {} images: put a run of `#` in the output's file name for the frame number, \
+             e.g. -o out/shot.####.exr",
+            frames.len()
+        ));
+    }
+    // Everything about the output is checked before any work starts (every
+    // frame is written to the same directory).
+    if let Err(e) = image_io::check_output(&image_io::frame_path(&args.output, frames[0])) {
         return fail(e);
     }
     let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
@@ -181,7 +237,56 @@ pub fn render(args: RenderArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    // Every frame's scene is checked before the first is rendered; the
+    // first frame's description is kept for its render.
+    let request = |frame| FrameRequest { frame, fps: args.fps };
+    let mut first = None;
+    for &frame in &frames {
+        match program.scene_at(&request(frame)) {
+            Ok(desc) => {
+                first.get_or_insert(desc);
+            }
+            Err(e) => {
+                eprint!("{e}");
+                return ExitCode::from(1);
+            }
+        }
+    }
+    // The same for every frame: the frame is recorded apart.
+    let content_hash = tsl::scene::content_hash(program.checked(), program.scene());
     let compiled = start.elapsed().as_secs_f64();
+    for (k, &frame) in frames.iter().enumerate() {
+        let desc = match (k, first.take()) {
+            (0, Some(desc)) => desc,
+            _ => match program.scene_at(&request(frame)) {
+                Ok(desc) => desc,
+                Err(e) => {
+                    eprint!("{e}");
+                    return ExitCode::from(1);
+                }
+            },
+        };
+        let animated = args.frame.is_some() || args.frames.is_some();
+        let first = k == 0;
+        let code =
+            render_frame(&args, &program, desc.as_ref(), animated.then_some(frame), first, compiled, &content_hash);
+        if code != ExitCode::SUCCESS {
+            return code;
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+/// Renders and writes one frame (`None`: a render that asked for no frame).
+fn render_frame(
+    args: &RenderArgs,
+    program: &tsl::Program,
+    desc: Option<&tsl::scene::SceneDesc>,
+    frame: Option<i32>,
+    first: bool,
+    compiled: f64,
+    content_hash: &str,
+) -> ExitCode {
     let overrides = Overrides {
         resolution: args.res,
         spp: args.spp,
@@ -191,14 +296,14 @@ pub fn render(args: RenderArgs) -> ExitCode {
         light_sampling: args.light_sampling,
         ..Default::default()
     };
-    let scene = match Scene::build(&program, &overrides) {
+    let scene = match Scene::build_from(program, desc, &overrides) {
         Ok(s) => s,
         Err(e) => {
             eprint!("{e}");
             return ExitCode::from(1);
         }
     };
-    if scene.lights.is_empty() && !args.quiet {
+    if scene.lights.is_empty() && !args.quiet && first {
         eprintln!(
             "warning: the scene has no light (no `light` block, emitting object or environment): \
              its surfaces will render black"
@@ -222,19 +327,27 @@ pub fn render(args: RenderArgs) -> ExitCode {
         window,
         aov: args.aov,
         progress: if args.quiet { None } else { Some(&report) },
+        ..Default::default()
     };
     let (image, stats) = match render::render(&scene, &options) {
         Ok(r) => r,
         Err(e) => return fail(e),
     };
     progress.finish();
-    if let Err(e) = image_io::write_image(&args.output, &image) {
+    let output = image_io::frame_path(&args.output, frame.unwrap_or(0));
+    let mut metadata = render::image_metadata(&scene, content_hash, args.tile);
+    metadata.set_text("tsl:scene", args.scene.display().to_string());
+    if let Err(e) = image_io::write_image_with(&output, &image, &metadata) {
         return fail(e);
     }
     if !args.quiet {
         let secs = stats.seconds.max(1e-9);
+        let what = match frame {
+            Some(n) => format!("frame {n} (time {:.4} s) ", scene.settings.frame.time),
+            None => String::new(),
+        };
         eprintln!(
-            "rendered {}x{} ({}x{} pixels) at {} spp with {} in {:.2} s on {} thread{} \
+            "rendered {what}{}x{} ({}x{} pixels) at {} spp with {} in {:.2} s on {} thread{} \
              (compile {:.2} s, scene {:.2} s)",
             w,
             h,
@@ -248,7 +361,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
             stats.seconds,
             stats.threads,
             if stats.threads == 1 { "" } else { "s" },
-            compiled,
+            if first { compiled } else { 0.0 },
             scene.build_seconds,
         );
         eprintln!(
@@ -263,17 +376,20 @@ pub fn render(args: RenderArgs) -> ExitCode {
         if stats.dropped_samples > 0 {
             eprintln!("warning: {} samples were NaN or infinite and were dropped", stats.dropped_samples);
         }
-        eprintln!("wrote {}", args.output.display());
+        eprintln!("wrote {}", output.display());
     }
     ExitCode::SUCCESS
 }
 
 pub fn merge(args: MergeArgs) -> ExitCode {
-    let image = match image_io::merge(&args.inputs) {
+    if let Err(e) = image_io::check_output(&args.output) {
+        return fail(e);
+    }
+    let (image, metadata) = match image_io::merge(&args.inputs) {
         Ok(i) => i,
         Err(e) => return fail(e),
     };
-    if let Err(e) = image_io::write_image(&args.output, &image) {
+    if let Err(e) = image_io::write_image_with(&args.output, &image, &metadata) {
         return fail(e);
     }
     eprintln!("merged {} files into {}", args.inputs.len(), args.output.display());

@@ -119,8 +119,8 @@ impl<'p> Lowerer<'p> {
             }
             ExprKind::Array(items) => {
                 // An array of materials is no value: tree nodes read the
-                // literal's items (`material_items`). FIXME: one bound to a
-                // `material[N]` template parameter arrives here and is lost.
+                // literal's items (`material_items`), and a template binds
+                // them to its `material[N]` parameter (`material_binding`).
                 if ty == Ty::Material || matches!(&ty, Ty::Array(e, _) if **e == Ty::Material) {
                     return Val::Unit;
                 }

@@ -214,10 +214,18 @@ impl<'p> Lowerer<'p> {
                     }
                 }
             }
-            // FIXME: an element of a `material[N]` template parameter
-            // (`ms[0]`) reaches here; the checker accepts such parameters
-            // but lowering does not support them, so the method is zero.
-            _ => self.typed_zeros(b, &im.ret),
+            // `ms[i]` of a `material[N]` parameter (`i` clamped, as `select`).
+            ExprKind::Index { base, index } => {
+                let items = self.material_items(Some(base), mat);
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let i = self.expr(b, &mut fr, ctx, index);
+                let i = self.scalar(b, i);
+                self.select_clamped(b, i, &items, im, args, ctx)
+            }
+            _ => {
+                ruled_out!("a material expression of an unexpected form");
+                self.typed_zeros(b, &im.ret)
+            }
         }
     }
 
@@ -242,15 +250,28 @@ impl<'p> Lowerer<'p> {
                 (None, Some(d)) => (d, Rc::new(HashMap::default()), mat.in_prelude),
                 (None, None) => continue,
             };
-            let v = if ty == Ty::Material {
-                Val::Material(Mat { expr, env: source_env, in_prelude: prelude })
-            } else {
-                let mut fr = self.env_frame(&source_env, prelude);
-                self.expr_as(b, &mut fr, ctx, expr, &ty)
+            let v = match self.material_binding(&ty, Mat { expr, env: source_env.clone(), in_prelude: prelude }) {
+                Some(v) => v,
+                None => {
+                    let mut fr = self.env_frame(&source_env, prelude);
+                    self.expr_as(b, &mut fr, ctx, expr, &ty)
+                }
             };
             env.insert(p.name.name.clone(), v);
         }
         Rc::new(env)
+    }
+
+    /// The binding of a template parameter of type `ty` that holds
+    /// materials: the material `m`, or the items of the `material[N]`
+    /// argument `m` (an array literal or such a parameter passed on).
+    /// `None` for a value parameter.
+    fn material_binding(&self, ty: &Ty, m: Mat<'p>) -> Option<Val<'p>> {
+        match ty {
+            Ty::Material => Some(Val::Material(m)),
+            Ty::Array(elem, _) if **elem == Ty::Material => Some(Val::Materials(self.material_items(Some(m.expr), &m))),
+            _ => None,
+        }
     }
 
     /// Whether method `im` of the material expression is the interface
@@ -282,6 +303,10 @@ impl<'p> Lowerer<'p> {
                     None => false,
                 }
             }
+            ExprKind::Index { base, .. } => {
+                let items = self.material_items(Some(base), mat);
+                !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
+            }
             ExprKind::Ternary { then_expr, else_expr, .. } => [then_expr, else_expr].iter().all(|e| {
                 self.uses_default(&Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude }, im, depth + 1)
             }),
@@ -297,9 +322,6 @@ impl<'p> Lowerer<'p> {
                                 params.iter().map(|p| (p.name.name.as_str(), Ty::from_ast(&p.ty))).collect();
                             let mut env = HashMap::default();
                             for (p, a) in params.iter().zip(bind_args(&typed, call_args)) {
-                                if Ty::from_ast(&p.ty) != Ty::Material {
-                                    continue;
-                                }
                                 let bound = match (a, &p.default) {
                                     (Some(a), _) => Mat { expr: a, env: mat.env.clone(), in_prelude: mat.in_prelude },
                                     (None, Some(d)) => Mat {
@@ -309,7 +331,9 @@ impl<'p> Lowerer<'p> {
                                     },
                                     (None, None) => continue,
                                 };
-                                env.insert(p.name.name.clone(), Val::Material(bound));
+                                if let Some(v) = self.material_binding(&Ty::from_ast(&p.ty), bound) {
+                                    env.insert(p.name.name.clone(), v);
+                                }
                             }
                             let body = Mat { expr: &t.body, env: Rc::new(env), in_prelude: self.is_prelude(sym) };
                             self.uses_default(&body, im, depth + 1)

@@ -366,6 +366,8 @@ enum Val<'p> {
     /// compile time.
     Str(Rc<str>),
     Material(Mat<'p>),
+    /// The materials of a `material[N]` template parameter.
+    Materials(Vec<Mat<'p>>),
     Unit,
 }
 

@@ -114,14 +114,7 @@ impl<'p> Lowerer<'p> {
                     }
                 };
                 let items = self.material_items(bound.get(1).copied().flatten(), mat);
-                if items.is_empty() {
-                    // FIXME: a `material[N]` template parameter (`select(i,
-                    // ms)`) is accepted by the checker but not supported:
-                    // `material_items` sees no array literal.
-                    return self.typed_zeros(b, &im.ret);
-                }
-                let i = self.clamp_index(b, i, items.len() as i32);
-                self.select_child(b, i, &items, 0, im, args, ctx)
+                self.select_clamped(b, i, &items, im, args, ctx)
             }
             TreeNode::Bump => {
                 let Some(m) = child(2) else { return missing(self, b) };
@@ -182,6 +175,11 @@ impl<'p> Lowerer<'p> {
             Some(ExprKind::Array(items)) => {
                 items.iter().map(|it| Mat { expr: it, env: mat.env.clone(), in_prelude: mat.in_prelude }).collect()
             }
+            // A `material[N]` template parameter.
+            Some(ExprKind::Name(n)) => match mat.env.get(n) {
+                Some(Val::Materials(items)) => items.clone(),
+                _ => Vec::new(),
+            },
             _ => Vec::new(),
         }
     }
@@ -263,6 +261,25 @@ impl<'p> Lowerer<'p> {
             acc = b.map2(BinOp::FAdd, &acc, &s);
         }
         if im.name == "normal" { b.normalize(&acc) } else { acc }
+    }
+
+    /// `items[i]`, `i` clamped into the list: `select`, and an element of
+    /// a `material[N]` parameter.
+    pub(super) fn select_clamped(
+        &mut self,
+        b: &mut Builder,
+        i: Value,
+        items: &[Mat<'p>],
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        if items.is_empty() {
+            ruled_out!("a choice among no materials");
+            return self.typed_zeros(b, &im.ret);
+        }
+        let i = self.clamp_index(b, i, items.len() as i32);
+        self.select_child(b, i, items, 0, im, args, ctx)
     }
 
     #[allow(clippy::too_many_arguments)]

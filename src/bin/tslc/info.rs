@@ -1,0 +1,89 @@
+//! `tslc info`: what an EXR written by `tslc render` or `tslc merge` says
+//! about itself (the frame and window, the channels, and the metadata of
+//! `image_io::Metadata`), for people or, with `--json`, for farm scripts.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use tsl::image_io::{self, ExrHeader};
+
+#[derive(clap::Args)]
+pub struct InfoArgs {
+    /// EXR files (as written by `tslc render` and `tslc merge`).
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// One JSON object per file on stdout, its attributes under
+    /// `attributes` (numbers as numbers).
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn info(args: InfoArgs) -> ExitCode {
+    let mut failed = false;
+    let mut out = std::io::stdout().lock();
+    for path in &args.files {
+        let header = match image_io::read_exr_header(path) {
+            Ok(h) => h,
+            Err(e) => {
+                eprintln!("error: {e}");
+                failed = true;
+                continue;
+            }
+        };
+        let name = path.display().to_string();
+        // A closed stdout (piped into `head`) is not our error.
+        let _ = if args.json {
+            writeln!(out, "{}", json(&name, &header))
+        } else {
+            write!(out, "{}", human(&name, &header))
+        };
+    }
+    if failed { ExitCode::from(1) } else { ExitCode::SUCCESS }
+}
+
+fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
+    let attributes: serde_json::Map<String, serde_json::Value> =
+        h.metadata.attributes.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
+    serde_json::json!({
+        "file": name,
+        "resolution": [h.full_width, h.full_height],
+        "window": { "x": h.x0, "y": h.y0, "width": h.width, "height": h.height },
+        "channels": h.channels,
+        "compression": h.compression,
+        "attributes": attributes,
+    })
+}
+
+fn human(name: &str, h: &ExrHeader) -> String {
+    let mut rows: Vec<(String, String)> = vec![
+        ("resolution".into(), format!("{}x{}", h.full_width, h.full_height)),
+        (
+            "window".into(),
+            format!(
+                "x {}..{}, y {}..{} ({}x{} pixels{})",
+                h.x0,
+                h.x0 + h.width as i32,
+                h.y0,
+                h.y0 + h.height as i32,
+                h.width,
+                h.height,
+                if (h.x0, h.y0, h.width, h.height) == (0, 0, h.full_width, h.full_height) { ", all" } else { "" }
+            ),
+        ),
+        ("channels".into(), h.channels.join(", ")),
+        ("compression".into(), h.compression.clone()),
+    ];
+    for (key, value) in h.metadata.ordered() {
+        let meaning = image_io::meaning(key).map(|m| format!("  ({m})")).unwrap_or_default();
+        rows.push((key.to_string(), format!("{value}{meaning}")));
+    }
+    if !h.metadata.is_tsl() {
+        rows.push(("".into(), "no tsl:* attributes: not written by tslc".into()));
+    }
+    let width = rows.iter().map(|(k, _)| k.len()).max().unwrap_or(0);
+    let mut text = format!("{name}\n");
+    for (k, v) in rows {
+        text.push_str(&format!("  {k:width$}  {v}\n"));
+    }
+    text
+}
