@@ -30,6 +30,7 @@ pub mod interp;
 pub mod ir;
 pub mod jit;
 pub mod load;
+pub mod lsp;
 pub mod render;
 pub mod runtime;
 pub mod scene;
@@ -79,17 +80,35 @@ impl Checked {
 
 /// Loads and checks a program from source text.
 pub fn check_source(name: &str, text: &str, options: &LoadOptions) -> Checked {
+    check_source_reusing(name, text, options, None)
+}
+
+/// [`check_source`], taking the meshes and environment images the scene
+/// names from `previous` (an earlier description of the program, whose
+/// files have not changed since) instead of reading them again: an
+/// editor checks a scene at every pause in typing.
+pub fn check_source_reusing(
+    name: &str,
+    text: &str,
+    options: &LoadOptions,
+    previous: Option<&scene::SceneDesc>,
+) -> Checked {
     let (loaded, diags) = load::load_source(name, text, options);
-    finish(loaded, diags, options)
+    finish(loaded, diags, options, previous)
 }
 
 /// Loads and checks a program from a file.
 pub fn check_file(path: &Path, options: &LoadOptions) -> Checked {
     let (loaded, diags) = load::load_file(path, options);
-    finish(loaded, diags, options)
+    finish(loaded, diags, options, None)
 }
 
-fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>, options: &LoadOptions) -> Checked {
+fn finish(
+    loaded: load::Loaded,
+    mut diagnostics: Vec<Diagnostic>,
+    options: &LoadOptions,
+    previous: Option<&scene::SceneDesc>,
+) -> Checked {
     // Type checking a file that did not parse would only add noise.
     let parsed = !diagnostics.iter().any(Diagnostic::is_error);
     let (program, scene) = if parsed {
@@ -101,7 +120,7 @@ fn finish(loaded: load::Loaded, mut diagnostics: Vec<Diagnostic>, options: &Load
         let scene = if diagnostics.iter().any(Diagnostic::is_error) {
             None
         } else {
-            let (scene, more) = scene::describe(&program, ColorModel::Rgb, None);
+            let (scene, more) = scene::describe(&program, ColorModel::Rgb, previous);
             diagnostics.extend(more);
             scene
         };

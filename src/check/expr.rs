@@ -164,7 +164,9 @@ impl<'a> Checker<'a> {
     pub(super) fn name(&mut self, name: &str, span: Span) -> Ty {
         if let Some(local) = self.lookup_local(name) {
             local.used = true;
-            return local.ty.clone();
+            let (ty, declared) = (local.ty.clone(), local.span);
+            self.local_uses.insert(span, declared);
+            return ty;
         }
         if let Some(t) = interface::global(name) {
             if interface::is_frame_global(name) {

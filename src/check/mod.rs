@@ -24,15 +24,16 @@ mod scene;
 mod stmt;
 mod ty;
 
-pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode};
+pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
+pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
 pub use ty::{SAMPLE_FIELDS, Ty};
 
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
 use crate::syntax::ast::*;
 use crate::texture::{Encoding, Filter, MipMap, Wrap};
-use builtins::{ArgError, builtin, elementwise, type_builtin, unify};
+use builtins::{ArgError, elementwise, type_builtin, unify};
 use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -57,6 +58,9 @@ pub struct Program {
     pub expr_types: FxHashMap<Span, Ty>,
     /// The global item each name or call resolved to, keyed by its span.
     pub resolutions: FxHashMap<Span, Symbol>,
+    /// The local variable or parameter each name resolved to: the span of
+    /// the use to the span of the declared name (for editors).
+    pub local_uses: FxHashMap<Span, Span>,
     /// The builtin each call to one resolved to, keyed by the callee's span
     /// (a user function of the same name is an error, so names alone would
     /// do; the lowering matches on the enum instead of on strings).
@@ -162,6 +166,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         in_prelude: false,
         current: (0, 0),
         resolutions: FxHashMap::default(),
+        local_uses: FxHashMap::default(),
         reads_globals: HashMap::new(),
         reads_frame: HashMap::new(),
         frame_limits: HashMap::new(),
@@ -181,10 +186,22 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.report_varying_values();
     let expr_types = std::mem::take(&mut checker.expr_types);
     let resolutions = std::mem::take(&mut checker.resolutions);
+    let local_uses = std::mem::take(&mut checker.local_uses);
     let images = std::mem::take(&mut checker.images);
     let texture_calls = std::mem::take(&mut checker.texture_calls);
     let builtin_calls = std::mem::take(&mut checker.builtin_calls);
-    (Program { loaded, symbols, prelude_symbols, expr_types, resolutions, builtin_calls, images, texture_calls }, diags)
+    let program = Program {
+        loaded,
+        symbols,
+        prelude_symbols,
+        expr_types,
+        resolutions,
+        local_uses,
+        builtin_calls,
+        images,
+        texture_calls,
+    };
+    (program, diags)
 }
 
 type Symbols = HashMap<String, Symbol>;
@@ -345,6 +362,8 @@ struct Checker<'a> {
     /// The item being checked.
     current: ItemId,
     resolutions: FxHashMap<Span, Symbol>,
+    /// Name uses that are locals, to their declarations.
+    local_uses: FxHashMap<Span, Span>,
     /// Items whose own code reads a shading global, with the first use.
     reads_globals: HashMap<Node, Span>,
     /// Items and scene values whose own code reads `frame` or `time`, by

@@ -187,6 +187,67 @@ const SHAPES: &[(&str, &[Prop])] = &[
 
 const BLOCKS: &[&str] = &["camera", "render", "light", "object"];
 
+/// One property of the scene schema, as editors show it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneProperty {
+    pub name: &'static str,
+    /// What the value must be, in words: "a positive float".
+    pub takes: String,
+    pub required: bool,
+    /// Whether it may be given several times (object transforms).
+    pub repeats: bool,
+    /// Whether it is one of alternatives of which one must be given
+    /// (`intensity` or `power`).
+    pub alternative: bool,
+    /// The string literals it accepts, for a property that takes one of a set.
+    pub choices: &'static [&'static str],
+}
+
+/// The block keywords of a scene: `camera`, `render`, `light`, `object`.
+pub fn scene_blocks() -> &'static [&'static str] {
+    BLOCKS
+}
+
+/// The kinds a block keyword takes (`light` → `point`, `spot`, ...); none
+/// for `camera` and `render`.
+pub fn scene_kinds(keyword: &str) -> Vec<&'static str> {
+    match keyword {
+        "light" => LIGHTS.iter().map(|k| k.0).collect(),
+        "object" => SHAPES.iter().map(|k| k.0).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The properties of a scene block (`keyword` and `kind`), or of the scene
+/// itself when `keyword` is `None`: the schema the checker applies.
+pub fn scene_properties(keyword: Option<&str>, kind: Option<&str>) -> Vec<SceneProperty> {
+    let of_kind = |kinds: &[(&'static str, &'static [Prop])]| -> &'static [Prop] {
+        kinds.iter().find(|k| Some(k.0) == kind).map_or(&[], |k| k.1)
+    };
+    let (own, common): (&[Prop], &[Prop]) = match keyword {
+        None => (TOP, &[]),
+        Some("camera") => (CAMERA, &[]),
+        Some("render") => (RENDER, &[]),
+        Some("light") => (of_kind(LIGHTS), &[]),
+        Some("object") => (of_kind(SHAPES), OBJECT_COMMON),
+        Some(_) => (&[], &[]),
+    };
+    own.iter()
+        .chain(common)
+        .map(|p| SceneProperty {
+            name: p.name,
+            takes: p.want.describe(),
+            required: p.required,
+            repeats: p.repeats,
+            alternative: p.group != 0,
+            choices: match p.want {
+                Want::Choice(c) => c,
+                _ => &[],
+            },
+        })
+        .collect()
+}
+
 pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     let mut cameras = Vec::new();
     let mut renders = Vec::new();

@@ -260,6 +260,8 @@ impl<'a> Checker<'a> {
             ExprKind::Name(name) => {
                 if let Some(local) = self.lookup_local(name) {
                     let (kind, ty) = (local.kind.clone(), local.ty.clone());
+                    let declared = local.span;
+                    self.local_uses.insert(e.span, declared);
                     if kind == LocalKind::LoopVar {
                         self.error(
                             Diagnostic::error(e.span, format!("cannot assign to the loop variable `{name}`"))

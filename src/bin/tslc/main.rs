@@ -48,6 +48,20 @@ enum Command {
     /// Re-check and re-render a scene whenever it, a file it imports or an
     /// image it reads changes, refining the image while nothing changes.
     Watch(watch::WatchArgs),
+    /// Run the language server (LSP over standard input and output) for
+    /// editors: diagnostics, hover, completion, definitions, formatting.
+    Lsp(LspArgs),
+}
+
+#[derive(clap::Args)]
+struct LspArgs {
+    /// Add a directory to the import search path (after the client's
+    /// `importPaths` initialization option).
+    #[arg(short = 'I', value_name = "DIR")]
+    include: Vec<PathBuf>,
+    /// Accepted for clients that pass it: stdio is the only transport.
+    #[arg(long)]
+    stdio: bool,
 }
 
 #[derive(clap::Args)]
@@ -135,6 +149,17 @@ enum WarningLevel {
     Error,
 }
 
+fn lsp(args: LspArgs) -> ExitCode {
+    let _ = args.stdio;
+    match tsl::lsp::run_stdio(args.include) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // Interrupted (SIGINT, SIGTERM): the image being written, if any, is
@@ -154,6 +179,7 @@ fn main() -> ExitCode {
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
         Command::Watch(args) => watch::watch(args),
+        Command::Lsp(args) => lsp(args),
     });
     match worker.map(|w| w.join()) {
         Ok(Ok(code)) => code,
