@@ -209,9 +209,18 @@ mod tests {
         assert_eq!(word_type(GLOBAL_WORDS - 1), Some(Ty::Float));
         assert_eq!(word_type(GLOBAL_WORDS), None);
         assert_eq!(
-            [word_name(12), word_name(7), word_name(34), word_name(41), word_name(GLOBAL_WORDS)],
+            [
+                word_name(12),
+                word_name(7),
+                word_name(WAVELENGTH_WORD + 2),
+                word_name(RGB_WEIGHT_WORD + HERO_LANES as u32 + 1),
+                word_name(GLOBAL_WORDS)
+            ],
             [Some("u".into()), Some("N.y".into()), Some("wavelength[2]".into()), Some("rgb_weight.g[1]".into()), None]
         );
-        assert_eq!(f32::from_bits(ShadingGlobals::default().words()[33]), HERO_DEFAULT_WAVELENGTHS[1]);
+        assert_eq!(
+            f32::from_bits(ShadingGlobals::default().words()[WAVELENGTH_WORD as usize + 1]),
+            HERO_DEFAULT_WAVELENGTHS[1]
+        );
     }
 }
