@@ -66,6 +66,34 @@ fn repository_files_format_to_a_fixed_point_with_the_same_ast_and_comments() {
     }
 }
 
+/// The repository's own `.tsl` files, formatted. Not the error fixtures of
+/// `tests/check/err/` (their expected diagnostics carry line and column) nor
+/// `tests/data/fuzz/` (they do not parse).
+const FORMATTED_DIRS: [&str; 5] = ["stdlib", "examples", "tests/check/ok", "tests/lower", "tests/data/regressions"];
+
+#[test]
+fn repository_files_are_formatted() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut all = Vec::new();
+    for d in FORMATTED_DIRS {
+        files(&root.join(d), &mut all);
+    }
+    let unformatted: Vec<String> = all
+        .iter()
+        .filter(|f| {
+            let src = std::fs::read_to_string(f).unwrap();
+            tsl::format::format_source(&src).map_or(true, |out| out != src)
+        })
+        .map(|f| f.strip_prefix(root).unwrap_or(f).display().to_string())
+        .collect();
+    assert!(
+        unformatted.is_empty(),
+        "not formatted (run `cargo run -- fmt {}`): {}",
+        FORMATTED_DIRS.join(" "),
+        unformatted.join(", ")
+    );
+}
+
 // ------------------------------------------------------------ `tslc fmt`
 
 fn tslc_fmt(args: &[&str], stdin: &str) -> std::process::Output {
