@@ -49,7 +49,7 @@ use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
 use crate::globals;
 use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
-use crate::texture::Sampler;
+use crate::texture::{Sampler, SpectralLanes};
 // Lowering hashes small keys (values, ops) millions of times: FxHash.
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::rc::Rc;
@@ -347,7 +347,7 @@ struct Lowerer<'p> {
     diags: Vec<Diagnostic>,
     next_id: u32,
     /// One sampler per image, filter and address modes.
-    samplers: HashMap<TextureCall, Arc<Sampler>>,
+    samplers: HashMap<(TextureCall, bool), Arc<Sampler>>,
     /// Set while a mixture samples one of its children: the outermost
     /// mixture computes the weight at the direction drawn, so nested ones
     /// only choose (see `sampling::sample_mixture`).
