@@ -185,7 +185,7 @@ impl Sampler {
                 let (x, y) = Self::texel_coords(level, q.s, q.t);
                 let (x, y) = (floor_to_i64(x), floor_to_i64(y));
                 if let (Some(x), Some(y)) = (self.wrap[0].index(x, level.width), self.wrap[1].index(y, level.height)) {
-                    add_spectrum(spectra[0][(y * level.width + x) as usize], 1.0, ts, out);
+                    add_spectra(&[spectra[0][(y * level.width + x) as usize]], ts, out);
                 }
             }
             Filter::Bilinear => self.bilinear_spectrum(0, &spectra[0], q, 1.0, ts, out),
@@ -216,13 +216,17 @@ impl Sampler {
         let (sx, sy) = (self.wrap[0], self.wrap[1]);
         let xs = [(sx.index(x0, level.width), 1.0 - fx), (sx.index(x0.saturating_add(1), level.width), fx)];
         let ys = [(sy.index(y0, level.height), 1.0 - fy), (sy.index(y0.saturating_add(1), level.height), fy)];
-        for (y, wy) in ys {
-            for (x, wx) in xs {
-                if let (Some(x), Some(y)) = (x, y) {
-                    add_spectrum(spectra[(y * level.width + x) as usize], weight * wx * wy, ts, out);
-                }
+        // Texels outside the image (`Wrap::Black`) weigh 0.
+        let mut taps = [[0.0f32; 4]; 4];
+        for (k, ((x, wx), (y, wy))) in
+            [(xs[0], ys[0]), (xs[1], ys[0]), (xs[0], ys[1]), (xs[1], ys[1])].into_iter().enumerate()
+        {
+            if let (Some(x), Some(y)) = (x, y) {
+                taps[k] = spectra[(y * level.width + x) as usize];
+                taps[k][3] *= weight * wx * wy;
             }
         }
+        add_spectra(&taps, ts, out);
     }
 
     #[inline]
@@ -274,19 +278,24 @@ impl Sampler {
     }
 }
 
-/// Adds `weight` times the spectrum `[c0, c1, c2, scale]` at each `t` to
-/// `out`: `scale · sigmoid(c0 t² + c1 t + c2)`, with the arithmetic of the
+/// Adds the spectra `[c0, c1, c2, scale]` at each `t` to `out`:
+/// `Σ scale · sigmoid(c0 t² + c1 t + c2)`, with the arithmetic of the
 /// compiled per-lookup conversion (`ir::lower::spectral`), so both agree.
+/// The taps are a fixed number, so the loop over lanes vectorises with
+/// every tap unrolled in it.
 #[inline]
-fn add_spectrum(c: [f32; 4], weight: f32, ts: &[f32], out: &mut [f32]) {
-    let hs = 0.5 * c[3] * weight;
-    if hs == 0.0 {
-        return;
-    }
+fn add_spectra<const K: usize>(taps: &[[f32; 4]; K], ts: &[f32], out: &mut [f32]) {
+    // scale · sigmoid(x) = hs + hs · x / √(x² + 1) with hs = scale / 2.
+    let hs: [f32; K] = std::array::from_fn(|k| 0.5 * taps[k][3]);
+    let base: f32 = hs.iter().sum();
     for (o, &t) in out.iter_mut().zip(ts) {
-        let x = (c[0] * t + c[1]) * t + c[2];
-        let y = x / (x * x + 1.0).sqrt();
-        *o += hs + hs * y;
+        let mut acc = base;
+        for k in 0..K {
+            let [c0, c1, c2, _] = taps[k];
+            let x = (c0 * t + c1) * t + c2;
+            acc += hs[k] * (x / (x * x + 1.0).sqrt());
+        }
+        *o += acc;
     }
 }
 
