@@ -126,14 +126,20 @@ pub fn lower_entries(
 /// Lowers one expression of the root program that reads no shading global
 /// (a scene property's value) to a function without parameters whose
 /// results are the value's words, converted to `to`.
+///
+/// With `absolute_spectra` (a scene light's or emitter's value, as Mitsuba
+/// reads them), `spectrum(...)` curves are spectral power, divided by the
+/// model's D65 white to become lanes; RGB stays D65-based either way.
 pub fn lower_value(
     program: &Program,
     model: ColorModel,
     name: &str,
     expr: &Expr,
     to: &Ty,
+    absolute_spectra: bool,
 ) -> (Function, Vec<Diagnostic>) {
     let mut lw = Lowerer::new(program, model);
+    lw.absolute_spectra = absolute_spectra;
     let mut b = Builder::new(name);
     let ctx = lw.root_ctx();
     let mut fr = lw.new_frame(false, HashSet::default());
@@ -352,6 +358,9 @@ struct Lowerer<'p> {
     /// mixture computes the weight at the direction drawn, so nested ones
     /// only choose (see `sampling::sample_mixture`).
     direction_only: bool,
+    /// `spectrum(...)` curves are absolute spectral power (a scene light's
+    /// value), not D65-relative: [`color::emission_resample_weights`].
+    absolute_spectra: bool,
 }
 
 // ---------------------------------------------------------------- values
