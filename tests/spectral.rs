@@ -287,3 +287,64 @@ fn dispersion_spreads_white_into_colours_only_with_hero_sampling() {
     let (hero, binned) = (colourful(ColorModel::Hero), colourful(ColorModel::Spectral { samples: 16 }));
     assert!(hero > 0.15 && binned < 0.02, "hero {hero}, spectral16 {binned}");
 }
+
+/// A scene light's `spectrum(...)` is absolute spectral power, as Mitsuba
+/// reads an emitter's spectrum: the flat curve 1 is the equal-energy light
+/// of luminance 1, slightly pink in sRGB, while `rgb(1, 1, 1)` is D65 and
+/// renders white. The expectation is colour-science's XYZ of the flat
+/// spectrum (380-780 nm) in linear sRGB, white-balanced as TSL's D65
+/// (`tests/data/color_oracle.json`).
+#[test]
+fn flat_spectrum_lights_are_equal_energy_and_rgb_lights_d65() {
+    let oracle: serde_json::Value =
+        serde_json::from_str(include_str!("data/color_oracle.json")).expect("color_oracle.json parses");
+    let numbers = |key: &str| -> [f64; 3] {
+        let v = &oracle[key];
+        [0, 1, 2].map(|c| v[c].as_f64().expect("a number"))
+    };
+    let (xyz, balance) = (numbers("flat_raw_xyz"), numbers("white_scale_d65"));
+    let want: [f64; 3] = std::array::from_fn(|c| {
+        let row = color::XYZ_TO_SRGB[c];
+        balance[c] * (row[0] * xyz[0] + row[1] * xyz[1] + row[2] * xyz[2])
+    });
+    assert!(want[0] > 1.15 && want[2] < 0.95, "equal-energy white is pink in sRGB: {want:?}");
+    let scene = |intensity: &str, area: &str| {
+        format!(
+            "material white = lambert(kd: gray(0.8));
+             scene {{
+                 camera {{ from (0, 0, -4); to (0, 0, 0); fov 35; }}
+                 render {{ integrator \"whitted\"; }}
+                 light point {{ at (-2, 3, -4); intensity {intensity}; }}
+                 light rect {{ corner (-1, 3, -1); edge1 (2, 0, 0); edge2 (0, 0, 2); radiance {area}; }}
+                 object sphere {{ center (0, 0, 0); radius 1; material white; }}
+             }}"
+        )
+    };
+    let flat = "spectrum([(380, 20), (780, 20)])";
+    let (d65_src, flat_src) = (scene("rgb(20, 20, 20)", "rgb(0, 0, 0)"), scene(flat, "rgb(0, 0, 0)"));
+    // `2 * spectrum` scales, and a curve in an area light is absolute too.
+    let area_src = scene("rgb(0, 0, 0)", "2 * spectrum([(380, 0.5), (780, 0.5)])");
+    let area_d65 = scene("rgb(0, 0, 0)", "rgb(1, 1, 1)");
+    for (model, spp, bound) in
+        [(ColorModel::Rgb, 1, 2e-3), (ColorModel::Spectral { samples: 64 }, 1, 3e-3), (ColorModel::Hero, 64, 1e-2)]
+    {
+        let mean = |src: &str| image_mean(&render_src(src, model, (16, 16), spp, 1));
+        let (white, pink) = (mean(&d65_src), mean(&flat_src));
+        let (area_white, area_pink) = (mean(&area_d65), mean(&area_src));
+        let rgb = image_mean(&render_src(&d65_src, ColorModel::Rgb, (16, 16), spp, 1));
+        for c in 0..3 {
+            let got = pink[c] / white[c];
+            assert!((got / want[c] - 1.0).abs() < bound, "{} channel {c}: {got} vs {}", model.name(), want[c]);
+            let got = area_pink[c] / area_white[c];
+            assert!(
+                (got / want[c] - 1.0).abs() < 2.0 * bound,
+                "{} area, channel {c}: {got} vs {}",
+                model.name(),
+                want[c]
+            );
+            // An RGB light is D65, as before: the RGB render's white.
+            let rel = white[c] / rgb[c] - 1.0;
+            assert!(rel.abs() < bound, "{} rgb light, channel {c}: {:+.3}%", model.name(), 100.0 * rel);
+        }
+    }
+}

@@ -169,6 +169,51 @@ fn spectral_mode_upsamples_texels() {
     }
 }
 
+/// In the Jakob–Hanika models a texel's spectrum is converted once at load:
+/// at texel centres a lookup is the per-lookup conversion of its RGB, and
+/// between texels it is the blend of the texels' spectra (not the spectrum
+/// of the blended RGB).
+#[test]
+fn spectral_texels_are_converted_once_and_blended_as_spectra() {
+    let dir = temp_dir("spectral_texels");
+    ramp_png(&dir);
+    let src = r#"
+        color c() { return texture("ramp.png", filter: "bilinear", wrap: "clamp", colorspace: "linear"); }
+        color per_lookup() {
+            float r = texture_float("ramp.png", channel: 0, filter: "bilinear", wrap: "clamp");
+            float g = texture_float("ramp.png", channel: 1, filter: "bilinear", wrap: "clamp");
+            float b = texture_float("ramp.png", channel: 2, filter: "bilinear", wrap: "clamp");
+            return rgb(r, g, b);
+        }
+    "#;
+    let hero = [402.5, 517.0, 633.25, 760.0];
+    for model in [ColorModel::Spectral { samples: 16 }, ColorModel::Hero] {
+        let p = compile(&dir, src, model).unwrap();
+        let g = |u: f32, v: f32| ShadingGlobals { wavelengths: hero, ..at(u, v) };
+        let close = |a: &[f32], b: &[f32], what: &str| {
+            for (x, y) in a.iter().zip(b) {
+                assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0), "{} {what}: {a:?} vs {b:?}", model.name());
+            }
+        };
+        for y in 0..4 {
+            let v = 1.0 - (y as f32 + 0.5) / 4.0;
+            let centre = |x: u32| {
+                let g = g((x as f32 + 0.5) / 4.0, v);
+                let want = both(&p, "per_lookup", &g);
+                close(&both(&p, "c", &g), &want, &format!("texel ({x}, {y})"));
+                want
+            };
+            let texels: Vec<Vec<f32>> = (0..4).map(centre).collect();
+            for x in 0..3 {
+                // Halfway between texels x and x + 1: the mean of their spectra.
+                let mid = both(&p, "c", &g((x as f32 + 1.0) / 4.0, v));
+                let want: Vec<f32> = texels[x].iter().zip(&texels[x + 1]).map(|(a, b)| 0.5 * (a + b)).collect();
+                close(&mid, &want, &format!("between texels {x} and {} of row {y}", x + 1));
+            }
+        }
+    }
+}
+
 #[test]
 fn textured_materials_agree_on_random_points() {
     let dir = temp_dir("materials");

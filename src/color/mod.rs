@@ -508,6 +508,37 @@ pub fn linear_srgb_to_xyz(rgb: [f32; 3]) -> [f32; 3] {
 /// kept in order, which makes a step); a sample with a non-finite wavelength
 /// is ignored (its column is 0), and with no usable sample every weight is 0.
 pub fn resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f32>> {
+    resample_weights_over(model, wavelengths_nm, false)
+}
+
+/// [`resample_weights`] for a curve of absolute spectral power (a scene
+/// light's `spectrum(...)`, as Mitsuba reads an emitter's spectrum): the
+/// curve is divided by the model's white ([`white_power`]) before it
+/// becomes lanes, so the flat curve of 1 is the equal-energy light of
+/// luminance 1 (sRGB about `(1.205, 0.948, 0.909)`), not the model's white.
+/// `Smits` models, whose white is E, take curves as they are.
+pub fn emission_resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f32>> {
+    resample_weights_over(model, wavelengths_nm, true)
+}
+
+/// The spectral power of the white a model's lanes are relative to, at
+/// `nm`, normalised to the luminance of the flat spectrum 1: D65 times
+/// `∫ ȳ / ∫ ȳ · D65` (over 380–780 nm), or 1 for E. Lanes of all 1 are this
+/// light.
+pub fn white_power(white: White, nm: f64) -> f64 {
+    match white {
+        White::E => 1.0,
+        White::D65 => {
+            static RATIO: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+            let ratio = RATIO.get_or_init(|| cmf_integral(LO, HI, White::E)[1] / white_norm(White::D65).y);
+            d65(nm) * ratio
+        }
+    }
+}
+
+fn resample_weights_over(model: ColorModel, wavelengths_nm: &[f32], absolute: bool) -> Vec<Vec<f32>> {
+    let white = model.white();
+    let factor = |l: f64| if absolute { 1.0 / white_power(white, l) } else { 1.0 };
     let inputs = wavelengths_nm.len();
     let mut order: Vec<usize> = (0..inputs).filter(|&j| wavelengths_nm[j].is_finite()).collect();
     order.sort_by(|&a, &b| wavelengths_nm[a].total_cmp(&wavelengths_nm[b]));
@@ -517,15 +548,20 @@ pub fn resample_weights(model: ColorModel, wavelengths_nm: &[f32]) -> Vec<Vec<f3
         ColorModel::Spectral { samples } | ColorModel::Smits { samples } => (0..samples)
             .map(|i| {
                 let (a, b) = bin(samples, i);
-                hat_integrals(&xs, a, b, |_| 1.0, &[]).into_iter().map(|w| w / (b - a)).collect()
+                let knots = if absolute { cmf_knots() } else { Vec::new() };
+                hat_integrals(&xs, a, b, factor, &knots).into_iter().map(|w| w / (b - a)).collect()
             })
             .collect(),
-        ColorModel::Hero => {
-            HERO_DEFAULT_WAVELENGTHS.iter().map(|&l| interpolation_weights(&xs, f64::from(l))).collect()
-        }
+        ColorModel::Hero => HERO_DEFAULT_WAVELENGTHS
+            .iter()
+            .map(|&l| {
+                let l = f64::from(l);
+                interpolation_weights(&xs, l).into_iter().map(|w| w * factor(l)).collect()
+            })
+            .collect(),
         ColorModel::Rgb => {
             let knots = cmf_knots();
-            (0..3).map(|c| hat_integrals(&xs, LO, HI, |l| rgb_matching(model.white(), l)[c], &knots)).collect()
+            (0..3).map(|c| hat_integrals(&xs, LO, HI, |l| rgb_matching(white, l)[c] * factor(l), &knots)).collect()
         }
     };
     sorted_rows

@@ -113,9 +113,16 @@ impl Machine<'_, '_> {
                 }
                 Inst::Output(k, v) => self.out[*k as usize] = self.v(*v),
                 Inst::Texture { sampler, coords, out } => {
-                    let [s, t, dsdx, dtdx, dsdy, dtdy] = coords.map(|c| f(self.v(c)));
-                    let rgba = sampler.0.sample(&Lookup { s, t, dsdx, dtdx, dsdy, dtdy });
-                    for (word, x) in self.arrays[out.0 as usize].iter_mut().zip(rgba) {
+                    let c: Vec<f32> = coords.iter().map(|&c| f(self.v(c))).collect();
+                    let q = Lookup { s: c[0], t: c[1], dsdx: c[2], dtdx: c[3], dsdy: c[4], dtdy: c[5] };
+                    let result: Vec<f32> = if sampler.0.spectral.is_some() {
+                        let mut lanes = vec![0.0; sampler.0.spectral_lanes()];
+                        sampler.0.sample_spectrum(&q, &[c[6], c[7], c[8], c[9]], &mut lanes);
+                        lanes
+                    } else {
+                        sampler.0.sample(&q).to_vec()
+                    };
+                    for (word, x) in self.arrays[out.0 as usize].iter_mut().zip(result) {
                         *word = fw(x);
                     }
                 }

@@ -68,7 +68,7 @@ pub(crate) enum MemoKey {
     /// A texture lookup: the sampler's address and the coordinates.
     Texture {
         sampler: usize,
-        coords: [Value; 6],
+        coords: Vec<Value>,
     },
 }
 
@@ -381,25 +381,30 @@ impl Builder {
         self.def(Scalar::F32, Op::Call { native, args })
     }
 
-    /// A texture lookup (value-numbered: a lookup is pure): R, G, B, A.
-    pub(crate) fn texture(&mut self, sampler: &Arc<Sampler>, coords: [Value; 6]) -> [Value; 4] {
-        let key = MemoKey::Texture { sampler: Arc::as_ptr(sampler) as usize, coords };
+    /// A texture lookup (value-numbered: a lookup is pure): R, G, B, A,
+    /// or with a spectral sampler one value per lane (`coords` then has
+    /// the four hero wavelengths after the six of the lookup).
+    pub(crate) fn texture(&mut self, sampler: &Arc<Sampler>, coords: Vec<Value>) -> Vec<Value> {
+        let key = MemoKey::Texture { sampler: Arc::as_ptr(sampler) as usize, coords: coords.clone() };
         if let Some(v) = self.lookup(&key) {
-            return [v[0], v[1], v[2], v[3]];
+            return v.to_vec();
         }
+        let words = sampler.spectral_lanes();
         let out = ArrayId(self.func.arrays.len() as u32);
-        self.func.arrays.push((Scalar::F32, 4));
+        self.func.arrays.push((Scalar::F32, words as u32));
         self.push(Inst::Texture { sampler: SamplerRef(sampler.clone()), coords, out });
-        let rgba = std::array::from_fn(|k| {
-            let index = self.i(k as i32);
-            let v = self.fresh_value(Scalar::F32);
-            let load = Op::Load { array: out, index };
-            self.note_value(v, Some(&load));
-            self.push(Inst::Def(v, load));
-            v
-        });
-        self.remember(key, rgba.to_vec());
-        rgba
+        let values: Vec<Value> = (0..words)
+            .map(|k| {
+                let index = self.i(k as i32);
+                let v = self.fresh_value(Scalar::F32);
+                let load = Op::Load { array: out, index };
+                self.note_value(v, Some(&load));
+                self.push(Inst::Def(v, load));
+                v
+            })
+            .collect();
+        self.remember(key, values.clone());
+        values
     }
 
     /// x^n for n >= 1 by repeated squaring.

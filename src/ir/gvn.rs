@@ -17,7 +17,7 @@ enum Key {
     Const(ConstKey),
     /// A load from an array written once, by a lookup.
     Load(ArrayId, Value),
-    Texture(usize, [Value; 6]),
+    Texture(usize, Vec<Value>),
 }
 
 /// Merges repeated pure operations and texture lookups of `f`.
@@ -109,9 +109,9 @@ impl Numbering {
                 }
                 Inst::Output(k, v) => Inst::Output(k, self.v(v)),
                 Inst::Texture { sampler, coords, out: array } => {
-                    let coords = coords.map(|c| self.v(c));
+                    let coords: Vec<Value> = coords.into_iter().map(|c| self.v(c)).collect();
                     if self.lookup[array.0 as usize] {
-                        let key = Key::Texture(sampler_id(&sampler), coords);
+                        let key = Key::Texture(sampler_id(&sampler), coords.clone());
                         // An earlier identical lookup: read its array instead.
                         if let Some(Value(earlier)) = self.find(&key) {
                             self.arrays[array.0 as usize] = ArrayId(earlier);

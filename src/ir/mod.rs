@@ -168,10 +168,13 @@ pub enum Inst {
     /// Word `i` of the result array.
     Output(u32, Value),
     /// A filtered image lookup at `coords` = (s, t, ds/dx, dt/dx, ds/dy,
-    /// dt/dy), writing R, G, B, A into words 0..4 of the f32 array `out`.
+    /// dt/dy), writing R, G, B, A into words 0..4 of the f32 array `out`;
+    /// with a spectral sampler, four more coords (the hero lanes'
+    /// normalised wavelengths) and one word per lane
+    /// ([`crate::texture::Sampler::spectral_lanes`]).
     Texture {
         sampler: SamplerRef,
-        coords: [Value; 6],
+        coords: Vec<Value>,
         out: ArrayId,
     },
     If {
@@ -313,7 +316,8 @@ fn print_body(out: &mut String, func: &Function, body: &[Inst], depth: usize) {
             Inst::Output(i, v) => writeln!(out, "{pad}out[{i}] = v{}", v.0),
             Inst::Texture { sampler, coords, out: array } => {
                 let c: Vec<String> = coords.iter().map(|v| format!("v{}", v.0)).collect();
-                writeln!(out, "{pad}a{}[0..4] = texture({sampler:?}, {})", array.0, c.join(", "))
+                let words = sampler.0.spectral_lanes();
+                writeln!(out, "{pad}a{}[0..{words}] = texture({sampler:?}, {})", array.0, c.join(", "))
             }
             Inst::If { cond, then_body, else_body } => {
                 let _ = writeln!(out, "{pad}if v{} {{", cond.0);

@@ -220,14 +220,19 @@ impl<'f> Verifier<'f> {
                 }
                 self.operand(*v, want, "the result");
             }
-            Inst::Texture { coords, out, .. } => {
+            Inst::Texture { sampler, coords, out } => {
+                let arity = if sampler.0.spectral.is_some() { 10 } else { 6 };
+                if coords.len() != arity {
+                    self.report(format!("a texture lookup with {} coordinates, not {arity}", coords.len()));
+                }
                 for c in coords {
                     self.operand(*c, Some(Scalar::F32), "a coordinate");
                 }
+                let words = sampler.0.spectral_lanes();
                 if let Some(&(elem, len)) = self.func.arrays.get(out.0 as usize) {
-                    if elem != Scalar::F32 || len < 4 {
+                    if elem != Scalar::F32 || (len as usize) < words {
                         self.report(format!(
-                            "a{} is {len} {} words; a texture writes 4 f32 words",
+                            "a{} is {len} {} words; a texture writes {words} f32 words",
                             out.0,
                             scalar_name(elem)
                         ));
@@ -481,6 +486,7 @@ mod tests {
             image: std::sync::Arc::new(image),
             filter: Filter::Nearest,
             wrap: [Wrap::Repeat; 2],
+            spectral: None,
         }))
     }
 
@@ -494,7 +500,7 @@ mod tests {
                 def(2, Op::Binary(BinOp::FLt, Value(0), Value(1))),
                 def(3, Op::I32(0)),
                 def(4, Op::Global(20)),
-                Inst::Texture { sampler: sampler(), coords: [Value(0); 6], out: ArrayId(0) },
+                Inst::Texture { sampler: sampler(), coords: vec![Value(0); 6], out: ArrayId(0) },
                 Inst::If {
                     cond: Value(2),
                     then_body: vec![def(5, add(0, 1)), Inst::Set(Var(0), Value(5))],
@@ -762,7 +768,7 @@ mod tests {
                 &[F32],
                 vec![
                     def(0, Op::F32(0.0)),
-                    Inst::Texture { sampler: sampler(), coords: [Value(0); 6], out: ArrayId(1) },
+                    Inst::Texture { sampler: sampler(), coords: vec![Value(0); 6], out: ArrayId(1) },
                 ],
             ),
             "a1 is 1 i32 words; a texture writes 4 f32 words",

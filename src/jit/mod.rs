@@ -117,6 +117,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         builder.symbol(n.name, n.ptr);
     }
     builder.symbol(TEXTURE_SYMBOL, crate::texture::tsl_texture as *const u8);
+    builder.symbol(SPECTRUM_TEXTURE_SYMBOL, crate::texture::tsl_texture_spectrum as *const u8);
     let mut jit = JITModule::new(builder);
     let ptr = jit.target_config().pointer_type();
 
@@ -136,6 +137,13 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
     texture_sig.params.extend((0..6).map(|_| AbiParam::new(types::F32)));
     texture_sig.params.push(AbiParam::new(ptr));
     let texture_id = jit.declare_function(TEXTURE_SYMBOL, Linkage::Import, &texture_sig).map_err(|e| e.to_string())?;
+    // tsl_texture_spectrum(sampler, s, t, dsdx, dtdx, dsdy, dtdy, t0, t1, t2, t3, out).
+    let mut spectrum_sig = jit.make_signature();
+    spectrum_sig.params.push(AbiParam::new(ptr));
+    spectrum_sig.params.extend((0..10).map(|_| AbiParam::new(types::F32)));
+    spectrum_sig.params.push(AbiParam::new(ptr));
+    let spectrum_id =
+        jit.declare_function(SPECTRUM_TEXTURE_SYMBOL, Linkage::Import, &spectrum_sig).map_err(|e| e.to_string())?;
 
     let mut entry_sig = jit.make_signature();
     entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
@@ -162,7 +170,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
             for (name, nid) in &native_ids {
                 natives_used.insert(name, jit.declare_func_in_func(*nid, &mut func));
             }
-            let texture = jit.declare_func_in_func(texture_id, &mut func);
+            let texture = [texture_id, spectrum_id].map(|id| jit.declare_func_in_func(id, &mut func));
             let mut b = FunctionBuilder::new(&mut func, &mut fctx);
             let mut g = Gen::new(&mut b, f, natives_used, texture, ptr);
             g.entry();
@@ -202,6 +210,8 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
 
 /// The symbol of [`crate::texture::tsl_texture`] in generated code.
 const TEXTURE_SYMBOL: &str = "tsl_texture";
+/// The symbol of [`crate::texture::tsl_texture_spectrum`].
+const SPECTRUM_TEXTURE_SYMBOL: &str = "tsl_texture_spectrum";
 
 /// Machine code of one function, ready to define in the module.
 struct Code {
@@ -294,7 +304,8 @@ struct Gen<'a, 'b> {
     /// Exit block and, for loops, the continue block of each label.
     labels: HashMap<Label, (Block, Option<Block>)>,
     natives: HashMap<&'static str, FuncRef>,
-    texture: FuncRef,
+    /// `tsl_texture` and `tsl_texture_spectrum`.
+    texture: [FuncRef; 2],
     ptr: Type,
     globals: ClValue,
     args: ClValue,
@@ -306,7 +317,7 @@ impl<'a, 'b> Gen<'a, 'b> {
         b: &'a mut FunctionBuilder<'b>,
         func: &'a ir::Function,
         natives: HashMap<&'static str, FuncRef>,
-        texture: FuncRef,
+        texture: [FuncRef; 2],
         ptr: Type,
     ) -> Self {
         let entry = b.create_block();
@@ -420,12 +431,13 @@ impl<'a, 'b> Gen<'a, 'b> {
             Inst::Texture { sampler, coords, out } => {
                 // The sampler is owned by this function's IR and kept alive
                 // by the `Jit`, so its address is a constant of the code.
+                let native = self.texture[usize::from(sampler.0.spectral.is_some())];
                 let sampler = self.b.ins().iconst(self.ptr, std::sync::Arc::as_ptr(&sampler.0) as i64);
                 let dest = self.b.ins().stack_addr(self.ptr, self.arrays[out.0 as usize], 0);
                 let mut args = vec![sampler];
                 args.extend(coords.iter().map(|c| self.v(*c)));
                 args.push(dest);
-                self.b.ins().call(self.texture, &args);
+                self.b.ins().call(native, &args);
             }
             Inst::Output(k, v) => {
                 let x = self.v(*v);

@@ -125,10 +125,16 @@ impl<'a> Describer<'a> {
 
     /// The value's words, converted to `ty`.
     fn words(&mut self, e: &Expr, ty: &Ty) -> Option<Vec<u32>> {
+        self.value_words(e, ty, false)
+    }
+
+    /// [`Self::words`]; `emission`: a light's value, whose `spectrum(...)`
+    /// curves are absolute (see `lower_value`).
+    fn value_words(&mut self, e: &Expr, ty: &Ty, emission: bool) -> Option<Vec<u32>> {
         if let Some(words) = literal_words(e, ty) {
             return Some(words);
         }
-        let (f, diags) = crate::ir::lower::lower_value(self.program, self.model, "value", e, ty);
+        let (f, diags) = crate::ir::lower::lower_value(self.program, self.model, "value", e, ty, emission);
         if !diags.is_empty() {
             self.diags.extend(diags);
             return None;
@@ -184,10 +190,16 @@ impl<'a> Describer<'a> {
         Some(Prop::new(v, e.span))
     }
 
+    /// A light's or emitter's color (every color of a scene is one): RGB is
+    /// D65-based, `spectrum(...)` curves absolute spectral power.
     fn color(&mut self, p: &SceneProp) -> Option<Prop<Lanes>> {
         let e = self.expr(p)?;
-        let lanes: Lanes =
-            self.words(e, &Ty::Color)?.iter().take(self.model.lanes()).map(|w| f32::from_bits(*w)).collect();
+        let lanes: Lanes = self
+            .value_words(e, &Ty::Color, true)?
+            .iter()
+            .take(self.model.lanes())
+            .map(|w| f32::from_bits(*w))
+            .collect();
         if lanes.iter().any(|x| !x.is_finite() || *x < 0.0) {
             self.error(e.span, format!("`{}` must be finite and not negative, found {lanes:?}", p.name.name));
             return None;

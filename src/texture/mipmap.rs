@@ -3,6 +3,7 @@
 
 use crate::image_io::{self, Encoding};
 use std::path::Path;
+use std::sync::OnceLock;
 
 /// One level of a pyramid: `width` x `height` RGBA texels, row by row,
 /// the first row at the top of the picture.
@@ -46,6 +47,9 @@ pub struct MipMap {
     /// Whether the file had an alpha channel (alpha is 1 otherwise).
     pub has_alpha: bool,
     pub levels: Vec<Level>,
+    /// The Jakob–Hanika spectra of every level's texels, made on first use
+    /// by a spectral model ([`MipMap::spectra`]).
+    spectra: OnceLock<Vec<Vec<[f32; 4]>>>,
 }
 
 impl MipMap {
@@ -59,7 +63,7 @@ impl MipMap {
             let next = downsample(last);
             levels.push(next);
         }
-        MipMap { name: name.into(), has_alpha, levels }
+        MipMap { name: name.into(), has_alpha, levels, spectra: OnceLock::new() }
     }
 
     pub fn width(&self) -> u32 {
@@ -68,6 +72,24 @@ impl MipMap {
 
     pub fn height(&self) -> u32 {
         self.levels[0].height
+    }
+
+    /// Per level, per texel, the Jakob–Hanika spectrum of its RGB
+    /// (`[c0, c1, c2, scale]` of [`crate::color::jakob_hanika::upsample`]),
+    /// converted once, on the first call, for the spectral models' lookups
+    /// (Mitsuba 3's bitmap texture does the same at load). Each level is
+    /// converted from its own box-filtered RGB. The pyramid then takes
+    /// twice the memory; RGB rendering never makes it.
+    pub fn spectra(&self) -> &[Vec<[f32; 4]>] {
+        use rayon::prelude::*;
+        self.spectra.get_or_init(|| {
+            let convert = |t: &[f32; 4]| {
+                let s = crate::color::jakob_hanika::upsample([t[0], t[1], t[2]]);
+                let [c0, c1, c2] = s.coefficients;
+                [c0, c1, c2, s.scale]
+            };
+            self.levels.iter().map(|l| l.texels.par_iter().map(convert).collect()).collect()
+        })
     }
 
     /// Reads an image file: PNG, JPEG, Radiance HDR or OpenEXR.

@@ -24,7 +24,7 @@ mod sampler;
 // Decoding lives in the leaf `image_io`, which the renderer shares.
 pub use crate::image_io::{Encoding, MAX_IMAGE_SIZE, srgb_to_linear};
 pub use mipmap::{Level, MipMap};
-pub use sampler::{Filter, Lookup, Sampler, Wrap, tsl_texture};
+pub use sampler::{Filter, Lookup, Sampler, SpectralLanes, Wrap, tsl_texture, tsl_texture_spectrum};
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

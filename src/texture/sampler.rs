@@ -92,6 +92,20 @@ pub struct Sampler {
     pub filter: Filter,
     /// Address modes along s and t.
     pub wrap: [Wrap; 2],
+    /// `None`: lookups return RGBA ([`Sampler::sample`]). Otherwise lookups
+    /// return the filtered Jakob–Hanika spectra of the texels at these
+    /// wavelengths ([`Sampler::sample_spectrum`]).
+    pub spectral: Option<SpectralLanes>,
+}
+
+/// The wavelengths a spectral lookup evaluates its texels' spectra at, as
+/// `t = (λ − 380) / 400`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpectralLanes {
+    /// Fixed lanes (a binned model's bin centres).
+    Fixed(Vec<f32>),
+    /// The four hero lanes, given with each lookup.
+    Hero,
 }
 
 /// Texture coordinates and their change to the next pixel in x and y.
@@ -119,24 +133,100 @@ impl Sampler {
             Filter::Nearest => self.nearest(&levels[0], q.s, q.t),
             Filter::Bilinear => self.bilinear(&levels[0], q.s, q.t),
             Filter::Trilinear => {
-                let (w, h) = (levels[0].width as f32, levels[0].height as f32);
-                let width = (q.dsdx.abs() * w).max(q.dtdx.abs() * h).max(q.dsdy.abs() * w).max(q.dtdy.abs() * h);
-                // NaN and tiny footprints select the finest level.
-                let level = if width > 1.0 { fast_log2(width) } else { 0.0 };
-                let last = (levels.len() - 1) as f32;
-                if level >= last {
-                    return self.bilinear(&levels[levels.len() - 1], q.s, q.t);
-                }
-                let lo = level.floor();
-                let f = level - lo;
-                let a = self.bilinear(&levels[lo as usize], q.s, q.t);
+                let (lo, f) = self.mip_levels(q);
+                let a = self.bilinear(&levels[lo], q.s, q.t);
                 if f == 0.0 {
                     return a;
                 }
-                let b = self.bilinear(&levels[lo as usize + 1], q.s, q.t);
+                let b = self.bilinear(&levels[lo + 1], q.s, q.t);
                 std::array::from_fn(|c| a[c] + f * (b[c] - a[c]))
             }
         }
+    }
+
+    /// The level a trilinear lookup starts at and the weight of the next
+    /// one (0: that level alone).
+    fn mip_levels(&self, q: &Lookup) -> (usize, f32) {
+        let levels = &self.image.levels;
+        let (w, h) = (levels[0].width as f32, levels[0].height as f32);
+        let width = (q.dsdx.abs() * w).max(q.dtdx.abs() * h).max(q.dsdy.abs() * w).max(q.dtdy.abs() * h);
+        // NaN and tiny footprints select the finest level.
+        let level = if width > 1.0 { fast_log2(width) } else { 0.0 };
+        let last = (levels.len() - 1) as f32;
+        if level >= last {
+            return (levels.len() - 1, 0.0);
+        }
+        let lo = level.floor();
+        (lo as usize, level - lo)
+    }
+
+    /// The filtered spectrum at `(s, t)` into `out`, one lane per
+    /// wavelength of [`Sampler::spectral`] (`hero`: the hero lanes' `t`),
+    /// the rest of `out` zeroed. The same filter as [`Sampler::sample`],
+    /// but it blends the texels' spectra ([`MipMap::spectra`]) evaluated at
+    /// the lanes, not their RGB: a texel costs a few multiplies and a
+    /// square root per lane, never a lookup in the coefficient table.
+    pub fn sample_spectrum(&self, q: &Lookup, hero: &[f32; 4], out: &mut [f32]) {
+        out.fill(0.0);
+        let ts: &[f32] = match &self.spectral {
+            Some(SpectralLanes::Fixed(ts)) => ts,
+            Some(SpectralLanes::Hero) => hero,
+            None => return,
+        };
+        let lanes = ts.len().min(out.len());
+        let (ts, out) = (&ts[..lanes], &mut out[..lanes]);
+        if !(q.s.is_finite() && q.t.is_finite()) {
+            return;
+        }
+        let spectra = self.image.spectra();
+        match self.filter {
+            Filter::Nearest => {
+                let level = &self.image.levels[0];
+                let (x, y) = Self::texel_coords(level, q.s, q.t);
+                let (x, y) = (floor_to_i64(x), floor_to_i64(y));
+                if let (Some(x), Some(y)) = (self.wrap[0].index(x, level.width), self.wrap[1].index(y, level.height)) {
+                    add_spectra(&[spectra[0][(y * level.width + x) as usize]], ts, out);
+                }
+            }
+            Filter::Bilinear => self.bilinear_spectrum(0, &spectra[0], q, 1.0, ts, out),
+            Filter::Trilinear => {
+                let (lo, f) = self.mip_levels(q);
+                self.bilinear_spectrum(lo, &spectra[lo], q, 1.0 - f, ts, out);
+                if f != 0.0 {
+                    self.bilinear_spectrum(lo + 1, &spectra[lo + 1], q, f, ts, out);
+                }
+            }
+        }
+    }
+
+    /// Adds `weight` times the bilinear blend of the spectra of level
+    /// `index` at the lookup to `out`.
+    fn bilinear_spectrum(
+        &self,
+        index: usize,
+        spectra: &[[f32; 4]],
+        q: &Lookup,
+        weight: f32,
+        ts: &[f32],
+        out: &mut [f32],
+    ) {
+        let level = &self.image.levels[index];
+        let (x, y) = Self::texel_coords(level, q.s, q.t);
+        let ((x0, fx), (y0, fy)) = (floor_fract(x - 0.5), floor_fract(y - 0.5));
+        let (sx, sy) = (self.wrap[0], self.wrap[1]);
+        let xs = [(sx.index(x0, level.width), 1.0 - fx), (sx.index(x0.saturating_add(1), level.width), fx)];
+        let ys = [(sy.index(y0, level.height), 1.0 - fy), (sy.index(y0.saturating_add(1), level.height), fy)];
+        // Texels outside the image (`Wrap::Black`) weigh 0.
+        let mut taps = [[0.0f32; 4]; 4];
+        for (k, ((x, wx), (y, wy))) in
+            [(xs[0], ys[0]), (xs[1], ys[0]), (xs[0], ys[1]), (xs[1], ys[1])].into_iter().enumerate()
+        {
+            if let (Some(x), Some(y)) = (x, y) {
+                taps[k] = spectra[(y * level.width + x) as usize];
+                taps[k][3] *= weight * wx * wy;
+            }
+        }
+        add_spectra(&taps, ts, out);
     }
 
     #[inline]
@@ -144,6 +234,14 @@ impl Sampler {
         match (self.wrap[0].index(x, level.width), self.wrap[1].index(y, level.height)) {
             (Some(x), Some(y)) => level.texel(x, y),
             _ => [0.0; 4],
+        }
+    }
+
+    /// The words a lookup writes: 4 (RGBA) or one per spectral lane.
+    pub fn spectral_lanes(&self) -> usize {
+        match &self.spectral {
+            None | Some(SpectralLanes::Hero) => 4,
+            Some(SpectralLanes::Fixed(ts)) => ts.len(),
         }
     }
 
@@ -177,6 +275,27 @@ impl Sampler {
             let bottom = c[k] + fx * (d[k] - c[k]);
             top + fy * (bottom - top)
         })
+    }
+}
+
+/// Adds the spectra `[c0, c1, c2, scale]` at each `t` to `out`:
+/// `Σ scale · sigmoid(c0 t² + c1 t + c2)`, with the arithmetic of the
+/// compiled per-lookup conversion (`ir::lower::spectral`), so both agree.
+/// The taps are a fixed number, so the loop over lanes vectorises with
+/// every tap unrolled in it.
+#[inline]
+fn add_spectra<const K: usize>(taps: &[[f32; 4]; K], ts: &[f32], out: &mut [f32]) {
+    // scale · sigmoid(x) = hs + hs · x / √(x² + 1) with hs = scale / 2.
+    let hs: [f32; K] = std::array::from_fn(|k| 0.5 * taps[k][3]);
+    let base: f32 = hs.iter().sum();
+    for (o, &t) in out.iter_mut().zip(ts) {
+        let mut acc = base;
+        for k in 0..K {
+            let [c0, c1, c2, _] = taps[k];
+            let x = (c0 * t + c1) * t + c2;
+            acc += hs[k] * (x / (x * x + 1.0).sqrt());
+        }
+        *o += acc;
     }
 }
 
@@ -222,6 +341,39 @@ pub unsafe extern "C" fn tsl_texture(
     out.copy_from_slice(&sampler.sample(&Lookup { s, t, dsdx, dtdx, dsdy, dtdy }));
 }
 
+/// The native behind `texture()` in the Jakob–Hanika spectral models:
+/// writes the filtered spectrum of `sampler` (which has
+/// [`Sampler::spectral`] lanes) at the lookup into `out[0..lanes]`;
+/// `t0..t3` are the hero lanes' normalised wavelengths (ignored by fixed
+/// lanes).
+///
+/// # Safety
+/// `sampler` points to a live [`Sampler`] and `out` to `lanes` writable
+/// floats, where `lanes` is the number of its fixed lanes, or 4 for hero.
+/// Generated code passes a sampler its program keeps alive and an array of
+/// its own of that size.
+pub unsafe extern "C" fn tsl_texture_spectrum(
+    sampler: *const Sampler,
+    s: f32,
+    t: f32,
+    dsdx: f32,
+    dtdx: f32,
+    dsdy: f32,
+    dtdy: f32,
+    t0: f32,
+    t1: f32,
+    t2: f32,
+    t3: f32,
+    out: *mut f32,
+) {
+    // SAFETY: guaranteed by the caller, as documented above.
+    let sampler = unsafe { &*sampler };
+    let lanes = sampler.spectral_lanes();
+    // SAFETY: as above.
+    let out = unsafe { std::slice::from_raw_parts_mut(out, lanes) };
+    sampler.sample_spectrum(&Lookup { s, t, dsdx, dtdx, dsdy, dtdy }, &[t0, t1, t2, t3], out);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,7 +386,7 @@ mod tests {
     }
 
     fn sampler(filter: Filter, wrap: Wrap) -> Sampler {
-        Sampler { image: numbered(), filter, wrap: [wrap, wrap] }
+        Sampler { image: numbered(), filter, wrap: [wrap, wrap], spectral: None }
     }
 
     fn at(s: &Sampler, x: f32, y: f32) -> [f32; 4] {

@@ -522,6 +522,12 @@ impl<'p> Lowerer<'p> {
             }
         }
         let values: Vec<Value> = elems.iter().map(|e| e[1]).collect();
+        if self.absolute_spectra {
+            // Scene values are evaluated in binned models only (hero
+            // renders tabulate them at 64 bins).
+            let w = color::emission_resample_weights(self.model, &wavelengths);
+            return Val::Lanes(w.iter().map(|row| b.weighted(row, &values)).collect());
+        }
         if self.model == ColorModel::Hero {
             return Val::Lanes(self.hero_curve(b, &wavelengths, &values));
         }

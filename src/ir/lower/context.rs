@@ -15,6 +15,7 @@ impl<'p> Lowerer<'p> {
             next_id: 0,
             samplers: HashMap::default(),
             direction_only: false,
+            absolute_spectra: false,
         }
     }
 

@@ -49,7 +49,7 @@ use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
 use crate::globals;
 use crate::syntax::ast::{self, AssignOp, BinaryOp, Expr, ExprKind, Item, Stmt, StmtKind, UnaryOp};
-use crate::texture::Sampler;
+use crate::texture::{Sampler, SpectralLanes};
 // Lowering hashes small keys (values, ops) millions of times: FxHash.
 use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use std::rc::Rc;
@@ -126,14 +126,20 @@ pub fn lower_entries(
 /// Lowers one expression of the root program that reads no shading global
 /// (a scene property's value) to a function without parameters whose
 /// results are the value's words, converted to `to`.
+///
+/// With `absolute_spectra` (a scene light's or emitter's value, as Mitsuba
+/// reads them), `spectrum(...)` curves are spectral power, divided by the
+/// model's D65 white to become lanes; RGB stays D65-based either way.
 pub fn lower_value(
     program: &Program,
     model: ColorModel,
     name: &str,
     expr: &Expr,
     to: &Ty,
+    absolute_spectra: bool,
 ) -> (Function, Vec<Diagnostic>) {
     let mut lw = Lowerer::new(program, model);
+    lw.absolute_spectra = absolute_spectra;
     let mut b = Builder::new(name);
     let ctx = lw.root_ctx();
     let mut fr = lw.new_frame(false, HashSet::default());
@@ -347,11 +353,14 @@ struct Lowerer<'p> {
     diags: Vec<Diagnostic>,
     next_id: u32,
     /// One sampler per image, filter and address modes.
-    samplers: HashMap<TextureCall, Arc<Sampler>>,
+    samplers: HashMap<(TextureCall, bool), Arc<Sampler>>,
     /// Set while a mixture samples one of its children: the outermost
     /// mixture computes the weight at the direction drawn, so nested ones
     /// only choose (see `sampling::sample_mixture`).
     direction_only: bool,
+    /// `spectrum(...)` curves are absolute spectral power (a scene light's
+    /// value), not D65-relative: [`color::emission_resample_weights`].
+    absolute_spectra: bool,
 }
 
 // ---------------------------------------------------------------- values

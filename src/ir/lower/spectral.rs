@@ -11,7 +11,7 @@ use crate::color::{HERO_LANES, LAMBDA_MAX, LAMBDA_MIN, jakob_hanika};
 use std::sync::{Mutex, OnceLock};
 
 /// `t = (λ − 380) / 400`, the sigmoid's variable, of `nm` as constants.
-fn normalised(nm: f32) -> f32 {
+pub(super) fn normalised(nm: f32) -> f32 {
     (nm - LAMBDA_MIN) / (LAMBDA_MAX - LAMBDA_MIN)
 }
 
@@ -165,7 +165,7 @@ impl<'p> Lowerer<'p> {
 }
 
 /// The normalised wavelength `t` of each hero lane, from the globals.
-fn hero_normalised_wavelengths(b: &mut Builder) -> Vec<Value> {
+pub(super) fn hero_normalised_wavelengths(b: &mut Builder) -> Vec<Value> {
     let inv = b.f(1.0 / (LAMBDA_MAX - LAMBDA_MIN));
     let offset = b.f(-LAMBDA_MIN / (LAMBDA_MAX - LAMBDA_MIN));
     (0..HERO_LANES)

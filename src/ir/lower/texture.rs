@@ -22,7 +22,9 @@ impl<'p> Lowerer<'p> {
         let color = spec.func == BuiltinFn::Texture;
         let width = if color { self.lanes } else { 1 };
         let st_arg = spec.arg(bound, "st");
-        let Some(sampler) = self.sampler(e.span) else {
+        // Jakob–Hanika models look texels' spectra up, converted at load.
+        let spectral = color && matches!(self.model, ColorModel::Spectral { .. } | ColorModel::Hero);
+        let Some(sampler) = self.sampler(e.span, spectral) else {
             self.error(e.span, "internal error: this texture call has no loaded image");
             return Val::Lanes(b.zeros(width));
         };
@@ -61,7 +63,15 @@ impl<'p> Lowerer<'p> {
             };
             derivs.push(d);
         }
-        let coords = [st[0], st[1], derivs[0][0], derivs[0][1], derivs[1][0], derivs[1][1]];
+        let mut coords = vec![st[0], st[1], derivs[0][0], derivs[0][1], derivs[1][0], derivs[1][1]];
+        if spectral {
+            if self.model == ColorModel::Hero {
+                coords.extend(super::spectral::hero_normalised_wavelengths(b));
+            } else {
+                coords.extend([b.f(0.0); 4]);
+            }
+            return Val::Lanes(b.texture(&sampler, coords));
+        }
         let rgba = b.texture(&sampler, coords);
         if color {
             return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
@@ -77,14 +87,21 @@ impl<'p> Lowerer<'p> {
     }
 
     /// The sampler of the texture call at `span`, made once per image,
-    /// filter and address modes.
-    pub(super) fn sampler(&mut self, span: Span) -> Option<Arc<Sampler>> {
+    /// filter, address modes and kind (RGBA, or `spectral`: the texels'
+    /// spectra at the model's lanes).
+    pub(super) fn sampler(&mut self, span: Span, spectral: bool) -> Option<Arc<Sampler>> {
         let call = *self.program.texture_calls.get(&span)?;
         let image = self.program.images.get(call.image)?.image.clone()?;
+        let lanes = spectral.then(|| match self.model {
+            ColorModel::Hero => SpectralLanes::Hero,
+            model => {
+                SpectralLanes::Fixed(model.wavelengths().iter().map(|&l| super::spectral::normalised(l)).collect())
+            }
+        });
         Some(
             self.samplers
-                .entry(call)
-                .or_insert_with(|| Arc::new(Sampler { image, filter: call.filter, wrap: call.wrap }))
+                .entry((call, spectral))
+                .or_insert_with(|| Arc::new(Sampler { image, filter: call.filter, wrap: call.wrap, spectral: lanes }))
                 .clone(),
         )
     }
