@@ -348,3 +348,55 @@ fn flat_spectrum_lights_are_equal_energy_and_rgb_lights_d65() {
         }
     }
 }
+
+/// A color folded when the program is compiled and the same color computed
+/// at run time are the same bits (lowering specialises constant calls, so a
+/// one-ulp difference in the lookup's rounding would make results depend on
+/// it; tests/random_programs found `rgb(0.75, 1e6, 0.75)`).
+#[test]
+fn constant_and_run_time_rgb_are_the_same_bits() {
+    let mut colors: Vec<[f32; 3]> = RGB.to_vec();
+    colors.extend([[0.75, 1e6, 0.75], [0.3, 0.3, 0.30001], [1e-6, 2e-6, 0.0], [3.0, 2.9, 0.1]]);
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    for k in 0..300 {
+        let scale = [1.0, 0.02, 40.0][k % 3];
+        colors.push([next() * scale, next() * scale, next() * scale]);
+    }
+    let constants: String = colors
+        .iter()
+        .enumerate()
+        .map(|(i, c)| format!("color k{i}() {{ return rgb({:?}, {:?}, {:?}); }}\n", c[0], c[1], c[2]))
+        .collect();
+    for model in [ColorModel::Spectral { samples: 16 }, ColorModel::Hero] {
+        let p = Compiler::new()
+            .color_model(model)
+            .source("bits.tsl", &format!("{SOURCE}{constants}"))
+            .compile()
+            .expect("compiles");
+        let g = match model {
+            ColorModel::Hero => hero_globals([391.5, 488.25, 611.0, 779.0]),
+            _ => ShadingGlobals::default(),
+        };
+        for (i, rgb) in colors.iter().enumerate() {
+            for backend in [Backend::Jit, Backend::Interpreter] {
+                let folded = call(&p, &format!("k{i}"), &g, &[], backend);
+                let computed = call(&p, "up", &g, rgb, backend);
+                let lanes = model.lanes();
+                assert_eq!(
+                    folded[..lanes].iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    computed[..lanes].iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    "{} {backend:?} rgb{rgb:?}: folded {:?} vs run time {:?}",
+                    model.name(),
+                    &folded[..lanes],
+                    &computed[..lanes]
+                );
+            }
+        }
+    }
+}

@@ -63,9 +63,14 @@ pub struct Sigmoid {
 impl Sigmoid {
     /// The spectrum at `nm` nanometres.
     pub fn eval(&self, nm: f32) -> f32 {
-        let t = (nm - LO as f32) * (1.0 / (HI - LO) as f32);
+        // The compiled code's operations in its order (no fused
+        // multiply-add), so a color folded when the program is compiled
+        // has the bits of the same color computed at run time.
+        let t = (nm - LO as f32) / (HI - LO) as f32;
         let [c0, c1, c2] = self.coefficients;
-        self.scale * sigmoid32(c0.mul_add(t, c1).mul_add(t, c2))
+        let x = (c0 * t + c1) * t + c2;
+        let half_scale = 0.5 * self.scale;
+        half_scale + half_scale * (x / (x * x + 1.0).sqrt())
     }
 
     /// The spectrum at `nm`, in `f64`.
@@ -110,10 +115,6 @@ pub fn sigmoid(x: f64) -> f64 {
     0.5 + x / (2.0 * (1.0 + x * x).sqrt())
 }
 
-fn sigmoid32(x: f32) -> f32 {
-    0.5 + 0.5 * x / x.mul_add(x, 1.0).sqrt()
-}
-
 /// The Jakob–Hanika spectrum of a linear sRGB colour (see the module
 /// documentation): negative channels count as 0. Compile-time constants and
 /// run-time values (compiled code spells the same lookup out in IR) get
@@ -125,7 +126,11 @@ pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
         return Sigmoid { coefficients: [0.0; 3], scale: 0.0 };
     }
     let scale = range_scale(m);
-    let v = rgb.map(|c| (c / scale).min(1.0));
+    // The compiled lookup's arithmetic, operation for operation (a
+    // reciprocal, then products): any other rounding would let a
+    // specialised constant differ from the same value at run time.
+    let inv_scale = 1.0 / scale;
+    let v = rgb.map(|c| (c * inv_scale).min(1.0));
     let coefficients = if v[0] == v[1] && v[1] == v[2] { grey_coefficients(v[0]) } else { table().fetch(v) };
     Sigmoid { coefficients, scale }
 }
@@ -150,18 +155,18 @@ pub fn range_scale(m: f32) -> f32 {
     if m > 1.0 {
         2.0 * m
     } else if m < Z_MIN {
-        m / Z_MIN
+        m * (1.0 / Z_MIN) // as the compiled lookup rounds
     } else {
         1.0
     }
 }
 
-/// The constant spectrum `v`: `sigmoid(c2) = v`.
+/// The constant spectrum `v`: `sigmoid(c2) = v`, in single precision as
+/// the compiled lookup computes it.
 pub fn grey_coefficients(v: f32) -> [f32; 3] {
-    let v = f64::from(v);
     let c2 = (v - 0.5) / (v * (1.0 - v)).sqrt();
-    let bound = f64::from(COEFFICIENT_BOUND);
-    [0.0, 0.0, if c2.is_nan() { bound } else { c2.clamp(-bound, bound) } as f32]
+    let bound = COEFFICIENT_BOUND;
+    [0.0, 0.0, if c2.is_nan() { bound } else { c2.clamp(-bound, bound) }]
 }
 
 /// The coefficient table.
@@ -236,10 +241,15 @@ impl Table {
     /// trilinearly between the cells around it.
     pub fn fetch(&self, rgb: [f32; 3]) -> [f32; 3] {
         let res = self.res;
-        let (block, [x, y, z]) = coordinates(rgb.map(|c| c.clamp(0.0, 1.0)));
-        let z = z.max(self.z[0]);
+        let rgb = rgb.map(|c| c.clamp(0.0, 1.0));
+        let (block, _) = coordinates(rgb);
+        let z = rgb[block];
+        // As the compiled lookup rounds: `n · ((res − 1) / z)`.
         let last = (res - 1) as f32;
-        let (x, y) = (x * last, y * last);
+        let per_z = last / z.max(1e-30);
+        let cell = |n: f32| (n * per_z).clamp(0.0, last);
+        let (x, y) = (cell(rgb[(block + 1) % 3]), cell(rgb[(block + 2) % 3]));
+        let z = z.max(self.z[0]);
         let xi = (x as usize).min(res - 2);
         let yi = (y as usize).min(res - 2);
         let zi = self.z.partition_point(|&g| g <= z).saturating_sub(1).min(res - 2);
