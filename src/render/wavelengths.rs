@@ -88,7 +88,11 @@ impl HeroSample {
         let mut pdf = [0.0; HERO_LANES];
         let mut film = [[0.0; HERO_LANES]; 3];
         for i in 0..HERO_LANES {
-            let ui = (u + i as f32 / HERO_LANES as f32).fract() * CDF_CELLS as f32;
+            // `u + i / n` wrapped into [0, 1) without a call to `fract`
+            // (this runs once per camera sample).
+            let wrapped = u + i as f32 / HERO_LANES as f32;
+            let wrapped = if wrapped >= 1.0 { wrapped - 1.0 } else { wrapped };
+            let ui = wrapped * CDF_CELLS as f32;
             let k = (ui as usize).min(CDF_CELLS - 1);
             let (a, b) = (t.inverse_cdf[k], t.inverse_cdf[k + 1]);
             let l = a + (b - a) * (ui - k as f32);
@@ -97,7 +101,8 @@ impl HeroSample {
             let x = (l - LAMBDA_MIN).clamp(0.0, LAMBDA_MAX - LAMBDA_MIN);
             let j = (x as usize).min(t.matching.len() - 2);
             let f = x - j as f32;
-            let weight = 1.0 / (pdf[i] * HERO_LANES as f32);
+            // 1 / (pdf · n), without dividing twice.
+            let weight = (b - a) * (CDF_CELLS as f32 / HERO_LANES as f32);
             for (c, row) in film.iter_mut().enumerate() {
                 let (m0, m1) = (t.matching[j][c], t.matching[j + 1][c]);
                 row[i] = (m0 + (m1 - m0) * f) * weight;
@@ -135,7 +140,7 @@ pub fn interpolate_bins(table: &[f32], nm: f32) -> f32 {
     if n == 0 {
         return 0.0;
     }
-    let x = (nm - LAMBDA_MIN) / (LAMBDA_MAX - LAMBDA_MIN) * n as f32 - 0.5;
+    let x = (nm - LAMBDA_MIN) * (n as f32 / (LAMBDA_MAX - LAMBDA_MIN)) - 0.5;
     let x = x.clamp(0.0, (n - 1) as f32);
     let k = (x as usize).min(n.saturating_sub(2));
     if n == 1 {
