@@ -357,6 +357,15 @@ fn flat_spectrum_lights_are_equal_energy_and_rgb_lights_d65() {
 fn constant_and_run_time_rgb_are_the_same_bits() {
     let mut colors: Vec<[f32; 3]> = RGB.to_vec();
     colors.extend([[0.75, 1e6, 0.75], [0.3, 0.3, 0.30001], [1e-6, 2e-6, 0.0], [3.0, 2.9, 0.1]]);
+    // Infinite and NaN channels (from `xyz(1 / 0.0, ...)`, say): zero or
+    // the other channels' spectrum, never NaN at run time only.
+    let (inf, nan) = (f32::INFINITY, f32::NAN);
+    colors.extend([[inf, 0.5, 1.0], [0.2, -inf, 0.3], [nan, 0.2, 0.3], [nan, nan, nan], [inf, inf, inf]]);
+    let literal = |x: f32| match x {
+        x if x.is_nan() => "(0.0 / 0.0)".to_string(),
+        x if x.is_infinite() => format!("({}1.0 / 0.0)", if x < 0.0 { "-" } else { "" }),
+        x => format!("{x:?}"),
+    };
     let mut state = 0x2545_f491_4f6c_dd1d_u64;
     let mut next = move || {
         state ^= state << 13;
@@ -371,7 +380,9 @@ fn constant_and_run_time_rgb_are_the_same_bits() {
     let constants: String = colors
         .iter()
         .enumerate()
-        .map(|(i, c)| format!("color k{i}() {{ return rgb({:?}, {:?}, {:?}); }}\n", c[0], c[1], c[2]))
+        .map(|(i, c)| {
+            format!("color k{i}() {{ return rgb({}, {}, {}); }}\n", literal(c[0]), literal(c[1]), literal(c[2]))
+        })
         .collect();
     for model in [ColorModel::Spectral { samples: 16 }, ColorModel::Hero] {
         let p = Compiler::new()

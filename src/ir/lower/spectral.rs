@@ -43,7 +43,9 @@ impl<'p> Lowerer<'p> {
             ColorModel::Hero => {
                 let (coefficients, scale) = match constant {
                     // A grey is the same at every wavelength.
-                    Some([r, g, bl]) if r == g && g == bl => return vec![b.f(r.max(0.0)); HERO_LANES],
+                    Some([r, g, bl]) if r == g && g == bl && r.is_finite() => {
+                        return vec![b.f(r.max(0.0)); HERO_LANES];
+                    }
                     Some(c) => {
                         let s = jakob_hanika::upsample(c);
                         (s.coefficients.map(|x| b.f(x)), b.f(s.scale))
@@ -218,7 +220,12 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
     let words = jakob_hanika::table_words();
     let res = jakob_hanika::RES;
     let (zero, half, one) = (b.f(0.0), b.f(0.5), b.f(1.0));
-    let rgb = rgb.map(|c| b.fmax(c, zero));
+    // Negative and NaN channels count as 0, as on the host (`fmax` would
+    // keep a NaN).
+    let rgb = rgb.map(|c| {
+        let positive = b.flt(zero, c);
+        b.select(positive, c, zero)
+    });
     let m = b.fmax(rgb[0], rgb[1]);
     let m = b.fmax(m, rgb[2]);
     // The range scale: 2m above 1, m / Z_MIN below Z_MIN, else 1.
@@ -231,7 +238,11 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
     let dark = b.fmul(m, inv_z_min);
     let low_or_one = b.select(below, dark, one);
     let scale = b.select(above, twice, low_or_one);
-    let lit = b.flt(zero, m);
+    // Black, and infinite colors, are the zero spectrum (as on the host).
+    let positive = b.flt(zero, m);
+    let infinity = b.f(f32::INFINITY);
+    let finite = b.flt(m, infinity);
+    let lit = b.and(positive, finite);
     let scale_or_zero = b.select(lit, scale, zero);
     let inv_scale = b.fdiv(one, scale);
     let v = rgb.map(|c| {
@@ -335,7 +346,8 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
         let y1 = lerp(b, x10, x11, fy);
         let c = lerp(b, y0, y1, fz);
         let g = if k == 2 { grey_c2 } else { zero };
-        b.select(grey, g, c)
+        let c = b.select(grey, g, c);
+        b.select(lit, c, zero)
     });
     (coefficients, scale_or_zero)
 }
