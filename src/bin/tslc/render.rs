@@ -21,36 +21,8 @@ pub struct RenderArgs {
     /// Samples per pixel, 1 to 1048576 (overrides the scene's `spp`).
     #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
     spp: Option<u32>,
-    /// Image size, e.g. `640x480` (overrides the scene's width and height).
-    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
-    res: Option<(u32, u32)>,
-    /// Worker threads, at most 1024 (default: one per core).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
-    threads: usize,
-    /// The integrator (overrides the scene's `integrator`).
-    #[arg(long, value_parser = parse_integrator)]
-    integrator: Option<IntegratorKind>,
-    /// How the path tracer picks lights at each vertex: `all` samples
-    /// every light, `power` one chosen by power (overrides the scene's
-    /// `light_sampling`).
-    #[arg(long, value_name = "all|power", value_parser = parse_light_sampling)]
-    light_sampling: Option<LightSampling>,
-    /// The color model. `rgb`: linear sRGB (the cost unit). `hero`: four
-    /// wavelengths drawn per camera sample (hero wavelength sampling),
-    /// unbiased, converges to the exact spectral integral; dispersion works.
-    /// `spectralN` (`spectral` = 16): N fixed bins of 380-780 nm; RGB
-    /// upsampled by Jakob-Hanika, lights D65-based; saturated colours off
-    /// the RGB render by up to 4% at 16 bins, 0.3% at 64 (quadrature).
-    /// `smitsN`: the same bins with Smits' upsampling and white E (the old
-    /// model). Costs and accuracy: README, "Color models".
-    #[arg(long, default_value = "rgb", value_parser = parse_color)]
-    color: tsl::ColorModel,
-    /// The random seed, a whole number from 0 (overrides the scene's `seed`).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
-    seed: Option<u64>,
-    /// Maximum path depth, 1 to 1024 (overrides the scene's `max_depth`).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_depth)]
-    max_depth: Option<u32>,
+    #[command(flatten)]
+    options: SceneOptions,
     /// Render only a window: `x0,x1,y0,y1` as fractions of the image in
     /// [0, 1] (as pbrt's --cropwindow) or as pixel numbers.
     #[arg(long, value_name = "x0,x1,y0,y1")]
@@ -78,9 +50,45 @@ pub struct RenderArgs {
     /// No progress and no summary.
     #[arg(short, long)]
     quiet: bool,
+}
+
+/// The options `tslc render` and `tslc watch` share: the scene settings they
+/// override, the color model, threads and the import path.
+#[derive(clap::Args)]
+pub struct SceneOptions {
+    /// Image size, e.g. `640x480` (overrides the scene's width and height).
+    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
+    pub(crate) res: Option<(u32, u32)>,
+    /// Worker threads, at most 1024 (default: one per core).
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
+    pub(crate) threads: usize,
+    /// The integrator (overrides the scene's `integrator`).
+    #[arg(long, value_parser = parse_integrator)]
+    pub(crate) integrator: Option<IntegratorKind>,
+    /// How the path tracer picks lights at each vertex: `all` samples
+    /// every light, `power` one chosen by power (overrides the scene's
+    /// `light_sampling`).
+    #[arg(long, value_name = "all|power", value_parser = parse_light_sampling)]
+    pub(crate) light_sampling: Option<LightSampling>,
+    /// The color model. `rgb`: linear sRGB (the cost unit). `hero`: four
+    /// wavelengths drawn per camera sample (hero wavelength sampling),
+    /// unbiased, converges to the exact spectral integral; dispersion works.
+    /// `spectralN` (`spectral` = 16): N fixed bins of 380-780 nm; RGB
+    /// upsampled by Jakob-Hanika, lights D65-based; saturated colours off
+    /// the RGB render by up to 4% at 16 bins, 0.3% at 64 (quadrature).
+    /// `smitsN`: the same bins with Smits' upsampling and white E (the old
+    /// model). Costs and accuracy: README, "Color models".
+    #[arg(long, default_value = "rgb", value_parser = parse_color)]
+    pub(crate) color: tsl::ColorModel,
+    /// The random seed, a whole number from 0 (overrides the scene's `seed`).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
+    pub(crate) seed: Option<u64>,
+    /// Maximum path depth, 1 to 1024 (overrides the scene's `max_depth`).
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_depth)]
+    pub(crate) max_depth: Option<u32>,
     /// Add a directory to the import search path.
     #[arg(short = 'I', value_name = "DIR")]
-    include: Vec<PathBuf>,
+    pub(crate) include: Vec<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -234,8 +242,8 @@ pub fn render(args: RenderArgs) -> ExitCode {
     if args.crop.is_some() && args.tile.is_some() {
         return fail("--crop and --tile cannot be combined");
     }
-    let mut compiler = tsl::Compiler::new().color_model(args.color).file(&args.scene);
-    for dir in &args.include {
+    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene);
+    for dir in &args.options.include {
         compiler = compiler.import_path(dir);
     }
     let program = match compiler.compile() {
@@ -299,12 +307,12 @@ fn render_frame(
     content_hash: &str,
 ) -> ExitCode {
     let overrides = Overrides {
-        resolution: args.res,
+        resolution: args.options.res,
         spp: args.spp,
-        max_depth: args.max_depth,
-        seed: args.seed,
-        integrator: args.integrator,
-        light_sampling: args.light_sampling,
+        max_depth: args.options.max_depth,
+        seed: args.options.seed,
+        integrator: args.options.integrator,
+        light_sampling: args.options.light_sampling,
         ..Default::default()
     };
     let scene = match Scene::build_from(program, desc, &overrides) {
@@ -334,7 +342,7 @@ fn render_frame(
     let progress = Progress::new(args.quiet);
     let report = |done: u64, total: u64| progress.update(done, total);
     let options = RenderOptions {
-        threads: args.threads,
+        threads: args.options.threads,
         window,
         aov: args.aov,
         progress: if args.quiet { None } else { Some(&report) },

@@ -12,8 +12,7 @@
 //! writing a new file and renaming it over the old one, which a watch on the
 //! file itself would lose), and events are debounced.
 
-use crate::render::{fail, parse_color, parse_depth, parse_integrator, parse_resolution, parse_seed, parse_spp};
-use crate::render::{parse_light_sampling, parse_threads};
+use crate::render::{SceneOptions, fail, parse_spp};
 use crate::serve::Live;
 use notify_debouncer_full::notify::RecursiveMode;
 use notify_debouncer_full::notify::event::{AccessKind, AccessMode, EventKind};
@@ -27,7 +26,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 use tsl::image_io::{self, RenderedImage};
-use tsl::render::{self, IntegratorKind, LightSampling, Overrides, RenderOptions, Scene};
+use tsl::render::{self, Overrides, RenderOptions, Scene};
 use tsl::scene::{EnvironmentSourceDesc, ShapeDesc};
 use tsl::texture::TextureManager;
 use tsl::{Checked, LoadOptions};
@@ -52,30 +51,8 @@ pub struct WatchArgs {
     /// the scene's `spp`). Passes take 1, 1, 2, 4, ... samples.
     #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
     spp: Option<u32>,
-    /// Image size, e.g. `320x240` (overrides the scene's width and height).
-    #[arg(long, value_name = "WxH", value_parser = parse_resolution)]
-    res: Option<(u32, u32)>,
-    /// Worker threads, at most 1024 (default: one per core).
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = parse_threads)]
-    threads: usize,
-    /// The integrator (overrides the scene's `integrator`).
-    #[arg(long, value_parser = parse_integrator)]
-    integrator: Option<IntegratorKind>,
-    /// `all` or `power` (overrides the scene's `light_sampling`).
-    #[arg(long, value_name = "all|power", value_parser = parse_light_sampling)]
-    light_sampling: Option<LightSampling>,
-    /// The color model: `rgb`, or `spectral` (16 samples) or `spectralN`.
-    #[arg(long, default_value = "rgb", value_parser = parse_color)]
-    color: tsl::ColorModel,
-    /// The random seed (overrides the scene's `seed`).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
-    seed: Option<u64>,
-    /// Maximum path depth, 1 to 1024 (overrides the scene's `max_depth`).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_depth)]
-    max_depth: Option<u32>,
-    /// Add a directory to the import search path.
-    #[arg(short = 'I', value_name = "DIR")]
-    include: Vec<PathBuf>,
+    #[command(flatten)]
+    options: SceneOptions,
     /// Also serve a page showing the image as it refines and the
     /// diagnostics, e.g. `127.0.0.1:8000` (port 0 picks a free port).
     #[arg(long, value_name = "ADDR:PORT")]
@@ -212,7 +189,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     // A texture manager of its own, so a changed image is read again
     // rather than found in the cache.
     let textures = Arc::new(TextureManager::new());
-    let options = LoadOptions { import_paths: args.include.clone(), textures, ..Default::default() };
+    let options = LoadOptions { import_paths: args.options.include.clone(), textures, ..Default::default() };
     let checked = tsl::check_file(&args.scene, &options);
     let inputs = inputs_of(&args.scene, &checked);
     eprint!("{}", crate::human_report(&checked, crate::stderr_colors()));
@@ -229,16 +206,16 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
         }
         None
     };
-    let program = match tsl::Compiler::new().color_model(args.color).compile_checked(checked) {
+    let program = match tsl::Compiler::new().color_model(args.options.color).compile_checked(checked) {
         Ok(p) => p,
         Err(e) => return (failed(e.to_string()), inputs),
     };
     let overrides = Overrides {
-        resolution: args.res,
-        max_depth: args.max_depth,
-        seed: args.seed,
-        integrator: args.integrator,
-        light_sampling: args.light_sampling,
+        resolution: args.options.res,
+        max_depth: args.options.max_depth,
+        seed: args.options.seed,
+        integrator: args.options.integrator,
+        light_sampling: args.options.light_sampling,
         ..Default::default()
     };
     match Scene::build(&program, &overrides) {
@@ -303,7 +280,7 @@ fn refine(scene: &Scene, args: &WatchArgs, cancel: &AtomicBool, live: Option<&Li
     while taken < target {
         let pass = taken.max(1).min(target - taken);
         let options = RenderOptions {
-            threads: args.threads,
+            threads: args.options.threads,
             samples: Some(taken..taken + pass),
             cancel: Some(cancel),
             ..Default::default()
