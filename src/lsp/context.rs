@@ -85,24 +85,27 @@ impl Frame {
     }
 }
 
+/// The type a keyword names (its text, from the lexer), if it names one.
 fn type_keyword(t: &Tok) -> Option<&'static str> {
-    Some(match t {
-        Tok::KwFloat => "float",
-        Tok::KwInt => "int",
-        Tok::KwBool => "bool",
-        Tok::KwColor => "color",
-        Tok::KwVector => "vector",
-        Tok::KwPoint => "point",
-        Tok::KwNormal => "normal",
-        Tok::KwVec2 => "vec2",
-        Tok::KwUv => "uv",
-        Tok::KwMatrix => "matrix",
-        Tok::KwBsdfSample => "bsdf_sample",
-        Tok::KwString => "string",
-        Tok::KwVoid => "void",
-        Tok::Material => "material",
-        _ => return None,
-    })
+    use Tok::*;
+    let names_a_type = matches!(
+        t,
+        KwFloat
+            | KwInt
+            | KwBool
+            | KwColor
+            | KwVector
+            | KwPoint
+            | KwNormal
+            | KwVec2
+            | KwUv
+            | KwMatrix
+            | KwBsdfSample
+            | KwString
+            | KwVoid
+            | Material
+    );
+    names_a_type.then(|| t.text())
 }
 
 fn ident(t: &Tok) -> Option<&str> {
