@@ -417,11 +417,15 @@ mod tests {
         ];
         for (place, forbidden) in rules {
             let path = src.join(place);
-            let files: Vec<_> = if path.is_dir() {
-                std::fs::read_dir(&path).unwrap().map(|e| e.unwrap().path()).collect()
-            } else {
-                vec![path]
-            };
+            // Every file under `place`, subdirectories included.
+            let (mut pending, mut files) = (vec![path], Vec::new());
+            while let Some(p) = pending.pop() {
+                if p.is_dir() {
+                    pending.extend(std::fs::read_dir(&p).unwrap().map(|e| e.unwrap().path()));
+                } else {
+                    files.push(p);
+                }
+            }
             for file in files {
                 let text = std::fs::read_to_string(&file).unwrap();
                 for f in forbidden {
