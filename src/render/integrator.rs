@@ -54,10 +54,10 @@ pub struct Counters {
 }
 
 /// A surface point being shaded.
-struct Shading<'s> {
+struct Shading<'s, 'g> {
     object: &'s Object,
     surface: SurfaceHit,
-    g: ShadingGlobals,
+    g: &'g ShadingGlobals,
     /// Toward the viewer, unit.
     wo: Vec3,
     hit: Hit,
@@ -211,17 +211,20 @@ impl<'s, const N: usize> Tracer<'s, N> {
         self.scene.geometry.intersect(ray, 0.0, f32::INFINITY)
     }
 
-    /// The shading record of a hit; `distance` is the path length before
-    /// this ray (for the texture footprint).
-    fn shade(&self, ray: &Ray, hit: Hit, distance: f32) -> Shading<'s> {
+    /// The shading record of a hit, its globals written into `g`;
+    /// `distance` is the path length before this ray (for the texture
+    /// footprint). The record borrows the globals rather than holding them:
+    /// moving 200 bytes into it was a memcpy per hit.
+    #[inline(always)]
+    fn shade<'g>(&self, ray: &Ray, hit: Hit, distance: f32, g: &'g mut ShadingGlobals) -> Shading<'s, 'g> {
         let object = &self.scene.objects[hit.object as usize];
         let s = self.scene.geometry.surface(ray, &hit, object.reads_uv);
         let len = ray.dir.length();
         let wo = -ray.dir / len;
-        let mut g = globals_of(&s, hit.t * len, self.scene.settings.frame);
-        self.wavelengths_into(&mut g);
+        globals_into(g, &s, hit.t * len, self.scene.settings.frame);
+        self.wavelengths_into(g);
         if object.reads_footprint {
-            footprint(&mut g, &s, -wo, distance + hit.t * len, self.spread);
+            footprint(g, &s, -wo, distance + hit.t * len, self.spread);
         }
         Shading { object, surface: s, g, wo, hit }
     }
@@ -266,21 +269,35 @@ impl<'s, const N: usize> Tracer<'s, N> {
     // ------------------------------------------------------------ material calls
 
     fn reflection(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
-        let mut out = Spectrum::ZERO;
         if let Some(hit) = &sh.object.hit
             && hit.method_function(REFLECTION).is_some()
         {
-            self.lobe_args.clear();
-            push_words(&mut self.lobe_args, &v3(wi));
-            push_words(&mut self.lobe_args, &light.0[..self.lanes]);
-            if self.call_prepared(hit, REFLECTION, &sh.g) {
-                for (o, w) in out.0.iter_mut().zip(&self.lobe_out[..self.lanes]) {
-                    *o = f32::from_bits(*w);
-                }
-            }
-            return out;
+            return self.prepared_reflection(hit, sh.g, wi, light);
         }
-        sh.object.material.reflection_into(&sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
+        let mut out = Spectrum::ZERO;
+        sh.object.material.reflection_into(sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
+        out
+    }
+
+    /// [`Self::reflection`] from a prepared hit's record; out of line for
+    /// the same reason as [`Self::call_prepared`].
+    #[inline(never)]
+    fn prepared_reflection(
+        &mut self,
+        hit: &crate::HitMaterial,
+        g: &ShadingGlobals,
+        wi: Vec3,
+        light: &Spectrum<N>,
+    ) -> Spectrum<N> {
+        let mut out = Spectrum::ZERO;
+        self.lobe_args.clear();
+        push_words(&mut self.lobe_args, &v3(wi));
+        push_words(&mut self.lobe_args, &light.0[..self.lanes]);
+        if self.call_prepared(hit, REFLECTION, g) {
+            for (o, w) in out.0.iter_mut().zip(&self.lobe_out[..self.lanes]) {
+                *o = f32::from_bits(*w);
+            }
+        }
         out
     }
 
@@ -294,20 +311,25 @@ impl<'s, const N: usize> Tracer<'s, N> {
     }
 
     /// Runs the per-hit stage of a prepared material: every call below,
-    /// until the next hit, reads its record.
-    #[inline(never)]
+    /// until the next hit, reads its record. Only the test is inline: most
+    /// hits of most scenes have nothing to prepare.
     fn prepare(&mut self, sh: &Shading, eta: &Spectrum<N>) {
         if let Some(hit) = &sh.object.hit {
-            self.lobe_args.clear();
-            push_words(&mut self.lobe_args, &v3(sh.wo));
-            push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
-            hit.prepare_words(JIT, &sh.g, &self.lobe_args, &mut self.hit_words);
+            self.prepare_hit(hit, sh.g, sh.wo, eta);
         }
+    }
+
+    #[inline(never)]
+    fn prepare_hit(&mut self, hit: &crate::HitMaterial, g: &ShadingGlobals, wo: Vec3, eta: &Spectrum<N>) {
+        self.lobe_args.clear();
+        push_words(&mut self.lobe_args, &v3(wo));
+        push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
+        hit.prepare_words(JIT, g, &self.lobe_args, &mut self.hit_words);
     }
 
     fn refraction(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>, eta: &Spectrum<N>) -> Spectrum<N> {
         let mut out = Spectrum::ZERO;
-        sh.object.material.refraction_into(&sh.g, v3(wi), &light.0, &eta.0, v3(sh.wo), &mut out.0);
+        sh.object.material.refraction_into(sh.g, v3(wi), &light.0, &eta.0, v3(sh.wo), &mut out.0);
         out
     }
 
@@ -341,14 +363,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut lobes = Lobes { reflect: None, refract: None };
         if let Some(hit) = &sh.object.hit {
             self.lobe_args.clear();
-            if !(sh.object.reflects || sh.object.refracts) || !self.call_prepared(hit, HitMethod::DeltaLobes, &sh.g) {
+            if !(sh.object.reflects || sh.object.refracts) || !self.call_prepared(hit, HitMethod::DeltaLobes, sh.g) {
                 return lobes;
             }
         } else {
             let Some(f) = &sh.object.delta_lobes else { return lobes };
             self.lobe_args.clear();
             self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
-            if f.call_words(JIT, &sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
+            if f.call_words(JIT, sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
                 return lobes;
             }
         }
@@ -373,7 +395,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if let Some(hit) = &sh.object.hit {
             self.lobe_args.clear();
             push_words(&mut self.lobe_args, &v3(wi));
-            if !self.call_prepared(hit, HitMethod::EvalPdf, &sh.g) {
+            if !self.call_prepared(hit, HitMethod::EvalPdf, sh.g) {
                 return (Spectrum::ZERO, 0.0);
             }
             let out = &self.lobe_out;
@@ -385,14 +407,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
             let ones = self.ones;
             let f = if same_side { self.reflection(sh, wi, &ones) } else { Spectrum::ZERO };
-            return (f, sh.object.material.pdf_lanes(&sh.g, v3(wi), v3(sh.wo), &eta.0));
+            return (f, sh.object.material.pdf_lanes(sh.g, v3(wi), v3(sh.wo), &eta.0));
         };
         let args = &mut self.lobe_args;
         args.clear();
         push_words(args, &v3(wi));
         push_words(args, &v3(sh.wo));
         push_words(args, &eta.0[..lanes]);
-        if f.call_words(JIT, &sh.g, args, &mut self.lobe_out).is_err() {
+        if f.call_words(JIT, sh.g, args, &mut self.lobe_out).is_err() {
             return (Spectrum::ZERO, 0.0);
         }
         let out = &self.lobe_out;
@@ -406,7 +428,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if let Some(hit) = &sh.object.hit {
             self.lobe_args.clear();
             push_words(&mut self.lobe_args, &[u1, u2[0], u2[1]]);
-            if !self.call_prepared(hit, HitMethod::Interface("sample"), &sh.g) {
+            if !self.call_prepared(hit, HitMethod::Interface("sample"), sh.g) {
                 return None;
             }
         } else {
@@ -415,7 +437,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             push_words(args, &v3(sh.wo));
             push_words(args, &eta.0[..lanes]);
             push_words(args, &[u1, u2[0], u2[1]]);
-            sh.object.sample.call_words(JIT, &sh.g, args, &mut self.lobe_out).ok()?;
+            sh.object.sample.call_words(JIT, sh.g, args, &mut self.lobe_out).ok()?;
         }
         let word = |k: usize| f32::from_bits(self.lobe_out[k]);
         Some(Drawn {
@@ -444,12 +466,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if object.always_opaque {
                 return true;
             }
-            let sh = self.shade(&ray, hit, 0.0);
-            if object.material.opaque(&sh.g) {
+            let mut g = ZERO_GLOBALS;
+            let sh = self.shade(&ray, hit, 0.0, &mut g);
+            if object.material.opaque(sh.g) {
                 return true;
             }
             let (eta, _) = self.eta(&sh, &NO_MEDIA);
-            let dt = object.material.refraction_dir_lanes(&sh.g, v3(sh.wo), &eta.0);
+            let dt = object.material.refraction_dir_lanes(sh.g, v3(sh.wo), &eta.0);
             if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE {
                 return true;
             }
@@ -543,7 +566,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             push(&mut gathered, sh.wo, &[]);
             let mut out = Spectrum::<N>::ZERO;
             let mut words = [0u32; N];
-            if f.call_words(JIT, &sh.g, &gathered, &mut words).is_ok() {
+            if f.call_words(JIT, sh.g, &gathered, &mut words).is_ok() {
                 for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
                     *o = f32::from_bits(*w);
                 }
@@ -643,7 +666,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     /// The shading normal from the material, turned toward the viewer.
     fn sampling_normal(&self, sh: &Shading) -> Vec3 {
-        let n = Vec3::from(sh.object.material.normal(&sh.g)).normalize_or_zero();
+        let n = Vec3::from(sh.object.material.normal(sh.g)).normalize_or_zero();
         let n = if n == Vec3::ZERO { sh.surface.n } else { n };
         if n.dot(sh.wo) < 0.0 { -n } else { n }
     }
@@ -659,7 +682,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     fn aov(&self, sh: &Shading) -> Aov {
         let mut albedo = Spectrum::<N>::ZERO;
-        sh.object.material.diffuse_into(&sh.g, &mut albedo.0);
+        sh.object.material.diffuse_into(sh.g, &mut albedo.0);
         let albedo = match &self.hero {
             Some(h) => h.shader.map(|row| (0..self.lanes).map(|i| row[i] * albedo.0[i]).sum()),
             None => crate::color::lanes_to_rgb(self.scene.model, &albedo.0[..self.lanes]),
@@ -690,7 +713,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let Some(hit) = self.nearest(ray) else {
             return self.background(ray.dir);
         };
-        let sh = self.shade(ray, hit, distance);
+        let mut g = ZERO_GLOBALS;
+        let sh = self.shade(ray, hit, distance, &mut g);
         if let Some(aov) = aov {
             *aov = self.aov(&sh);
         }
@@ -706,7 +730,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         self.prepare(&sh, &eta);
         let lobes = self.lobes(&sh, &eta, entering);
         let deltas = [lobes.reflect.map(|r| r.0), lobes.refract.as_ref().map(|r| r.dir)];
-        let mut l = self.emission(sh.object, &sh.g, sh.wo);
+        let mut l = self.emission(sh.object, sh.g, sh.wo);
         l += self.direct(&sh, sampler, None, &deltas);
         if depth < self.scene.settings.max_depth {
             // Materials are linear in the light they are given, so the
@@ -772,7 +796,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 l += beta * le * weight;
                 break;
             };
-            let sh = self.shade(&ray, hit, distance);
+            let mut g = ZERO_GLOBALS;
+            let sh = self.shade(&ray, hit, distance, &mut g);
             if depth == 1 && self.want_aov {
                 aov = self.aov(&sh);
             }
@@ -780,7 +805,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             distance += sh.g.t;
             // Emission found by following the path, weighed against having
             // sampled the same point as a light.
-            let le = self.emission(sh.object, &sh.g, sh.wo);
+            let le = self.emission(sh.object, sh.g, sh.wo);
             if !le.is_black() {
                 let weight = match (prev, self.scene.light_of_object[hit.object as usize]) {
                     (Some((x, bsdf_pdf)), Some(k)) => {
@@ -854,21 +879,25 @@ fn push_words(words: &mut Vec<u32>, xs: &[f32]) {
 /// The shading globals of a surface record (the footprint is filled by
 /// [`footprint`]).
 pub(super) fn globals_of(s: &SurfaceHit, t: f32, frame: Frame) -> ShadingGlobals {
-    ShadingGlobals {
-        p: v3(s.p),
-        pl: v3(s.pl),
-        n: v3(s.n),
-        ng: v3(s.ng),
-        u: s.u,
-        v: s.v,
-        dpdu: v3(s.dpdu),
-        dpdv: v3(s.dpdv),
-        face: s.face,
-        t,
-        frame: frame.number,
-        time: frame.time,
-        ..ZERO_GLOBALS
-    }
+    let mut g = ZERO_GLOBALS;
+    globals_into(&mut g, s, t, frame);
+    g
+}
+
+/// [`globals_of`] field by field into `g`, whose other fields are kept.
+fn globals_into(g: &mut ShadingGlobals, s: &SurfaceHit, t: f32, frame: Frame) {
+    g.p = v3(s.p);
+    g.pl = v3(s.pl);
+    g.n = v3(s.n);
+    g.ng = v3(s.ng);
+    g.u = s.u;
+    g.v = s.v;
+    g.dpdu = v3(s.dpdu);
+    g.dpdv = v3(s.dpdv);
+    g.face = s.face;
+    g.t = t;
+    g.frame = frame.number;
+    g.time = frame.time;
 }
 
 /// The pixel footprint at a hit: how P, u and v change from one pixel to

@@ -73,7 +73,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], self.entry_globals(m)),
             None => self.ones,
         };
-        let own = self.refraction_index(sh.object, &sh.g);
+        let own = self.refraction_index(sh.object, sh.g);
         if entering { (own.safe_div(&other), true) } else { (other.safe_div(&own), false) }
     }
 
@@ -91,7 +91,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 let g = if o.clear && (!o.refracts || o.constant_ior.is_some()) {
                     NO_GLOBALS
                 } else {
-                    self.entered.push(sh.g);
+                    self.entered.push(*sh.g);
                     self.entered.len() as u32 - 1
                 };
                 out.items[out.len] = Medium { object: sh.hit.object, g };
