@@ -17,15 +17,17 @@ use cranelift_codegen::control::ControlPlane;
 use cranelift_codegen::ir::UserFuncName;
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{
-    AbiParam, Block, FuncRef, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Type, types,
+    AbiParam, Block, ExtFuncData, ExternalName, FuncRef, InstBuilder, MemFlagsData, Signature, StackSlotData,
+    StackSlotKind, Type, UserExternalName, types,
 };
-use cranelift_codegen::isa::TargetIsa;
+use cranelift_codegen::isa::{TargetFrontendConfig, TargetIsa};
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_codegen::{Context, ir::Value as ClValue};
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{FuncId, Linkage, Module, ModuleReloc};
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The native signature of every entry point.
 pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, out: *mut u32);
@@ -122,13 +124,13 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
     let ptr = jit.target_config().pointer_type();
 
     // Natives: f32 x arity -> f32.
-    let mut native_ids: HashMap<&'static str, FuncId> = HashMap::new();
+    let mut natives_declared = Vec::new();
     for n in natives() {
         let mut sig = jit.make_signature();
         sig.params.extend((0..n.arity).map(|_| AbiParam::new(types::F32)));
         sig.returns.push(AbiParam::new(types::F32));
         let id = jit.declare_function(n.name, Linkage::Import, &sig).map_err(|e| e.to_string())?;
-        native_ids.insert(n.name, id);
+        natives_declared.push((n.name, id, sig));
     }
 
     // tsl_texture(sampler, s, t, dsdx, dtdx, dsdy, dtdy, out).
@@ -157,36 +159,22 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         ids.push(id);
     }
 
-    // Translate sequentially (importing natives needs the module), then let
-    // Cranelift compile the functions on every core, then define the code.
-    let mut fctx = FunctionBuilderContext::new();
+    // Every core translates and compiles functions (each is independent),
+    // then the code is defined in the module here.
+    let imports = Imports {
+        natives: natives_declared,
+        texture: [(texture_id, texture_sig), (spectrum_id, spectrum_sig)],
+        entry_sig,
+        target: jit.target_config(),
+        ptr,
+    };
+    let compiled = compile_parallel([&*isa, &*large_isa], &imports, &ids, &module.functions, options.keep_clif)?;
     let mut clif = Vec::new();
-    let mut funcs = Vec::with_capacity(module.functions.len());
-    for (k, f) in module.functions.iter().enumerate() {
-        let mut func =
-            cranelift_codegen::ir::Function::with_name_signature(UserFuncName::user(0, k as u32), entry_sig.clone());
-        {
-            let mut natives_used: HashMap<&'static str, FuncRef> = HashMap::new();
-            for (name, nid) in &native_ids {
-                natives_used.insert(name, jit.declare_func_in_func(*nid, &mut func));
-            }
-            let texture = [texture_id, spectrum_id].map(|id| jit.declare_func_in_func(id, &mut func));
-            let mut b = FunctionBuilder::new(&mut func, &mut fctx);
-            let mut g = Gen::new(&mut b, f, natives_used, texture, ptr);
-            g.entry();
-            g.body(&f.body);
-            g.finish();
-            b.seal_all_blocks();
-            b.finalize(jit.target_config());
-        }
-        if options.keep_clif {
-            clif.push((f.name.clone(), func.display().to_string()));
-        }
-        funcs.push(func);
-    }
-    let compiled = compile_parallel([&*isa, &*large_isa], funcs, &ids, &module.functions)?;
-    for (id, code) in ids.iter().zip(compiled) {
+    for ((id, code), f) in ids.iter().zip(compiled).zip(&module.functions) {
         jit.define_function_bytes(*id, code.alignment, &code.bytes, &code.relocs).map_err(|e| e.to_string())?;
+        if let Some(text) = code.clif {
+            clif.push((f.name.clone(), text));
+        }
     }
     jit.finalize_definitions().map_err(|e| e.to_string())?;
     let mut functions = HashMap::new();
@@ -218,68 +206,105 @@ struct Code {
     bytes: Vec<u8>,
     alignment: u64,
     relocs: Vec<ModuleReloc>,
+    /// Its Cranelift IR text, when asked for.
+    clif: Option<String>,
 }
 
-/// Compiles functions on all available cores (each is independent).
+/// The module's declarations a worker needs to translate a function on its
+/// own thread (the module itself stays with the caller).
+struct Imports {
+    natives: Vec<(&'static str, FuncId, Signature)>,
+    /// `tsl_texture` and `tsl_texture_spectrum`.
+    texture: [(FuncId, Signature); 2],
+    entry_sig: Signature,
+    target: TargetFrontendConfig,
+    ptr: Type,
+}
+
+impl Imports {
+    /// The IR function `k` in Cranelift IR.
+    fn translate(
+        &self,
+        k: usize,
+        f: &ir::Function,
+        fctx: &mut FunctionBuilderContext,
+    ) -> cranelift_codegen::ir::Function {
+        let mut func = cranelift_codegen::ir::Function::with_name_signature(
+            UserFuncName::user(0, k as u32),
+            self.entry_sig.clone(),
+        );
+        let natives = self.natives.iter().map(|(name, id, sig)| (*name, import(&mut func, *id, sig))).collect();
+        let texture = self.texture.each_ref().map(|(id, sig)| import(&mut func, *id, sig));
+        let mut b = FunctionBuilder::new(&mut func, fctx);
+        let mut g = Gen::new(&mut b, f, natives, texture, self.ptr);
+        g.entry();
+        g.body(&f.body);
+        g.finish();
+        b.seal_all_blocks();
+        b.finalize(self.target);
+        func
+    }
+}
+
+/// Imports the module's function `id`, declared with `Linkage::Import`,
+/// into `func`: what `Module::declare_func_in_func` does, without the module
+/// (which cannot be shared between threads).
+fn import(func: &mut cranelift_codegen::ir::Function, id: FuncId, sig: &Signature) -> FuncRef {
+    let signature = func.import_signature(sig.clone());
+    let name = func.declare_imported_user_function(UserExternalName { namespace: 0, index: id.as_u32() });
+    func.import_function(ExtFuncData { name: ExternalName::user(name), signature, colocated: false, patchable: false })
+}
+
+/// Translates and compiles functions on all available cores.
 fn compile_parallel(
     isas: [&dyn TargetIsa; 2],
-    funcs: Vec<cranelift_codegen::ir::Function>,
+    imports: &Imports,
     ids: &[FuncId],
     ir_functions: &[ir::Function],
+    keep_clif: bool,
 ) -> Result<Vec<Code>, String> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(funcs.len().max(1));
-    let jobs: Vec<(usize, cranelift_codegen::ir::Function)> = funcs.into_iter().enumerate().collect();
-    let mut results: Vec<Option<Result<Code, String>>> = (0..jobs.len()).map(|_| None).collect();
-    // Round robin: the methods of one material are neighbours and alike in
-    // size, so contiguous chunks would load one thread with all the big ones.
-    let mut chunks: Vec<Vec<(usize, cranelift_codegen::ir::Function)>> = (0..threads).map(|_| Vec::new()).collect();
-    for (n, job) in jobs.into_iter().enumerate() {
-        chunks[n % threads].push(job);
-    }
+    let sizes: Vec<usize> = ir_functions.iter().map(|f| ir::count_insts(&f.body)).collect();
+    // Biggest first from one shared queue: the threads finish together even
+    // when a few functions (a tree's `sample`) dwarf the rest.
+    let mut order: Vec<usize> = (0..ir_functions.len()).collect();
+    order.sort_by_key(|&k| std::cmp::Reverse(sizes[k]));
+    let next = AtomicUsize::new(0);
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(ir_functions.len().max(1));
+    let compile_one = |k: usize, fctx: &mut FunctionBuilderContext| -> Result<Code, String> {
+        let name = &ir_functions[k].name;
+        let func = imports.translate(k, &ir_functions[k], fctx);
+        let clif = keep_clif.then(|| func.display().to_string());
+        let isa = isas[usize::from(sizes[k] > LARGE_FUNCTION)];
+        let mut ctx = Context::for_function(func);
+        ctx.compile(isa, &mut ControlPlane::default())
+            .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
+        let compiled = ctx.compiled_code().ok_or_else(|| format!("no code for `{name}`"))?;
+        let alignment = u64::from(compiled.buffer.alignment)
+            .max(u64::from(isa.function_alignment().minimum))
+            .max(isa.symbol_alignment());
+        let bytes = compiled.code_buffer().to_vec();
+        let relocs =
+            compiled.buffer.relocs().iter().map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, ids[k])).collect();
+        Ok(Code { bytes, alignment, relocs, clif })
+    };
+    let worker = || {
+        let mut fctx = FunctionBuilderContext::new();
+        let mut done = Vec::new();
+        while let Some(&k) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
+            done.push((k, compile_one(k, &mut fctx)));
+        }
+        done
+    };
+    let mut results: Vec<Option<Result<Code, String>>> = (0..ir_functions.len()).map(|_| None).collect();
     std::thread::scope(|scope| {
-        let handles: Vec<_> = chunks
-            .into_iter()
-            .map(|work| {
-                scope.spawn(move || {
-                    work.into_iter()
-                        .map(|(k, func)| {
-                            let name = &ir_functions[k].name;
-                            let large = ir::count_insts(&ir_functions[k].body) > LARGE_FUNCTION;
-                            let isa = isas[usize::from(large)];
-                            let mut ctx = Context::for_function(func);
-                            ctx.compile(isa, &mut ControlPlane::default())
-                                .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
-                            let compiled = ctx.compiled_code().ok_or_else(|| format!("no code for `{name}`"))?;
-                            let alignment = u64::from(compiled.buffer.alignment)
-                                .max(u64::from(isa.function_alignment().minimum))
-                                .max(isa.symbol_alignment());
-                            let bytes = compiled.code_buffer().to_vec();
-                            let relocs = compiled
-                                .buffer
-                                .relocs()
-                                .iter()
-                                .map(|r| ModuleReloc::from_mach_reloc(r, &ctx.func, ids[k]))
-                                .collect();
-                            Ok((k, Code { bytes, alignment, relocs }))
-                        })
-                        .collect::<Vec<Result<(usize, Code), String>>>()
-                })
-            })
-            .collect();
+        let handles: Vec<_> = (0..threads).map(|_| scope.spawn(worker)).collect();
         for h in handles {
-            match h.join() {
-                Ok(done) => {
-                    for r in done {
-                        match r {
-                            Ok((k, code)) => results[k] = Some(Ok(code)),
-                            Err(e) => return Err(e),
-                        }
-                    }
-                }
-                Err(_) => return Err("a code generation thread panicked".to_string()),
+            let done = h.join().map_err(|_| "a code generation thread panicked".to_string())?;
+            for (k, code) in done {
+                results[k] = Some(code);
             }
         }
-        Ok(())
+        Ok::<(), String>(())
     })?;
     results.into_iter().map(|r| r.unwrap_or_else(|| Err("a function was not compiled".into()))).collect()
 }
