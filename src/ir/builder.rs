@@ -16,7 +16,7 @@ pub(crate) struct Builder {
     pub(crate) prologue: Vec<Inst>,
     pub(crate) stack: Vec<Vec<Inst>>,
     pub(crate) consts: HashMap<Value, Const>,
-    pub(crate) memo: Vec<HashMap<MemoKey, Vec<Value>>>,
+    pub(crate) memo: super::memo::Memo,
     pub(crate) globals: HashMap<u32, Value>,
     /// Values defined in the prologue (constants, global loads): they
     /// dominate everything.
@@ -116,7 +116,7 @@ impl Builder {
             prologue: Vec::new(),
             stack: vec![Vec::new()],
             consts: HashMap::default(),
-            memo: vec![HashMap::default()],
+            memo: super::memo::Memo::new(),
             globals: HashMap::default(),
             in_prologue: std::collections::HashSet::default(),
             noise_budget: NOISE_INLINE_SITES,
@@ -183,7 +183,7 @@ impl Builder {
             return self.constant(c);
         }
         let key = OpKey::of(&op).map(MemoKey::Op);
-        if let Some(v) = key.as_ref().and_then(|k| self.lookup(k)) {
+        if let Some(v) = key.as_ref().and_then(|k| self.memo.get(k)) {
             return v[0];
         }
         let v = self.fresh_value(ty);
@@ -193,7 +193,7 @@ impl Builder {
             self.place_at(v, d);
             self.stack[d].push(Inst::Def(v, op));
             if let Some(key) = key {
-                self.memo[d].insert(key, vec![v]);
+                self.memo.insert_at(d, key, &[v]);
             }
             return v;
         }
@@ -205,7 +205,7 @@ impl Builder {
             op => self.push(Inst::Def(v, op)),
         }
         if let Some(key) = key {
-            self.remember(key, vec![v]);
+            self.remember(key, &[v]);
         }
         v
     }
@@ -216,7 +216,7 @@ impl Builder {
             Const::I(x) => ConstKey::I(x),
             Const::B(x) => ConstKey::B(x),
         });
-        if let Some(v) = self.memo[0].get(&key) {
+        if let Some(v) = self.memo.get_outermost(&key) {
             return v[0];
         }
         let (ty, op) = match c {
@@ -230,7 +230,7 @@ impl Builder {
         self.prologue.push(Inst::Def(v, op));
         self.in_prologue.insert(v);
         self.consts.insert(v, c);
-        self.memo[0].insert(key, vec![v]);
+        self.memo.insert_at(0, key, &[v]);
         v
     }
 
@@ -246,14 +246,14 @@ impl Builder {
         self.constant(Const::B(x))
     }
 
+    /// What `key` stands for in an open scope.
     pub(crate) fn lookup(&self, key: &MemoKey) -> Option<Vec<Value>> {
-        self.memo.iter().rev().find_map(|m| m.get(key).cloned())
+        self.memo.get(key).map(<[Value]>::to_vec)
     }
 
-    pub(crate) fn remember(&mut self, key: MemoKey, v: Vec<Value>) {
-        if let Some(top) = self.memo.last_mut() {
-            top.insert(key, v);
-        }
+    /// Remembers `key` in the innermost scope.
+    pub(crate) fn remember(&mut self, key: MemoKey, values: &[Value]) {
+        self.memo.insert(key, values);
     }
 
     pub(crate) fn fold(&self, op: &Op) -> Option<Const> {
@@ -387,7 +387,7 @@ impl Builder {
     pub(crate) fn texture(&mut self, sampler: &Arc<Sampler>, coords: Vec<Value>) -> Vec<Value> {
         let key = MemoKey::Texture { sampler: Arc::as_ptr(sampler) as usize, coords: coords.clone() };
         if let Some(v) = self.lookup(&key) {
-            return v.to_vec();
+            return v;
         }
         let words = sampler.spectral_lanes();
         let out = ArrayId(self.func.arrays.len() as u32);
@@ -403,7 +403,7 @@ impl Builder {
                 v
             })
             .collect();
-        self.remember(key, values.clone());
+        self.remember(key, &values);
         values
     }
 
@@ -449,11 +449,10 @@ impl Builder {
     /// reflection sum) shares the texture its first copy computed.
     pub(crate) fn block_body(&mut self, f: impl FnOnce(&mut Builder)) -> (Vec<Inst>, Vec<Inst>) {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::default());
+        self.memo.push();
         self.note_scope(false);
         f(self);
         self.note_scope_end();
-        let scope = self.memo.pop().unwrap_or_default();
         let mut body = self.stack.pop().unwrap_or_default();
         let split = body.iter().position(may_leave).unwrap_or(body.len());
         let rest = body.split_off(split);
@@ -467,13 +466,7 @@ impl Builder {
             }
         }
         defined_values(&nested, &mut inside);
-        if let Some(parent) = self.memo.last_mut() {
-            for (key, values) in scope {
-                if values.iter().all(|v| !inside.contains(v)) {
-                    parent.insert(key, values);
-                }
-            }
-        }
+        self.memo.pop_into_parent(|v| !inside.contains(v));
         (prefix, rest)
     }
 
@@ -487,7 +480,7 @@ impl Builder {
 
     fn scope(&mut self, per_call: bool, f: impl FnOnce(&mut Builder)) -> Vec<Inst> {
         self.stack.push(Vec::new());
-        self.memo.push(HashMap::default());
+        self.memo.push();
         self.note_scope(per_call);
         f(self);
         self.note_scope_end();

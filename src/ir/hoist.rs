@@ -179,7 +179,7 @@ impl Builder {
         let conditional = self.hoisting.as_mut().map(|h| h.conditional.split_off(anchor + 1)).unwrap_or_default();
         let result = f(self);
         self.stack.extend(stack);
-        self.memo.extend(memo);
+        self.memo.restore(memo);
         if let Some(h) = &mut self.hoisting {
             h.conditional.extend(conditional);
         }

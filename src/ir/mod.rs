@@ -25,6 +25,7 @@ mod builder;
 mod gvn;
 mod hoist;
 pub mod lower;
+mod memo;
 pub mod opt;
 pub mod semantics;
 pub mod split;

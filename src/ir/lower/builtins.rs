@@ -302,7 +302,7 @@ impl<'p> Lowerer<'p> {
                 }
                 b.noise_budget -= 1;
                 let v = noise::noise(b, &p);
-                b.remember(key, vec![v]);
+                b.remember(key, &[v]);
                 Val::Lanes(vec![v])
             }
             Cellnoise => {

@@ -92,7 +92,7 @@ impl<'p> Lowerer<'p> {
             }
             None => self.default_method(b, inst, im, args, ctx),
         };
-        b.remember(key, result.clone());
+        b.remember(key, &result);
         result
     }
 

@@ -189,7 +189,7 @@ impl<'p> Lowerer<'p> {
         }
         let result = self.body_with_return(b, &mut fr, ctx, &f.body, &ret);
         if let (Some(key), Val::Lanes(l)) = (key, &result) {
-            b.remember(key, l.clone());
+            b.remember(key, l);
         }
         result
     }
