@@ -10,6 +10,7 @@ use crate::diag::{Diagnostic, FileId, SourceMap, Span};
 use crate::syntax::{self, ast};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The standard library, compiled into every program as its prelude.
 pub const PRELUDE: &[(&str, &str)] = &[
@@ -42,7 +43,8 @@ impl Default for LoadOptions {
 #[derive(Debug, Clone)]
 pub struct Module {
     pub file: FileId,
-    pub ast: ast::SourceFile,
+    /// Shared: every program holds the same prelude trees.
+    pub ast: Arc<ast::SourceFile>,
     pub is_prelude: bool,
 }
 
@@ -63,7 +65,10 @@ pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Ve
             let file = loader.loaded.sources.add(*name, *text);
             let (ast, diags) = match parsed_prelude().get(k) {
                 Some(parsed) if file == FileId(k as u32) => parsed.clone(),
-                _ => syntax::parse(file, text),
+                _ => {
+                    let (ast, diags) = syntax::parse(file, text);
+                    (Arc::new(ast), diags)
+                }
             };
             loader.diags.extend(diags);
             loader.loaded.modules.push(Module { file, ast, is_prelude: true });
@@ -79,10 +84,17 @@ pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Ve
 /// every program gets the same trees: cloning them costs a fraction of
 /// parsing (which was two thirds of checking a small file, and of every
 /// keystroke's analysis in `tslc lsp`).
-fn parsed_prelude() -> &'static [(ast::SourceFile, Vec<Diagnostic>)] {
-    static PARSED: std::sync::OnceLock<Vec<(ast::SourceFile, Vec<Diagnostic>)>> = std::sync::OnceLock::new();
+fn parsed_prelude() -> &'static [(Arc<ast::SourceFile>, Vec<Diagnostic>)] {
+    static PARSED: std::sync::OnceLock<Vec<(Arc<ast::SourceFile>, Vec<Diagnostic>)>> = std::sync::OnceLock::new();
     PARSED.get_or_init(|| {
-        PRELUDE.iter().enumerate().map(|(k, (_, text))| syntax::parse(FileId(k as u32), text)).collect()
+        PRELUDE
+            .iter()
+            .enumerate()
+            .map(|(k, (_, text))| {
+                let (ast, diags) = syntax::parse(FileId(k as u32), text);
+                (Arc::new(ast), diags)
+            })
+            .collect()
     })
 }
 
@@ -171,7 +183,7 @@ impl Loader<'_> {
         }
         let (ast, diags) = syntax::parse(file, text);
         self.diags.extend(diags);
-        self.loaded.modules.push(Module { file, ast, is_prelude: false });
+        self.loaded.modules.push(Module { file, ast: Arc::new(ast), is_prelude: false });
         let index = self.loaded.modules.len() - 1;
         if let Some(p) = canonical {
             self.by_path.insert(p, index);
