@@ -319,9 +319,8 @@ pub fn table_name(table: &[u32]) -> Option<&'static str> {
         return Some(name);
     }
     let jh = crate::color::jakob_hanika::table_words();
-    let spectral = [("rgb2spec.z", jh.z), ("rgb2spec.c0", jh.coefficients[0])];
-    let spectral =
-        spectral.into_iter().chain([("rgb2spec.c1", jh.coefficients[1]), ("rgb2spec.c2", jh.coefficients[2])]);
+    let spectral = [("rgb2spec.c0", jh.coefficients[0]), ("rgb2spec.c1", jh.coefficients[1])];
+    let spectral = spectral.into_iter().chain([("rgb2spec.c2", jh.coefficients[2])]);
     if let Some((name, _)) = spectral.into_iter().find(|(_, t)| std::ptr::eq(*t, table)) {
         return Some(name);
     }

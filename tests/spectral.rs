@@ -357,6 +357,9 @@ fn flat_spectrum_lights_are_equal_energy_and_rgb_lights_d65() {
 fn constant_and_run_time_rgb_are_the_same_bits() {
     let mut colors: Vec<[f32; 3]> = RGB.to_vec();
     colors.extend([[0.75, 1e6, 0.75], [0.3, 0.3, 0.30001], [1e-6, 2e-6, 0.0], [3.0, 2.9, 0.1]]);
+    // Nearer white than black: complements, the last three of a dark
+    // complement (every channel above 0.95).
+    colors.extend([[0.9, 0.5, 0.2], [0.5, 0.5, 0.50001], [0.97, 0.99, 0.96], [1.0, 1.0, 0.999], [0.96, 1.0, 0.96]]);
     // Infinite and NaN channels (from `xyz(1 / 0.0, ...)`, say): zero or
     // the other channels' spectrum, never NaN at run time only.
     let (inf, nan) = (f32::INFINITY, f32::NAN);

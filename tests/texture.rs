@@ -177,22 +177,33 @@ fn spectral_mode_upsamples_texels() {
 fn spectral_texels_are_converted_once_and_blended_as_spectra() {
     let dir = temp_dir("spectral_texels");
     ramp_png(&dir);
-    let src = r#"
-        color c() { return texture("ramp.png", filter: "bilinear", wrap: "clamp", colorspace: "linear"); }
-        color per_lookup() {
-            float r = texture_float("ramp.png", channel: 0, filter: "bilinear", wrap: "clamp");
-            float g = texture_float("ramp.png", channel: 1, filter: "bilinear", wrap: "clamp");
-            float b = texture_float("ramp.png", channel: 2, filter: "bilinear", wrap: "clamp");
+    // Pale colours (nearer white than black: their spectra are complements,
+    // `1 - s · sigmoid`), next to saturated and dark ones.
+    let pale = [[255, 230, 200], [250, 250, 245], [200, 255, 255], [0, 40, 250], [255, 255, 254], [30, 20, 10]];
+    image::RgbImage::from_fn(4, 4, |x, y| image::Rgb(pale[((x + 3 * y) % 6) as usize]))
+        .save(dir.join("pale.png"))
+        .unwrap();
+    let source = |image: &str| {
+        format!(
+            r#"
+        color c() {{ return texture("{image}", filter: "bilinear", wrap: "clamp", colorspace: "linear"); }}
+        color per_lookup() {{
+            float r = texture_float("{image}", channel: 0, filter: "bilinear", wrap: "clamp");
+            float g = texture_float("{image}", channel: 1, filter: "bilinear", wrap: "clamp");
+            float b = texture_float("{image}", channel: 2, filter: "bilinear", wrap: "clamp");
             return rgb(r, g, b);
-        }
-    "#;
+        }}
+    "#
+        )
+    };
     let hero = [402.5, 517.0, 633.25, 760.0];
-    for model in [ColorModel::Spectral { samples: 16 }, ColorModel::Hero] {
-        let p = compile(&dir, src, model).unwrap();
+    let models = [ColorModel::Spectral { samples: 16 }, ColorModel::Hero];
+    for (image, model) in ["ramp.png", "pale.png"].into_iter().flat_map(|i| models.map(|m| (i, m))) {
+        let p = compile(&dir, &source(image), model).unwrap();
         let g = |u: f32, v: f32| ShadingGlobals { wavelengths: hero, ..at(u, v) };
         let close = |a: &[f32], b: &[f32], what: &str| {
             for (x, y) in a.iter().zip(b) {
-                assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0), "{} {what}: {a:?} vs {b:?}", model.name());
+                assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0), "{} {image} {what}: {a:?} vs {b:?}", model.name());
             }
         };
         for y in 0..4 {

@@ -11,18 +11,22 @@
 //!
 //! The coefficients come from a precomputed table over RGB, as in the
 //! paper: three blocks (which channel is largest), each `RES³` cells over
-//! `(z, y, x)` where `z` is the largest channel (on a grid denser near 0
-//! and 1, [`z_grid`]) and `x`, `y` the next two channels divided by it.
-//! Each cell is fitted by Gauss–Newton on the CIELAB difference, starting
-//! from its neighbour's solution ([`fit_table`]); lookups interpolate the
-//! coefficients trilinearly ([`Table::fetch`]). The table is made offline by
-//! `cargo run --release --example make_rgb2spec` and committed as
-//! `src/color/data/rgb2spec_srgb.bin`.
+//! `(z, y, x)` where `z` is the largest channel and `x`, `y` the next two
+//! channels divided by it. On every axis the nodes are denser toward both
+//! ends, where the coefficients change fastest ([`grid_coordinate`]; the
+//! paper spaces only `z` so, by `smoothstep(smoothstep(·))`). Each cell is
+//! fitted by Gauss–Newton on the CIELAB difference, starting from its
+//! neighbour's solution ([`fit_table`]); lookups interpolate the
+//! coefficients trilinearly in grid coordinates ([`Table::fetch`]). The
+//! table is made offline by `cargo run --release --example make_rgb2spec`
+//! and committed as `src/color/data/rgb2spec_srgb.bin`.
 //!
 //! Beyond the table, [`upsample`] handles what it cannot: greys get the
-//! exact constant spectrum (as pbrt-v4 does), black is 0, and colours
-//! brighter than 1 (emission) are upsampled as Mitsuba's emitters are:
-//! `2m · S_{rgb / 2m}(λ)` with `m` the largest channel.
+//! exact constant spectrum (as pbrt-v4 does), black is 0, colours nearer
+//! white than black are the complement of the spectrum of `1 − rgb` (the
+//! table is read away from white, where its coefficients diverge), and
+//! colours brighter than 1 (emission) are upsampled as Mitsuba's emitters
+//! are: `2m · S_{rgb / 2m}(λ)` with `m` the largest channel.
 
 use super::{HI, LO, reflectance_rgb_nodes};
 
@@ -37,26 +41,30 @@ pub const Z_MIN: f32 = 0.05;
 /// Fitted coefficients are kept below this in size.
 const FIT_BOUND: f64 = 1000.0;
 
-/// The file the table is read from: a header (`b"JH19"`, then the
-/// resolution as a little-endian `u32`), the `RES` values of the `z` grid,
-/// then `3 · RES³` cells of three coefficients, all little-endian `f32`,
-/// cell `((block · RES + z) · RES + y) · RES + x`.
+/// The file the table is read from: a header (`b"JHg2"`, then the
+/// resolution as a little-endian `u32`), the `RES` node positions of
+/// [`grid`] (a check that the table was made for this code's grid), then
+/// `3 · RES³` cells of three coefficients, all little-endian `f32`, cell
+/// `((block · RES + z) · RES + y) · RES + x`.
 static TABLE_BYTES: &[u8] = include_bytes!("data/rgb2spec_srgb.bin");
 
 /// The magic number the table file starts with.
-pub const MAGIC: &[u8; 4] = b"JH19";
+pub const MAGIC: &[u8; 4] = b"JHg2";
 
 /// A coefficient a grey of exactly 0 or 1 would need (±∞) is clamped to
 /// this, where the sigmoid is 0 or 1 to `f32` precision.
 pub const COEFFICIENT_BOUND: f32 = 1e4;
 
-/// The spectrum `scale · sigmoid(c0 t² + c1 t + c2)` of one RGB colour.
+/// The spectrum of one RGB colour: `scale · sigmoid(c0 t² + c1 t + c2)`,
+/// or for a negative `scale` its complement `1 + scale · sigmoid(...)`
+/// (`1 − |scale| · sigmoid`: bright colours, see [`upsample`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sigmoid {
     /// `c0, c1, c2`, for `t = (λ − 380) / 400`.
     pub coefficients: [f32; 3],
     /// 1 for reflectances; `2 · max(rgb)` for colours brighter than 1; 0
-    /// for black.
+    /// for black; `−1`, or above `−1` for the brightest, for the complement
+    /// of the spectrum of `1 − rgb`.
     pub scale: f32,
 }
 
@@ -70,14 +78,21 @@ impl Sigmoid {
         let [c0, c1, c2] = self.coefficients;
         let x = (c0 * t + c1) * t + c2;
         let half_scale = 0.5 * self.scale;
-        half_scale + half_scale * (x / (x * x + 1.0).sqrt())
+        self.base() + half_scale * (x / (x * x + 1.0).sqrt())
+    }
+
+    /// The spectrum where the polynomial is 0: `scale / 2`, plus 1 for a
+    /// complement; lanes are `base + scale / 2 · x / √(x² + 1)`.
+    pub fn base(&self) -> f32 {
+        0.5 * self.scale + if self.scale < 0.0 { 1.0 } else { 0.0 }
     }
 
     /// The spectrum at `nm`, in `f64`.
     pub fn eval64(&self, nm: f64) -> f64 {
         let t = (nm - LO) / (HI - LO);
         let [c0, c1, c2] = self.coefficients.map(f64::from);
-        f64::from(self.scale) * sigmoid((c0 * t + c1) * t + c2)
+        let complement = if self.scale < 0.0 { 1.0 } else { 0.0 };
+        complement + f64::from(self.scale) * sigmoid((c0 * t + c1) * t + c2)
     }
 
     /// The average of the spectrum over `[a, b]` nm (Gauss–Legendre on
@@ -119,20 +134,52 @@ pub fn sigmoid(x: f64) -> f64 {
 /// documentation): negative channels count as 0. Compile-time constants and
 /// run-time values (compiled code spells the same lookup out in IR) get
 /// the same spectrum, so specialising a constant never changes a result.
+///
+/// A reflectance nearer white than black (`min + max > 1`, not a grey) is
+/// the complement of the spectrum of `1 − rgb`: the flat spectrum 1 is
+/// exactly white, so `1 − S` has the colour `1 − rgb`. Since
+/// `1 − sigmoid(p) = sigmoid(−p)`, that is the same sigmoid the table
+/// holds for `rgb` itself, but read where the table is accurate: toward
+/// white the coefficients grow without bound and interpolating them is
+/// off by up to 1.5%. When `1 − rgb` is darker than [`Z_MIN`] (every
+/// channel above 0.95) it is scaled as dark colours are, and the spectrum
+/// is `1 − s · sigmoid`, no longer a plain sigmoid.
 pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
+    upsample_in(table(), rgb)
+}
+
+/// [`upsample`] with another table (the generator's report, tests).
+pub fn upsample_in(table: &Table, rgb: [f32; 3]) -> Sigmoid {
+    match lookup_point(rgb) {
+        None => Sigmoid { coefficients: [0.0; 3], scale: 0.0 },
+        Some((v, scale)) => {
+            let coefficients = if v[0] == v[1] && v[1] == v[2] { grey_coefficients(v[0]) } else { table.fetch(v) };
+            Sigmoid { coefficients, scale }
+        }
+    }
+}
+
+/// Where [`upsample`] reads the table for `rgb`, and the scale of the
+/// spectrum (negative for a complement); `None` for black and infinite
+/// colours, whose spectrum is 0.
+pub fn lookup_point(rgb: [f32; 3]) -> Option<([f32; 3], f32)> {
     let rgb = rgb.map(|c| if c > 0.0 { c } else { 0.0 });
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
     if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !m.is_finite() {
-        return Sigmoid { coefficients: [0.0; 3], scale: 0.0 };
+        return None;
     }
+    let min = rgb[0].min(rgb[1]).min(rgb[2]);
+    let grey = rgb[0] == rgb[1] && rgb[1] == rgb[2];
+    let complement = m <= 1.0 && min + m > 1.0 && !grey;
+    // 1 − max(1 − c) is 1 − min(c) exactly: subtraction rounds monotonically.
+    let (rgb, m) = if complement { (rgb.map(|c| 1.0 - c), 1.0 - min) } else { (rgb, m) };
     let scale = range_scale(m);
     // The compiled lookup's arithmetic, operation for operation (a
     // reciprocal, then products): any other rounding would let a
     // specialised constant differ from the same value at run time.
     let inv_scale = 1.0 / scale;
     let v = rgb.map(|c| (c * inv_scale).min(1.0));
-    let coefficients = if v[0] == v[1] && v[1] == v[2] { grey_coefficients(v[0]) } else { table().fetch(v) };
-    Sigmoid { coefficients, scale }
+    Some((v, if complement { -scale } else { scale }))
 }
 
 /// The spectrum of `rgb` fitted exactly (Gauss–Newton from the table's
@@ -140,8 +187,8 @@ pub fn upsample(rgb: [f32; 3]) -> Sigmoid {
 /// models use [`upsample`].
 pub fn upsample_exact(rgb: [f32; 3]) -> Sigmoid {
     let s = upsample(rgb);
-    let v = rgb.map(|c| (c.max(0.0) / s.scale).min(1.0));
-    if s.scale == 0.0 || s.coefficients[..2] == [0.0, 0.0] {
+    let Some((v, _)) = lookup_point(rgb) else { return s };
+    if s.coefficients[..2] == [0.0, 0.0] {
         return s;
     }
     let c = Fitter::get().fit(v.map(f64::from), s.coefficients.map(f64::from));
@@ -172,8 +219,9 @@ pub fn grey_coefficients(v: f32) -> [f32; 3] {
 /// The coefficient table.
 pub struct Table {
     pub res: usize,
-    /// The `z` value of each of the `res` slices ([`z_grid`]).
-    pub z: Vec<f32>,
+    /// The position in `[0, 1]` of each of the `res` nodes on every axis
+    /// ([`grid`]).
+    pub grid: Vec<f32>,
     /// `3 · res³` cells of `[c0, c1, c2]`.
     pub cells: Vec<[f32; 3]>,
 }
@@ -187,13 +235,60 @@ pub fn table() -> &'static Table {
     })
 }
 
-/// The `z` grid of the table: the paper's
-/// `smoothstep(smoothstep(k / (res − 1)))`, dense near the ends where the
-/// coefficients change fastest, mapped onto `[Z_MIN, 1]`.
-pub fn z_grid(res: usize) -> Vec<f64> {
-    let smoothstep = |x: f64| x * x * (3.0 - 2.0 * x);
-    let lo = f64::from(Z_MIN);
-    (0..res).map(|k| lo + (1.0 - lo) * smoothstep(smoothstep(k as f64 / (res - 1) as f64))).collect()
+/// How much denser than average the nodes are at the ends of each axis:
+/// `(1 + k) / (1 + k / 5)` with `k` = 6, 3.2 times (0.45 times in the
+/// middle). Measured worst round trips (interior of `[0, 1]³` / its faces,
+/// a channel at 0 or 1 as 8-bit texels often are): `k` = 3, 3.7e-4 /
+/// 1.2e-3; 6, 4.6e-4 / 7.5e-4; 10, 1.0e-3 / 9.9e-4.
+const GRID_K: f64 = 6.0;
+
+/// Where `x` in `[0, 1]` falls on the table's axes, in `[0, 1]`:
+/// `u(x) = (x + k (s⁵ + 1) / 10) / (1 + k / 5)` with `s = 2x − 1`, whose
+/// slope `∝ 1 + k s⁴` puts the nodes `u = i / (RES − 1)` closer together
+/// toward 0 and 1, where the coefficients change fastest (bright saturated
+/// colours). Cheap enough for compiled code to evaluate, in this order
+/// (`ir::lower::spectral` spells it out; constants and run-time values
+/// must round alike).
+pub fn grid_coordinate(x: f32) -> f32 {
+    let s = 2.0 * x - 1.0;
+    let s2 = s * s;
+    let s5 = s2 * s2 * s;
+    (x + (s5 + 1.0) * GRID_SLOPE[0]) * GRID_SLOPE[1]
+}
+
+/// `k / 10` and `1 / (1 + k / 5)` of [`grid_coordinate`].
+pub const GRID_SLOPE: [f32; 2] = [(GRID_K / 10.0) as f32, (1.0 / (1.0 + GRID_K / 5.0)) as f32];
+
+/// [`grid_coordinate`] in `f64`.
+fn grid_coordinate64(x: f64) -> f64 {
+    let s = 2.0 * x - 1.0;
+    (x + GRID_K * (s.powi(5) + 1.0) / 10.0) / (1.0 + GRID_K / 5.0)
+}
+
+/// The nodes of the table's axes in `[0, 1]`: where [`grid_coordinate`]
+/// is `i / (res − 1)` (by bisection, in `f64`). `x` and `y` are these;
+/// `z` is `Z_MIN + (1 − Z_MIN)` times these.
+pub fn grid(res: usize) -> Vec<f64> {
+    let last = (res - 1) as f64;
+    (0..res)
+        .map(|i| {
+            let u = i as f64 / last;
+            let (mut lo, mut hi) = (0.0f64, 1.0f64);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if grid_coordinate64(mid) < u {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            match i {
+                0 => 0.0,
+                _ if i + 1 == res => 1.0,
+                _ => 0.5 * (lo + hi),
+            }
+        })
+        .collect()
 }
 
 /// The block (largest channel, ties to the later one, as the paper) and
@@ -214,7 +309,7 @@ impl Table {
     /// Reads the table file format (see [`TABLE_BYTES`]).
     pub fn from_bytes(bytes: &[u8]) -> Result<Table, String> {
         if bytes.len() < 8 || &bytes[..4] != MAGIC {
-            return Err("not a coefficient table (no JH19 header)".into());
+            return Err("not a coefficient table (no JHg2 header)".into());
         }
         let res = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]) as usize;
         let floats: Vec<f32> =
@@ -222,39 +317,43 @@ impl Table {
         if !(2..=256).contains(&res) || floats.len() != res + 9 * res * res * res {
             return Err(format!("a table of resolution {res} with {} numbers", floats.len()));
         }
-        let z = floats[..res].to_vec();
+        let nodes = floats[..res].to_vec();
+        if nodes.iter().zip(grid(res)).any(|(&a, b)| a != b as f32) {
+            return Err("a table made for another grid: remake it with make_rgb2spec".into());
+        }
         let cells = floats[res..].chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        Ok(Table { res, z, cells })
+        Ok(Table { res, grid: nodes, cells })
     }
 
     /// The file format of [`Table::from_bytes`].
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = MAGIC.to_vec();
         out.extend((self.res as u32).to_le_bytes());
-        for x in self.z.iter().chain(self.cells.iter().flatten()) {
+        for x in self.grid.iter().chain(self.cells.iter().flatten()) {
             out.extend(x.to_le_bytes());
         }
         out
     }
 
-    /// The coefficients of a reflectance `rgb` in `[0, 1]³`, interpolated
-    /// trilinearly between the cells around it.
+    /// The coefficients of a reflectance `rgb` in `[0, 1]³` whose largest
+    /// channel is at least [`Z_MIN`], interpolated trilinearly (in grid
+    /// coordinates) between the cells around it.
     pub fn fetch(&self, rgb: [f32; 3]) -> [f32; 3] {
         let res = self.res;
-        let rgb = rgb.map(|c| c.clamp(0.0, 1.0));
         let (block, _) = coordinates(rgb);
         let z = rgb[block];
-        // As the compiled lookup rounds: `n · ((res − 1) / z)`.
+        // As the compiled lookup rounds.
         let last = (res - 1) as f32;
-        let per_z = last / z.max(1e-30);
-        let cell = |n: f32| (n * per_z).clamp(0.0, last);
-        let (x, y) = (cell(rgb[(block + 1) % 3]), cell(rgb[(block + 2) % 3]));
-        let z = z.max(self.z[0]);
-        let xi = (x as usize).min(res - 2);
-        let yi = (y as usize).min(res - 2);
-        let zi = self.z.partition_point(|&g| g <= z).saturating_sub(1).min(res - 2);
-        let (fx, fy) = (x - xi as f32, y - yi as f32);
-        let fz = (z - self.z[zi]) / (self.z[zi + 1] - self.z[zi]);
+        let inv_z = 1.0 / z.max(1e-30);
+        let on_grid = |x: f32| (grid_coordinate(x) * last).clamp(0.0, last);
+        let x = on_grid((rgb[(block + 1) % 3] * inv_z).min(1.0));
+        let y = on_grid((rgb[(block + 2) % 3] * inv_z).min(1.0));
+        let z = on_grid(((z - Z_MIN) * (1.0 / (1.0 - Z_MIN))).clamp(0.0, 1.0));
+        let split = |g: f32| {
+            let i = g.floor().min(last - 1.0);
+            (i as usize, g - i)
+        };
+        let ((xi, fx), (yi, fy), (zi, fz)) = (split(x), split(y), split(z));
         let cell =
             |dz: usize, dy: usize, dx: usize| self.cells[((block * res + zi + dz) * res + yi + dy) * res + xi + dx];
         let lerp = |a: [f32; 3], b: [f32; 3], t: f32| [0, 1, 2].map(|k| a[k] + (b[k] - a[k]) * t);
@@ -404,21 +503,23 @@ pub fn fit_table(res: usize) -> Table {
             cells[((block * res + k) * res + y) * res + x] = *c;
         }
     }
-    Table { res, z: z_grid(res).iter().map(|&v| v as f32).collect(), cells }
+    Table { res, grid: grid(res).iter().map(|&v| v as f32).collect(), cells }
 }
 
 /// The cells of one `(block, y, x)` column of the table at resolution
-/// `res`, from `z = 0` up (see [`fit_table`]).
+/// `res`, from `z = Z_MIN` up (see [`fit_table`]).
 pub fn fit_column(res: usize, block: usize, y: usize, x: usize) -> Vec<[f32; 3]> {
     let fitter = Fitter::get();
-    let z = z_grid(res);
+    let nodes = grid(res);
+    let lo = f64::from(Z_MIN);
+    let z: Vec<f64> = nodes.iter().map(|u| lo + (1.0 - lo) * u).collect();
     let start = res / 5;
     let mut column = vec![[0.0; 3]; res];
     let target = |k: usize| {
         let mut rgb = [0.0; 3];
         rgb[block] = z[k];
-        rgb[(block + 1) % 3] = x as f64 / (res - 1) as f64 * z[k];
-        rgb[(block + 2) % 3] = y as f64 / (res - 1) as f64 * z[k];
+        rgb[(block + 1) % 3] = nodes[x] * z[k];
+        rgb[(block + 2) % 3] = nodes[y] * z[k];
         rgb
     };
     let mut c = [0.0; 3];
@@ -435,10 +536,9 @@ pub fn fit_column(res: usize, block: usize, y: usize, x: usize) -> Vec<[f32; 3]>
 }
 
 /// The table as the word tables compiled code reads (`ir::Op::Table`, whose
-/// length must be a power of two): the `z` grid, and each coefficient over
-/// the cells, zero-padded.
+/// length must be a power of two): each coefficient over the cells,
+/// zero-padded.
 pub struct TableWords {
-    pub z: &'static [u32],
     pub coefficients: [&'static [u32]; 3],
 }
 
@@ -452,9 +552,6 @@ pub fn table_words() -> &'static TableWords {
             words.resize(words.len().next_power_of_two(), 0);
             Box::leak(words.into_boxed_slice())
         };
-        TableWords {
-            z: leak(t.z.iter().map(|x| x.to_bits()).collect()),
-            coefficients: [0, 1, 2].map(|k| leak(t.cells.iter().map(|c| c[k].to_bits()).collect())),
-        }
+        TableWords { coefficients: [0, 1, 2].map(|k| leak(t.cells.iter().map(|c| c[k].to_bits()).collect())) }
     })
 }

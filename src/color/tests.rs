@@ -491,27 +491,35 @@ fn jakob_hanika_exact_fits_round_trip() {
 #[test]
 fn jakob_hanika_round_trips_colorchecker_and_random_rgb() {
     // What the color models do with every RGB value (constants and texels
-    // alike): the table. Measured on 20,000 colours by make_rgb2spec: median
-    // 1.7e-4, 99% 6.0e-4, worst 3.7e-3; the ColorChecker's worst 4.2e-4.
-    // The worst are mostly bright near-whites (largest channel > 0.95, the next
-    // > 0.7 of it: 39 of 20,000 colours above 1e-3), where the coefficients
-    // change fast between the table's evenly spaced x and y cells: the
-    // sigmoid fits them exactly (upsample_exact, below), so this is the
-    // table's interpolation, not the function family.
-    let mut errors: Vec<f32> = random_rgb(2000, 11)
-        .into_iter()
-        .map(|rgb| {
-            let s = jakob_hanika::upsample(rgb);
-            max_diff(&reflectance_rgb(|l| s.eval64(l)), &rgb)
-        })
-        .collect();
+    // alike): the table, no refinement. Issue 16's goal: within 1e-3 per
+    // channel. Measured by make_rgb2spec on 200,000 random colours: median
+    // 1.3e-4, 99% 3.3e-4, worst 4.6e-4; near white ([0.8, 1]^3, 20,000)
+    // worst 1.3e-4; on the cube's faces (a channel at 0 or 1, as 8-bit
+    // texels often are; 120,000) worst 7.5e-4, near the yellow and blue
+    // corners. Before the grid was made denser toward the ends of every
+    // axis and colours nearer white read as complements, the worst was
+    // 3.7e-3 on random colours and 1.5e-2 near white (interpolating
+    // coefficients that grow without bound).
+    let round_trip = |rgb: [f32; 3]| {
+        let s = jakob_hanika::upsample(rgb);
+        max_diff(&reflectance_rgb(|l| s.eval64(l)), &rgb)
+    };
+    let mut errors: Vec<f32> = random_rgb(2000, 11).into_iter().map(round_trip).collect();
     errors.sort_by(f32::total_cmp);
     let (median, p99, worst) = (errors[1000], errors[1980], errors[1999]);
-    assert!(median < 3e-4 && p99 < 1e-3 && worst < 5e-3, "median {median}, 99% {p99}, worst {worst}");
-    for rgb in colorchecker_d65() {
-        let s = jakob_hanika::upsample(rgb);
-        let back = reflectance_rgb(|l| s.eval64(l));
-        assert!(max_diff(&back, &rgb) < 1e-3, "chart {rgb:?} -> {back:?}");
+    assert!(median < 2e-4 && p99 < 5e-4 && worst < 1e-3, "median {median}, 99% {p99}, worst {worst}");
+    let near_white = random_rgb(300, 12).into_iter().map(|c| c.map(|x| 0.8 + 0.2 * x));
+    // A channel at 0 or 1, the others random; the corners' neighbourhoods
+    // (one channel 1, another above 0.99, the last 0) are the worst.
+    let faces = random_rgb(600, 13).into_iter().enumerate().map(|(i, mut c)| {
+        c[i % 3] = (i / 3 % 2) as f32;
+        c
+    });
+    let corners = random_rgb(300, 14).into_iter().map(|c| [1.0, 0.99 + 0.01 * c[0], 0.01 * c[1]]);
+    let corners = corners.flat_map(|c| [c, c.map(|x| 1.0 - x)]);
+    for rgb in colorchecker_d65().into_iter().chain(near_white).chain(faces).chain(corners) {
+        let e = round_trip(rgb);
+        assert!(e < 1e-3, "{rgb:?} off by {e}");
     }
 }
 
@@ -524,18 +532,35 @@ fn jakob_hanika_special_cases() {
             assert!((s.eval(l) - g).abs() <= 1e-6 * g.max(1.0), "grey {g} at {l}: {}", s.eval(l));
         }
     }
-    // Emission brighter than 1 (the Cornell box's lamp), dark colours, and
-    // negative channels (taken as 0): bounded spectra, exact fits round-trip.
-    for rgb in [[18.387, 13.9873, 6.75357], [0.01, 0.002, 0.001], [0.3, -0.2, 0.1], [2.0, 0.0, 0.0]] {
+    // Emission brighter than 1 (the Cornell box's lamp), dark colours,
+    // negative channels (taken as 0), and colours nearer white than black
+    // (complements, the brightest scaled): bounded spectra, exact fits
+    // round-trip.
+    let cases = [
+        [18.387, 13.9873, 6.75357],
+        [0.01, 0.002, 0.001],
+        [0.3, -0.2, 0.1],
+        [2.0, 0.0, 0.0],
+        [0.9, 0.5, 0.2],
+        [0.97, 0.99, 0.96],
+        [1.0, 1.0, 0.999],
+    ];
+    for rgb in cases {
         let s = jakob_hanika::upsample_exact(rgb);
         let want = rgb.map(|c| c.max(0.0));
         let back = reflectance_rgb(|l| s.eval64(l));
         assert!(max_diff(&back, &want) < 2e-5 * want[0].max(1.0), "{rgb:?} -> {back:?}");
+        let (min, max) = (want[0].min(want[1]).min(want[2]), want[0].max(want[1]).max(want[2]));
+        assert_eq!(s.scale < 0.0, max <= 1.0 && min + max > 1.0, "{rgb:?}: scale {}", s.scale);
+        let range = if s.scale < 0.0 { 1.0 + s.scale..=1.0 } else { 0.0..=s.scale };
         for k in 0..=400 {
             let v = s.eval(380.0 + k as f32);
-            assert!((0.0..=s.scale).contains(&v), "{rgb:?}: {v} at {} nm", 380 + k);
+            assert!(range.contains(&v), "{rgb:?}: {v} at {} nm", 380 + k);
+            assert!((f64::from(v) - s.eval64(f64::from(380 + k))).abs() < 1e-5, "{rgb:?} at {} nm", 380 + k);
         }
     }
+    // Every channel above 1 - Z_MIN: the complement is dark, so scaled.
+    assert_eq!(jakob_hanika::upsample([0.97, 0.99, 0.96]).scale, -((1.0f32 - 0.96) * (1.0 / jakob_hanika::Z_MIN)));
     assert_eq!(jakob_hanika::upsample([18.387, 13.9873, 6.75357]).scale, 2.0 * 18.387);
     assert_eq!(jakob_hanika::range_scale(0.01), 0.01 / jakob_hanika::Z_MIN);
 }
@@ -552,11 +577,21 @@ fn jakob_hanika_table_is_the_generators() {
             assert_eq!(*c, cell, "block {block} z {k} y {y} x {x}");
         }
     }
-    // The file format reads back what it wrote.
+    // The file format reads back what it wrote, and refuses a table made
+    // for another grid (the smoothstep-spaced one of the first table).
     let bytes = table.to_bytes();
     let again = jakob_hanika::Table::from_bytes(&bytes).expect("reads back");
-    assert_eq!((again.res, &again.z, again.cells.len()), (table.res, &table.z, table.cells.len()));
-    assert!(jakob_hanika::Table::from_bytes(b"JH19\x02\x00\x00\x00").is_err());
+    assert_eq!((again.res, &again.grid, &again.cells), (table.res, &table.grid, &table.cells));
+    assert!(jakob_hanika::Table::from_bytes(b"JHg2\x02\x00\x00\x00").is_err());
+    let mut other = bytes.clone();
+    other[8 + 4..8 + 8].copy_from_slice(&0.001f32.to_le_bytes());
+    let e = jakob_hanika::Table::from_bytes(&other).err().expect("refused");
+    assert!(e.contains("another grid"), "{e}");
+    // The grid's nodes are where grid_coordinate is i / (RES - 1).
+    for (i, &x) in table.grid.iter().enumerate() {
+        let u = jakob_hanika::grid_coordinate(x) * (table.res - 1) as f32;
+        assert!((u - i as f32).abs() < 1e-4, "node {i} at {x}: {u}");
+    }
 }
 
 #[test]

@@ -185,7 +185,8 @@ impl Sampler {
                 let (x, y) = Self::texel_coords(level, q.s, q.t);
                 let (x, y) = (floor_to_i64(x), floor_to_i64(y));
                 if let (Some(x), Some(y)) = (self.wrap[0].index(x, level.width), self.wrap[1].index(y, level.height)) {
-                    add_spectra(&[spectra[0][(y * level.width + x) as usize]], ts, out);
+                    let texel = spectra[0][(y * level.width + x) as usize];
+                    add_spectra(&[texel], complement_weight(texel[3], 1.0), ts, out);
                 }
             }
             Filter::Bilinear => self.bilinear_spectrum(0, &spectra[0], q, 1.0, ts, out),
@@ -218,15 +219,20 @@ impl Sampler {
         let ys = [(sy.index(y0, level.height), 1.0 - fy), (sy.index(y0.saturating_add(1), level.height), fy)];
         // Texels outside the image (`Wrap::Black`) weigh 0.
         let mut taps = [[0.0f32; 4]; 4];
+        let mut weights = [0.0f32; 4];
         for (k, ((x, wx), (y, wy))) in
             [(xs[0], ys[0]), (xs[1], ys[0]), (xs[0], ys[1]), (xs[1], ys[1])].into_iter().enumerate()
         {
             if let (Some(x), Some(y)) = (x, y) {
                 taps[k] = spectra[(y * level.width + x) as usize];
-                taps[k][3] *= weight * wx * wy;
+                weights[k] = weight * wx * wy;
+                taps[k][3] *= weights[k];
             }
         }
-        add_spectra(&taps, ts, out);
+        // After the loop, over whole arrays, it vectorises: 28 instructions
+        // per lookup fewer than summing it in the loop (callgrind).
+        let offset = (0..4).map(|k| complement_weight(taps[k][3], weights[k])).fold(0.0, |a, b| a + b);
+        add_spectra(&taps, offset, ts, out);
     }
 
     #[inline]
@@ -278,16 +284,24 @@ impl Sampler {
     }
 }
 
-/// Adds the spectra `[c0, c1, c2, scale]` at each `t` to `out`:
-/// `Σ scale · sigmoid(c0 t² + c1 t + c2)`, with the arithmetic of the
-/// compiled per-lookup conversion (`ir::lower::spectral`), so both agree.
-/// The taps are a fixed number, so the loop over lanes vectorises with
-/// every tap unrolled in it.
+/// The constant a texel of spectrum scale `scale` adds with filter weight
+/// `weight`: a negative scale is a complement, `1 − |scale| · sigmoid`
+/// ([`crate::color::jakob_hanika::Sigmoid`]), whose 1 counts `weight`.
 #[inline]
-fn add_spectra<const K: usize>(taps: &[[f32; 4]; K], ts: &[f32], out: &mut [f32]) {
+fn complement_weight(scale: f32, weight: f32) -> f32 {
+    if scale < 0.0 { weight } else { 0.0 }
+}
+
+/// Adds `offset` plus the spectra `[c0, c1, c2, scale]` at each `t` to
+/// `out`: `offset + Σ scale · sigmoid(c0 t² + c1 t + c2)`, with the
+/// arithmetic of the compiled per-lookup conversion
+/// (`ir::lower::spectral`), so both agree. The taps are a fixed number, so
+/// the loop over lanes vectorises with every tap unrolled in it.
+#[inline]
+fn add_spectra<const K: usize>(taps: &[[f32; 4]; K], offset: f32, ts: &[f32], out: &mut [f32]) {
     // scale · sigmoid(x) = hs + hs · x / √(x² + 1) with hs = scale / 2.
     let hs: [f32; K] = std::array::from_fn(|k| 0.5 * taps[k][3]);
-    let base: f32 = hs.iter().sum();
+    let base: f32 = offset + hs.iter().sum::<f32>();
     for (o, &t) in out.iter_mut().zip(ts) {
         let mut acc = base;
         for k in 0..K {

@@ -179,11 +179,15 @@ pub(super) fn hero_normalised_wavelengths(b: &mut Builder) -> Vec<Value> {
         .collect()
 }
 
-/// `scale · sigmoid(c0 t² + c1 t + c2)` at each `t`.
+/// `scale · sigmoid(c0 t² + c1 t + c2)` at each `t`, or for a negative
+/// `scale` the complement `1 + scale · sigmoid(...)`
+/// ([`jakob_hanika::Sigmoid::eval`], operation for operation).
 fn sigmoid_lanes(b: &mut Builder, c: [Value; 3], scale: Value, ts: &[Value]) -> Vec<Value> {
-    let half = b.f(0.5);
-    let one = b.f(1.0);
+    let (zero, half, one) = (b.f(0.0), b.f(0.5), b.f(1.0));
     let hs = b.fmul(half, scale);
+    let complement = b.flt(scale, zero);
+    let offset = b.select(complement, one, zero);
+    let base = b.fadd(hs, offset);
     ts.iter()
         .map(|&t| {
             let x = b.fmul(c[0], t);
@@ -195,7 +199,7 @@ fn sigmoid_lanes(b: &mut Builder, c: [Value; 3], scale: Value, ts: &[Value]) -> 
             let root = b.un(UnOp::Sqrt, xx1);
             let y = b.fdiv(x, root);
             let hy = b.fmul(hs, y);
-            b.fadd(hs, hy)
+            b.fadd(base, hy)
         })
         .collect()
 }
@@ -213,9 +217,10 @@ fn table_f32(b: &mut Builder, table: &'static [u32], index: Value) -> Value {
 }
 
 /// The Jakob–Hanika coefficients and scale of `rgb` as compiled code:
-/// [`jakob_hanika::upsample`] spelled out in IR (the range scale,
-/// the exact grey, the block of the largest channel, a binary search of the
-/// `z` grid and trilinear interpolation of the three coefficient tables).
+/// [`jakob_hanika::upsample`] spelled out in IR (the complement of colours
+/// nearer white, the range scale, the exact grey, the block of the largest
+/// channel, the grid coordinates and trilinear interpolation of the three
+/// coefficient tables).
 fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) {
     let words = jakob_hanika::table_words();
     let res = jakob_hanika::RES;
@@ -228,6 +233,31 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
     });
     let m = b.fmax(rgb[0], rgb[1]);
     let m = b.fmax(m, rgb[2]);
+    // Black, and infinite colors, are the zero spectrum (as on the host).
+    let positive = b.flt(zero, m);
+    let infinity = b.f(f32::INFINITY);
+    let finite = b.flt(m, infinity);
+    let lit = b.and(positive, finite);
+    // A reflectance nearer white than black (min + max > 1, not a grey)
+    // is the complement of the spectrum of 1 − rgb.
+    let min = b.fmin(rgb[0], rgb[1]);
+    let min = b.fmin(min, rgb[2]);
+    let rg = b.feq(rgb[0], rgb[1]);
+    let gb = b.feq(rgb[1], rgb[2]);
+    let grey = b.and(rg, gb);
+    let colored = b.not(grey);
+    let above = b.flt(one, m);
+    let reflectance = b.not(above);
+    let sum = b.fadd(min, m);
+    let nearer_white = b.flt(one, sum);
+    let complement = b.and(reflectance, nearer_white);
+    let complement = b.and(complement, colored);
+    let rgb = rgb.map(|c| {
+        let flipped = b.fsub(one, c);
+        b.select(complement, flipped, c)
+    });
+    let flipped_max = b.fsub(one, min);
+    let m = b.select(complement, flipped_max, m);
     // The range scale: 2m above 1, m / Z_MIN below Z_MIN, else 1.
     let two = b.f(2.0);
     let above = b.flt(one, m);
@@ -238,12 +268,9 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
     let dark = b.fmul(m, inv_z_min);
     let low_or_one = b.select(below, dark, one);
     let scale = b.select(above, twice, low_or_one);
-    // Black, and infinite colors, are the zero spectrum (as on the host).
-    let positive = b.flt(zero, m);
-    let infinity = b.f(f32::INFINITY);
-    let finite = b.flt(m, infinity);
-    let lit = b.and(positive, finite);
-    let scale_or_zero = b.select(lit, scale, zero);
+    let negated = b.un(UnOp::FNeg, scale);
+    let signed = b.select(complement, negated, scale);
+    let scale_or_zero = b.select(lit, signed, zero);
     let inv_scale = b.fdiv(one, scale);
     let v = rgb.map(|c| {
         let x = b.fmul(c, inv_scale);
@@ -276,49 +303,47 @@ fn jakob_hanika_lookup(b: &mut Builder, rgb: [Value; 3]) -> ([Value; 3], Value) 
     let (i0, i1, i2) = (b.i(0), b.i(1), b.i(2));
     let block_01 = b.select(c1, i1, i0);
     let block = b.select(c2, i2, block_01);
-    // x and y: the other channels over the largest, on the cell grid.
-    let tiny = b.f(1e-30);
-    let zsafe = b.fmax(z, tiny);
+    // Grid coordinates: x and y are the other channels over the largest,
+    // z the largest over [Z_MIN, 1], each through
+    // `jakob_hanika::grid_coordinate` onto the cells.
     let last = b.f((res - 1) as f32);
-    let per_z = b.fdiv(last, zsafe);
-    let cell = |b: &mut Builder, n: Value| {
-        let x = b.fmul(n, per_z);
-        let x = b.fmax(x, zero);
-        let x = b.fmin(x, last);
-        let fl = b.un(UnOp::Floor, x);
+    let on_grid = |b: &mut Builder, x: Value| {
+        let [k1, k2] = jakob_hanika::GRID_SLOPE.map(|k| b.f(k));
+        let s = b.fmul(two, x);
+        let s = b.fsub(s, one);
+        let s2 = b.fmul(s, s);
+        let s4 = b.fmul(s2, s2);
+        let s5 = b.fmul(s4, s);
+        let s5 = b.fadd(s5, one);
+        let bend = b.fmul(s5, k1);
+        let u = b.fadd(x, bend);
+        let u = b.fmul(u, k2);
+        let g = b.fmul(u, last);
+        let g = b.fmax(g, zero);
+        let g = b.fmin(g, last);
+        let fl = b.un(UnOp::Floor, g);
         let top = b.f((res - 2) as f32);
         let fl = b.fmin(fl, top);
-        let frac = b.fsub(x, fl);
+        let frac = b.fsub(g, fl);
         (b.un(UnOp::FToI, fl), frac)
     };
-    let (xi, fx) = cell(b, xn);
-    let (yi, fy) = cell(b, yn);
-    // z: a binary search of the grid, clamped to its first value.
-    let z0 = b.f(f32::from_bits(words.z[0]));
-    let zc = b.fmax(z, z0);
-    let mut zi = b.i(0);
-    let mut step = res.next_power_of_two() / 2;
-    while step >= 1 {
-        let stepv = b.i(step as i32);
-        let cand = b.bin(BinOp::IAdd, zi, stepv);
-        let at = table_f32(b, words.z, cand);
-        let past = b.flt(zc, at);
-        let fits = b.not(past);
-        let top = b.i((res - 1) as i32);
-        let inside = b.bin(BinOp::ILe, cand, top);
-        let take = b.and(fits, inside);
-        zi = b.select(take, cand, zi);
-        step /= 2;
-    }
-    let top = b.i((res - 2) as i32);
-    let over = b.bin(BinOp::ILt, top, zi);
-    let zi = b.select(over, top, zi);
-    let zi1 = b.bin(BinOp::IAdd, zi, i1);
-    let za = table_f32(b, words.z, zi);
-    let zb = table_f32(b, words.z, zi1);
-    let dz = b.fsub(zc, za);
-    let width = b.fsub(zb, za);
-    let fz = b.fdiv(dz, width);
+    let tiny = b.f(1e-30);
+    let zsafe = b.fmax(z, tiny);
+    let inv_z = b.fdiv(one, zsafe);
+    let ratio = |b: &mut Builder, n: Value| {
+        let x = b.fmul(n, inv_z);
+        b.fmin(x, one)
+    };
+    let x = ratio(b, xn);
+    let (xi, fx) = on_grid(b, x);
+    let y = ratio(b, yn);
+    let (yi, fy) = on_grid(b, y);
+    let z_span = b.f(1.0 / (1.0 - jakob_hanika::Z_MIN));
+    let zn = b.fsub(z, z_min);
+    let zn = b.fmul(zn, z_span);
+    let zn = b.fmax(zn, zero);
+    let zn = b.fmin(zn, one);
+    let (zi, fz) = on_grid(b, zn);
     // The cell ((block · res + zi) · res + yi) · res + xi and its neighbours.
     let resv = b.i(res as i32);
     let base = b.bin(BinOp::IMul, block, resv);
