@@ -50,7 +50,7 @@ pub const SOFTWARE: &str = "software";
 pub const ATTRIBUTES: &[(&str, &str)] = &[
     (SOFTWARE, "the program that rendered it"),
     ("tsl:version", "tslc's version"),
-    ("tsl:sceneHash", "SHA3-256 of the scene's sources, imports, textures, meshes and environment"),
+    ("tsl:sceneHash", "BLAKE3 (256-bit) of the scene's sources, imports, textures, meshes and environment"),
     ("tsl:scene", "the scene file, as named on the command line"),
     ("tsl:spp", "samples per pixel"),
     ("tsl:seed", "the random seed"),
