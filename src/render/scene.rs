@@ -399,6 +399,12 @@ impl<'a> Builder<'a> {
         // Each object's material (none for `light rect`/`sphere`).
         let mut materials: Vec<Option<MaterialRef>> = Vec::new();
         let mut first_of_name: HashMap<&str, MaterialRef> = HashMap::new();
+        // Each named material is looked up (and its code examined) once.
+        let mut by_name: HashMap<&str, Material> = HashMap::new();
+        let count = self.desc.objects.len();
+        geometry.reserve_exact(count);
+        objects.reserve_exact(count);
+        materials.reserve_exact(count);
         for o in &self.desc.objects {
             let to_world = o.to_world();
             let placed = match (&o.shape, o.shape.kind()) {
@@ -413,7 +419,14 @@ impl<'a> Builder<'a> {
             match &o.surface {
                 Surface::Material(m) => {
                     let material = match &m.name {
-                        Some(name) => Some(self.program.material(name)?),
+                        Some(name) => Some(match by_name.get(name.as_str()) {
+                            Some(material) => material.clone(),
+                            None => {
+                                let material = self.program.material(name)?;
+                                by_name.insert(name, material.clone());
+                                material
+                            }
+                        }),
                         None => {
                             pending.push((objects.len(), format!("@object{}", objects.len()), m.material));
                             None
@@ -451,20 +464,27 @@ impl<'a> Builder<'a> {
                 objects[*index].0 = Some(m);
             }
         }
-        let objects: Vec<Object> = objects
+        // dPdx .. dvdy are consecutive words of the globals, and so are u,
+        // v, dPdu, dPdv; the footprint needs the latter too.
+        let ends = |name: &str| {
+            crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
+        };
+        let words = |first: &str, last: &str| (!0u64 << ends(first).0) & !(!0u64 << ends(last).1);
+        let footprint_words = words("dPdx", "dvdy");
+        let uv_words = words("u", "dPdv") | footprint_words;
+        // What a material's code shows is found once per material.
+        let mut constant_iors: HashMap<MaterialRef, Option<Vec<f32>>> = HashMap::new();
+        let mut constant_ior = |material: &Material, shared: Option<MaterialRef>| match shared {
+            Some(key) => constant_iors.entry(key).or_insert_with(|| material.constant_refraction_index()).clone(),
+            None => material.constant_refraction_index(),
+        };
+        let mut objects: Vec<Object> = objects
             .into_iter()
-            .filter_map(|(m, scale, span)| {
+            .zip(&materials)
+            .filter_map(|((m, scale, span), shared)| {
                 let material = m?;
                 let emissive =
                     material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
-                // dPdx .. dvdy are consecutive words of the globals, and so
-                // are u, v, dPdu, dPdv; the footprint needs the latter too.
-                let ends = |name: &str| {
-                    crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
-                };
-                let words = |first: &str, last: &str| (!0u64 << ends(first).0) & !(!0u64 << ends(last).1);
-                let footprint_words = words("dPdx", "dvdy");
-                let uv_words = words("u", "dPdv") | footprint_words;
                 Some(Object {
                     hit: None,
                     reflection_sum: None,
@@ -480,13 +500,12 @@ impl<'a> Builder<'a> {
                     reads_footprint: material.globals_read() & footprint_words != 0,
                     reads_uv: material.globals_read() & uv_words != 0,
                     clear: material.clear(),
-                    constant_ior: material.constant_refraction_index(),
+                    constant_ior: constant_ior(&material, *shared),
                     material,
                     span,
                 })
             })
             .collect();
-        let mut objects = objects;
         if !overrides.unsplit {
             // Whitted shades an object that neither reflects nor refracts
             // under 2 to MAX_SUMMED_LIGHTS delta lights (and no other light)
@@ -607,11 +626,16 @@ impl<'a> Builder<'a> {
                 .filter_map(|m| o.material.method(m))
                 .any(|f| crate::worth_preparing(f.ir()))
         };
+        // Once per material: objects that share one share its code.
+        let mut textured_materials: HashMap<MaterialRef, bool> = HashMap::new();
         let wanted: Vec<(usize, MaterialRef)> = materials
             .iter()
             .enumerate()
-            .filter(|(k, _)| !skip(&objects[*k]) && textured(&objects[*k]))
             .filter_map(|(k, m)| Some((k, (*m)?)))
+            .filter(|(k, m)| {
+                let o = &objects[*k];
+                !skip(o) && *textured_materials.entry(*m).or_insert_with(|| textured(o))
+            })
             .collect();
         for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods, optimize))? {
             objects[k].hit = h;
