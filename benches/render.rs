@@ -188,10 +188,75 @@ fn bench_split(name: &str, file: &Path) {
     }
 }
 
+/// Writes the generated scene of `count` spheres: a fixed pseudo-random
+/// cloud (a 64-bit LCG, the same every run), one `object` block each, as
+/// generated scenes are written.
+fn write_spheres(w: &mut impl std::io::Write, count: u64) -> std::io::Result<()> {
+    writeln!(w, "material red = lambert(kd: rgb(0.8, 0.2, 0.2));")?;
+    writeln!(w, "scene {{")?;
+    writeln!(w, "    camera {{ from (0, 0, -60); to (0, 0, 0); fov 40; }}")?;
+    writeln!(w, "    light point {{ at (0, 50, -50); intensity rgb(5000, 5000, 5000); }}")?;
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 40) as f64 / (1u64 << 24) as f64) * 40.0 - 20.0
+    };
+    for _ in 0..count {
+        let (x, y, z) = (next(), next(), next());
+        writeln!(w, "    object sphere {{ center ({x:.3}, {y:.3}, {z:.3}); radius 0.05; material red; }}")?;
+    }
+    writeln!(w, "}}")
+}
+
+/// The generated scene of `TSL_BENCH_SCENE_OBJECTS` (default 100,000)
+/// spheres, in memory and in this process: the time per object of each
+/// stage of scene construction (parsing, checking, describing, building
+/// the renderable scene with its BVH), medians of three runs.
+fn bench_scene_construction() {
+    let count: u64 = std::env::var("TSL_BENCH_SCENE_OBJECTS").ok().and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    let mut text = Vec::new();
+    if write_spheres(&mut text, count).is_err() {
+        return;
+    }
+    let text = String::from_utf8(text).unwrap_or_default();
+    let options = tsl::LoadOptions::default();
+    let stages = ["parse", "check", "describe", "build"];
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); stages.len()];
+    for _ in 0..3 {
+        let start = Instant::now();
+        let (loaded, diags) = tsl::load::load_source("spheres.tsl", &text, &options);
+        times[0].push(start.elapsed().as_secs_f64());
+        let start = Instant::now();
+        let (program, more) = tsl::check::check(loaded);
+        times[1].push(start.elapsed().as_secs_f64());
+        let start = Instant::now();
+        let (scene, described) = tsl::scene::describe(&program, tsl::ColorModel::Rgb, None);
+        times[2].push(start.elapsed().as_secs_f64());
+        let diagnostics: Vec<_> = diags.into_iter().chain(more).chain(described).collect();
+        let checked = tsl::Checked { program, scene, diagnostics };
+        let start = Instant::now();
+        let built = tsl::Compiler::new().compile_checked(checked).and_then(|p| {
+            Scene::build(&p, &Overrides { resolution: Some((64, 64)), spp: Some(1), ..Default::default() })
+        });
+        if let Err(e) = built {
+            eprintln!("{e}");
+            return;
+        }
+        times[3].push(start.elapsed().as_secs_f64());
+    }
+    let mut total = 0.0;
+    for (stage, t) in stages.iter().zip(&mut times) {
+        t.sort_by(f64::total_cmp);
+        total += t[1];
+        figure(&format!("{count} spheres in memory: {stage} per object"), t[1] / count as f64 * 1e6, "us");
+    }
+    figure(&format!("{count} spheres in memory: total per object"), total / count as f64 * 1e6, "us");
+}
+
 /// A scene of `TSL_BENCH_OBJECTS` (default 1,000,000) spheres written out
-/// one `object` block each, as generated scenes are: `tslc check` and a
-/// 64x64, 1 spp `tslc render` of it, whole processes (issue 13's goals:
-/// 3 s and 6 s, under 1 GB), with their peak memory from GNU time.
+/// ([`write_spheres`]): `tslc check` and a 64x64, 1 spp `tslc render` of
+/// it, whole processes (issue 13's goals: 3 s and 6 s, under 1 GB), with
+/// their peak memory from GNU time.
 fn bench_many_objects() {
     let count: u64 = std::env::var("TSL_BENCH_OBJECTS").ok().and_then(|s| s.parse().ok()).unwrap_or(1_000_000);
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-gen");
@@ -201,21 +266,7 @@ fn bench_many_objects() {
         let _ = std::fs::create_dir_all(&dir);
         let written = std::fs::File::create(&file).and_then(|f| {
             let mut w = std::io::BufWriter::new(f);
-            writeln!(w, "material red = lambert(kd: rgb(0.8, 0.2, 0.2));")?;
-            writeln!(w, "scene {{")?;
-            writeln!(w, "    camera {{ from (0, 0, -60); to (0, 0, 0); fov 40; }}")?;
-            writeln!(w, "    light point {{ at (0, 50, -50); intensity rgb(5000, 5000, 5000); }}")?;
-            // A fixed pseudo-random cloud (a 64-bit LCG), the same every run.
-            let mut state = 0x2545_f491_4f6c_dd1du64;
-            let mut next = || {
-                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-                ((state >> 40) as f64 / (1u64 << 24) as f64) * 40.0 - 20.0
-            };
-            for _ in 0..count {
-                let (x, y, z) = (next(), next(), next());
-                writeln!(w, "    object sphere {{ center ({x:.3}, {y:.3}, {z:.3}); radius 0.05; material red; }}")?;
-            }
-            writeln!(w, "}}")?;
+            write_spheres(&mut w, count)?;
             w.flush()
         });
         if let Err(e) = written {
@@ -264,6 +315,7 @@ fn bench_many_objects() {
 
 fn main() {
     if std::env::args().any(|a| a == "objects") {
+        bench_scene_construction();
         bench_many_objects();
         return;
     }
@@ -277,6 +329,7 @@ fn main() {
     if std::env::args().any(|a| a == "split") {
         return;
     }
+    bench_scene_construction();
     bench_many_objects();
     bench_scene("whitted", &examples.join("whitted.tsl"), None);
     bench_scene("whitted", &examples.join("whitted.tsl"), Some(10));

@@ -177,7 +177,7 @@ pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) ->
     let mut files = SimpleFiles::new();
     for i in 0..sources.len() {
         let id = FileId(i as u32);
-        files.add(sources.name(id).to_string(), sources.text(id).to_string());
+        files.add(sources.name(id), sources.text(id));
     }
     let config = term::Config::default();
     let mut out: Vec<u8> = Vec::new();

@@ -59,6 +59,11 @@ pub struct Loaded {
 /// input or a host). `name` is shown in diagnostics and, when it is a path,
 /// anchors relative imports.
 pub fn load_source(name: &str, text: &str, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
+    load_text(name, text.to_string(), options)
+}
+
+/// [`load_source`] keeping `text` as the program's copy of it.
+fn load_text(name: &str, text: String, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
     let mut loader = Loader { loaded: Loaded::default(), diags: Vec::new(), by_path: HashMap::new(), options };
     if options.prelude {
         for (k, (name, text)) in PRELUDE.iter().enumerate() {
@@ -101,7 +106,7 @@ fn parsed_prelude() -> &'static [(Arc<ast::SourceFile>, Vec<Diagnostic>)] {
 /// Loads a program from a file on disk.
 pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>) {
     match read_source(path) {
-        Ok(text) => load_source(&path.display().to_string(), &text, options),
+        Ok(text) => load_text(&path.display().to_string(), text, options),
         Err(ReadError { message, bad_utf8_at }) => {
             // The diagnostic needs a file to point into: the readable prefix.
             let mut loaded = Loaded::default();
@@ -173,8 +178,10 @@ struct Loader<'o> {
 }
 
 impl Loader<'_> {
-    fn add_text(&mut self, name: &str, text: &str, canonical: Option<PathBuf>) -> usize {
+    fn add_text(&mut self, name: &str, text: String, canonical: Option<PathBuf>) -> usize {
+        // The source map keeps the text; parsing reads that copy.
         let file = self.loaded.sources.add(name, text);
+        let text = self.loaded.sources.text(file);
         if text.trim().is_empty() {
             self.diags.push(
                 Diagnostic::error(Span::new(file, 0, 0), "the file is empty")
@@ -223,7 +230,7 @@ impl Loader<'_> {
                     Some(&t) => t,
                     None => match read_source(&found) {
                         Ok(text) => {
-                            let t = self.add_text(&found.display().to_string(), &text, Some(canonical));
+                            let t = self.add_text(&found.display().to_string(), text, Some(canonical));
                             queue.push(t);
                             t
                         }

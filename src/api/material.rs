@@ -7,11 +7,12 @@ use crate::globals::ShadingGlobals;
 use std::fmt;
 
 /// A compiled material: the generic material interface, as native calls.
+/// Cheap to clone (the objects of a scene that name one material share it).
 #[derive(Clone)]
 pub struct Material {
     program: Program,
     /// In the order of `check::INTERFACE`.
-    methods: Vec<Function>,
+    methods: std::sync::Arc<[Function]>,
     facts: Facts,
 }
 
@@ -146,7 +147,7 @@ impl Args {
 impl Material {
     pub(super) fn new(program: Program, methods: Vec<Function>) -> Material {
         let facts = Facts::of(&methods);
-        Material { program, methods, facts }
+        Material { program, methods: methods.into(), facts }
     }
 
     /// The compiled entry of one interface method (`"sample"`, ...), for

@@ -25,8 +25,10 @@ impl<'a> Checker<'a> {
     /// Types an expression, recording the result. `expected` guides tuples
     /// and array literals and is otherwise only a hint.
     pub(super) fn expr(&mut self, e: &Expr, expected: Option<&Ty>) -> Ty {
+        // Opened before the expressions inside, so entries come in span order.
+        let slot = self.expr_types.open(e.span);
         let ty = crate::syntax::ast::with_stack(|| self.expr_inner(e, expected));
-        self.expr_types.insert(e.span, ty.clone());
+        self.expr_types.set(slot, &ty);
         ty
     }
 

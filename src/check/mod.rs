@@ -23,11 +23,13 @@ mod items;
 mod scene;
 mod stmt;
 mod ty;
+mod types;
 
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
 pub use ty::{SAMPLE_FIELDS, Ty};
+pub use types::ExprTypes;
 
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
@@ -55,7 +57,7 @@ pub struct Program {
     /// user definition that shadows a prelude name does not change the
     /// prelude's behaviour.
     pub prelude_symbols: HashMap<String, Symbol>,
-    pub expr_types: FxHashMap<Span, Ty>,
+    pub expr_types: ExprTypes,
     /// The global item each name or call resolved to, keyed by its span.
     pub resolutions: FxHashMap<Span, Symbol>,
     /// The local variable or parameter each name resolved to: the span of
@@ -171,7 +173,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         reads_frame: HashMap::new(),
         frame_limits: HashMap::new(),
         diags: &mut diags,
-        expr_types: FxHashMap::default(),
+        expr_types: ExprTypes::default(),
         graph: HashMap::new(),
         body: Body::default(),
         images: Vec::new(),
@@ -184,7 +186,8 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.report_string_options();
     checker.report_recursion();
     checker.report_varying_values();
-    let expr_types = std::mem::take(&mut checker.expr_types);
+    let mut expr_types = std::mem::take(&mut checker.expr_types);
+    expr_types.finish();
     let resolutions = std::mem::take(&mut checker.resolutions);
     let local_uses = std::mem::take(&mut checker.local_uses);
     let images = std::mem::take(&mut checker.images);
@@ -373,7 +376,7 @@ struct Checker<'a> {
     /// render settings.
     frame_limits: HashMap<Node, FrameGlobals>,
     diags: &'a mut Vec<Diagnostic>,
-    expr_types: FxHashMap<Span, Ty>,
+    expr_types: ExprTypes,
     /// Dependencies between items, with the span of the first use.
     graph: HashMap<Node, Vec<(Node, Span)>>,
     body: Body,

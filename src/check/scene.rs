@@ -340,8 +340,10 @@ fn kind_props(
     kinds: &[(&'static str, &'static [Prop])],
     what: &str,
 ) -> Option<&'static [Prop]> {
-    let names: Vec<&str> = kinds.iter().map(|k| k.0).collect();
+    // Only for messages: a block that is right allocates nothing.
+    let names = || kinds.iter().map(|k| k.0).collect::<Vec<&str>>();
     let Some(kind) = &b.kind else {
+        let names = names();
         cx.error(
             Diagnostic::error(b.keyword.span, format!("`{}` needs a {what} kind", b.keyword.name)).with_help(format!(
                 "write `{} {} {{ ... }}`; kinds: {}",
@@ -355,6 +357,7 @@ fn kind_props(
     if let Some((_, props)) = kinds.iter().find(|k| k.0 == kind.name) {
         return Some(props);
     }
+    let names = names();
     let mut d = Diagnostic::error(kind.span, format!("unknown {what} `{}`", kind.name));
     d = match did_you_mean(&kind.name, names.iter().copied()) {
         Some(s) => d.with_help(format!("did you mean `{s}`?")),
@@ -374,23 +377,22 @@ fn check_props(
 ) {
     let given = check_prop_list(cx, &props, own, common);
     for group in [EXACTLY_ONE, AT_MOST_ONE] {
-        let alternatives: Vec<&str> = own.iter().filter(|p| p.group == group).map(|p| p.name).collect();
-        if alternatives.is_empty() {
-            continue;
-        }
-        let named: Vec<&str> = alternatives.iter().copied().filter(|n| given.contains_key(n)).collect();
-        let list = alternatives.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(" or ");
-        if named.is_empty() && group == EXACTLY_ONE {
-            cx.error(
-                Diagnostic::error(b.span, format!("{what} needs {list}"))
-                    .with_help(format!("add `{} ...;` inside the block", alternatives[0])),
-            );
-        } else if named.len() > 1 {
-            let first = given[named[0]];
-            cx.error(
-                Diagnostic::error(given[named[1]].name.span, format!("give {list}, not both"))
-                    .with_label(first.name.span, "already given here"),
-            );
+        // Nothing is allocated for a block that is right (a generated
+        // scene has millions).
+        let alternatives = || own.iter().filter(move |p| p.group == group).map(|p| p.name);
+        let Some(first_alternative) = alternatives().next() else { continue };
+        let mut named = alternatives().filter(|n| given.contains_key(n));
+        let list = || alternatives().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(" or ");
+        match (named.next(), named.next()) {
+            (None, _) if group == EXACTLY_ONE => cx.error(
+                Diagnostic::error(b.span, format!("{what} needs {}", list()))
+                    .with_help(format!("add `{first_alternative} ...;` inside the block")),
+            ),
+            (Some(first), Some(second)) => cx.error(
+                Diagnostic::error(given[second].name.span, format!("give {}, not both", list()))
+                    .with_label(given[first].name.span, "already given here"),
+            ),
+            _ => {}
         }
     }
     for p in own.iter().chain(common) {

@@ -269,7 +269,7 @@ impl<'a> Checker<'a> {
                         );
                         return None;
                     }
-                    self.expr_types.insert(e.span, ty.clone());
+                    self.expr_types.insert(e.span, &ty);
                     return Some(ty);
                 }
                 let (msg, ty) = if let Some(ty) = interface::global(name) {

@@ -217,7 +217,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// moving 200 bytes into it was a memcpy per hit.
     #[inline(always)]
     fn shade<'g>(&self, ray: &Ray, hit: Hit, distance: f32, g: &'g mut ShadingGlobals) -> Shading<'s, 'g> {
-        let object = &self.scene.objects[hit.object as usize];
+        let object = self.scene.object(hit.object);
         let s = self.scene.geometry.surface(ray, &hit, object.reads_uv);
         let len = ray.dir.length();
         let wo = -ray.dir / len;
@@ -462,7 +462,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut through = self.ones;
         let scene = self.scene;
         let blocked = scene.geometry.occluded(&ray, 0.0, t_max, |hit| {
-            let object = &scene.objects[hit.object as usize];
+            let object = scene.object(hit.object);
             if object.always_opaque {
                 return true;
             }
@@ -495,7 +495,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     /// Emission of a sampled light point toward `-wi`.
     fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
-        let object = &self.scene.objects[light_object as usize];
+        let object = self.scene.object(light_object);
         let mut g = globals_of(surface, distance, self.scene.settings.frame);
         self.wavelengths_into(&mut g);
         if object.reads_footprint {
@@ -945,19 +945,19 @@ fn footprint(g: &mut ShadingGlobals, s: &SurfaceHit, dir: Vec3, distance: f32, s
 }
 
 /// Where the camera ray through the centre of pixel `(px, py)` (and of the
-/// lens) first meets the scene, as a renderer shades it: the object's index
-/// in [`Scene::objects`], its shading globals (the pixel footprint
+/// lens) first meets the scene, as a renderer shades it: the index of the
+/// object's surface in [`Scene::objects`], its shading globals (the pixel footprint
 /// included) and the direction toward the viewer. For probes, tools and
 /// benchmarks that call materials as the integrators do.
 pub fn camera_hit(scene: &Scene, px: u32, py: u32) -> Option<(usize, ShadingGlobals, [f32; 3])> {
     let ray = scene.camera.ray(px as f32 + 0.5, py as f32 + 0.5, [0.5, 0.5]);
     let hit = scene.geometry.intersect(&ray, 0.0, f32::INFINITY)?;
-    let object = &scene.objects[hit.object as usize];
+    let object = scene.object(hit.object);
     let s = scene.geometry.surface(&ray, &hit, object.reads_uv);
     let len = ray.dir.length();
     let mut g = globals_of(&s, hit.t * len, scene.settings.frame);
     if object.reads_footprint {
         footprint(&mut g, &s, ray.dir / len, hit.t * len, scene.camera.pixel_spread());
     }
-    Some((hit.object as usize, g, v3(-ray.dir / len)))
+    Some((scene.surface_of_object[hit.object as usize] as usize, g, v3(-ray.dir / len)))
 }

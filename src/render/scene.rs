@@ -132,7 +132,8 @@ fn takes_reflection_sum(o: &Object) -> bool {
 /// Scenes with more delta lights than this shade them one call each.
 pub const MAX_SUMMED_LIGHTS: usize = 8;
 
-/// One object: its geometry and material.
+/// An object's surface: its material and what its code shows, shared by
+/// the objects that name one material.
 pub struct Object {
     pub material: Material,
     /// `reflection` summed over all the scene's delta lights (point, spot,
@@ -176,7 +177,7 @@ pub struct Object {
     /// Some method reads u, v, dPdu or dPdv (or the footprint, which
     /// needs them).
     pub reads_uv: bool,
-    /// Where the object is defined, for messages.
+    /// Where the first object with this surface is defined, for messages.
     pub span: Span,
 }
 
@@ -184,7 +185,12 @@ pub struct Object {
 pub struct Scene {
     pub camera: Camera,
     pub settings: Settings,
+    /// The objects' surfaces, each once: objects naming one material
+    /// share one ([`Scene::object`]).
     pub objects: Vec<Object>,
+    /// The index in `objects` of each object's surface, by object (as the
+    /// geometry numbers them).
+    pub surface_of_object: Vec<u32>,
     pub geometry: Geometry,
     /// Delta lights in scene order, then area lights, then the
     /// environment (when it is not black).
@@ -203,6 +209,11 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// The surface of object `k` (as the geometry numbers objects).
+    pub fn object(&self, k: u32) -> &Object {
+        &self.objects[self.surface_of_object[k as usize] as usize]
+    }
+
     /// The environment, when it is not black.
     pub fn environment(&self) -> Option<&Environment> {
         match &self.lights.get(self.environment_light?)?.kind {
@@ -393,12 +404,17 @@ impl<'a> Builder<'a> {
         let environment = self.environment();
         let mut lights: Vec<Light> = self.desc.lights.iter().map(|l| Light { kind: self.light(l) }).collect();
         let mut geometry = Vec::new();
+        // The distinct surfaces: objects naming one material share one.
         let mut objects = Vec::new();
         // Object materials that are not a plain name compile together.
         let mut pending: Vec<(usize, String, MaterialRef)> = Vec::new();
-        // Each object's material (none for `light rect`/`sphere`).
+        // Each surface's material (none for `light rect`/`sphere`).
         let mut materials: Vec<Option<MaterialRef>> = Vec::new();
-        let mut first_of_name: HashMap<&str, MaterialRef> = HashMap::new();
+        // Each named material is looked up (and its code examined) once.
+        let mut by_name: HashMap<&str, u32> = HashMap::new();
+        let count = self.desc.objects.len();
+        let mut surface_of_object: Vec<u32> = Vec::with_capacity(count);
+        geometry.reserve_exact(count);
         for o in &self.desc.objects {
             let to_world = o.to_world();
             let placed = match (&o.shape, o.shape.kind()) {
@@ -410,24 +426,25 @@ impl<'a> Builder<'a> {
                 }
                 (_, None) => return Err(self.error(o.span, "internal error: a shape without its numbers")),
             };
+            let surface = objects.len() as u32;
             match &o.surface {
-                Surface::Material(m) => {
-                    let material = match &m.name {
-                        Some(name) => Some(self.program.material(name)?),
-                        None => {
-                            pending.push((objects.len(), format!("@object{}", objects.len()), m.material));
-                            None
+                Surface::Material(m) => match &m.name {
+                    Some(name) => {
+                        if let Some(&shared) = by_name.get(name.as_str()) {
+                            surface_of_object.push(shared);
+                            geometry.push(placed);
+                            continue;
                         }
-                    };
-                    objects.push((material, None, o.span));
-                    // Objects naming one material share its compiled
-                    // functions: they are given the first one's expression.
-                    let shared = match &m.name {
-                        Some(name) => *first_of_name.entry(name.as_str()).or_insert(m.material),
-                        None => m.material,
-                    };
-                    materials.push(Some(shared));
-                }
+                        by_name.insert(name, surface);
+                        objects.push((Some(self.program.material(name)?), None, o.span));
+                        materials.push(Some(m.material));
+                    }
+                    None => {
+                        pending.push((objects.len(), format!("@object{}", geometry.len()), m.material));
+                        objects.push((None, None, o.span));
+                        materials.push(Some(m.material));
+                    }
+                },
                 Surface::Emitter(emission) => {
                     let radiance = match (emission, &placed) {
                         (AreaEmission::Radiance(c), _) => self.color(&c.value),
@@ -442,6 +459,7 @@ impl<'a> Builder<'a> {
                     materials.push(None);
                 }
             }
+            surface_of_object.push(surface);
             geometry.push(placed);
         }
         if !pending.is_empty() {
@@ -451,20 +469,27 @@ impl<'a> Builder<'a> {
                 objects[*index].0 = Some(m);
             }
         }
-        let objects: Vec<Object> = objects
+        // dPdx .. dvdy are consecutive words of the globals, and so are u,
+        // v, dPdu, dPdv; the footprint needs the latter too.
+        let ends = |name: &str| {
+            crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
+        };
+        let words = |first: &str, last: &str| (!0u64 << ends(first).0) & !(!0u64 << ends(last).1);
+        let footprint_words = words("dPdx", "dvdy");
+        let uv_words = words("u", "dPdv") | footprint_words;
+        // What a material's code shows is found once per material.
+        let mut constant_iors: HashMap<MaterialRef, Option<Vec<f32>>> = HashMap::new();
+        let mut constant_ior = |material: &Material, shared: Option<MaterialRef>| match shared {
+            Some(key) => constant_iors.entry(key).or_insert_with(|| material.constant_refraction_index()).clone(),
+            None => material.constant_refraction_index(),
+        };
+        let mut objects: Vec<Object> = objects
             .into_iter()
-            .filter_map(|(m, scale, span)| {
+            .zip(&materials)
+            .filter_map(|((m, scale, span), shared)| {
                 let material = m?;
                 let emissive =
                     material.may_emit() && scale.as_ref().is_none_or(|c: &Color| c.lanes().iter().any(|x| *x > 0.0));
-                // dPdx .. dvdy are consecutive words of the globals, and so
-                // are u, v, dPdu, dPdv; the footprint needs the latter too.
-                let ends = |name: &str| {
-                    crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
-                };
-                let words = |first: &str, last: &str| (!0u64 << ends(first).0) & !(!0u64 << ends(last).1);
-                let footprint_words = words("dPdx", "dvdy");
-                let uv_words = words("u", "dPdv") | footprint_words;
                 Some(Object {
                     hit: None,
                     reflection_sum: None,
@@ -480,13 +505,12 @@ impl<'a> Builder<'a> {
                     reads_footprint: material.globals_read() & footprint_words != 0,
                     reads_uv: material.globals_read() & uv_words != 0,
                     clear: material.clear(),
-                    constant_ior: material.constant_refraction_index(),
+                    constant_ior: constant_ior(&material, *shared),
                     material,
                     span,
                 })
             })
             .collect();
-        let mut objects = objects;
         if !overrides.unsplit {
             // Whitted shades an object that neither reflects nor refracts
             // under 2 to MAX_SUMMED_LIGHTS delta lights (and no other light)
@@ -515,8 +539,8 @@ impl<'a> Builder<'a> {
             self.eval_pdfs(&mut objects, &materials)?;
         }
         let geometry = Geometry::new(geometry);
-        for (k, o) in objects.iter().enumerate() {
-            if o.emissive
+        for (k, &surface) in surface_of_object.iter().enumerate() {
+            if objects[surface as usize].emissive
                 && let Some(light) = Light::area(&geometry, k as u32)
             {
                 lights.push(light);
@@ -527,17 +551,19 @@ impl<'a> Builder<'a> {
             environment_light = Some(lights.len());
             lights.push(Light { kind: LightKind::Environment(Box::new(environment)) });
         }
-        let mut light_of_object = vec![None; objects.len()];
+        let mut light_of_object = vec![None; surface_of_object.len()];
         for (k, light) in lights.iter().enumerate() {
             if let Some(o) = light.object() {
                 light_of_object[o as usize] = Some(k);
             }
         }
-        let light_sampler = light_sampler(&lights, &objects, &geometry, self.model.lanes(), settings.frame);
+        let of_object = |o: u32| &objects[surface_of_object[o as usize] as usize];
+        let light_sampler = light_sampler(&lights, of_object, &geometry, self.model.lanes(), settings.frame);
         Ok(Scene {
             camera,
             settings,
             objects,
+            surface_of_object,
             geometry,
             lights,
             light_of_object,
@@ -607,11 +633,16 @@ impl<'a> Builder<'a> {
                 .filter_map(|m| o.material.method(m))
                 .any(|f| crate::worth_preparing(f.ir()))
         };
+        // Once per material: objects that share one share its code.
+        let mut textured_materials: HashMap<MaterialRef, bool> = HashMap::new();
         let wanted: Vec<(usize, MaterialRef)> = materials
             .iter()
             .enumerate()
-            .filter(|(k, _)| !skip(&objects[*k]) && textured(&objects[*k]))
             .filter_map(|(k, m)| Some((k, (*m)?)))
+            .filter(|(k, m)| {
+                let o = &objects[*k];
+                !skip(o) && *textured_materials.entry(*m).or_insert_with(|| textured(o))
+            })
             .collect();
         for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods, optimize))? {
             objects[k].hit = h;
@@ -674,9 +705,9 @@ const EMISSION_PROBES: u32 = 64;
 /// least a thousandth of the strongest light's power, so it stays
 /// sampled (material sampling alone would still find it, unbiased, but
 /// noisily).
-fn light_sampler(
+fn light_sampler<'a>(
     lights: &[Light],
-    objects: &[Object],
+    object: impl Fn(u32) -> &'a Object,
     geometry: &Geometry,
     lanes: usize,
     frame: Frame,
@@ -686,8 +717,7 @@ fn light_sampler(
         .iter()
         .enumerate()
         .map(|(k, light)| {
-            let radiance =
-                light.object().map_or(0.0, |o| mean_emission(light, k, &objects[o as usize], geometry, lanes, frame));
+            let radiance = light.object().map_or(0.0, |o| mean_emission(light, k, object(o), geometry, lanes, frame));
             light.power(radius, radiance)
         })
         .collect();

@@ -36,6 +36,76 @@ pub(crate) fn node(
     ast::Expr::new(kind, Span::new(file, l, r)).map_err(deep)
 }
 
+/// A chain of binary operations as the grammar reads it, `a + b * c ...`,
+/// built into the tree the precedence tiers give (operator-precedence
+/// parsing): an operator first builds what binds at least as tightly on its
+/// left, and the end of the chain builds the rest. Nodes are built in the
+/// order the tiers' reductions built them, so the first node nested too
+/// deeply is the one reported.
+pub(crate) struct Chain {
+    pending: Pending,
+    /// The last operand and its extent (parentheses included, which its
+    /// span leaves out).
+    last: ast::Expr,
+    start: u32,
+    end: u32,
+}
+
+/// Left operands waiting for their right side: where each starts, and the
+/// operator after it. Precedence rises from bottom to top.
+pub(crate) struct Pending(Vec<(ast::Expr, u32, ast::BinaryOp)>);
+
+impl Chain {
+    pub(crate) fn new(e: ast::Expr, l: usize, r: usize) -> Chain {
+        Pending(Vec::new()).operand(e, l, r)
+    }
+
+    /// Adds the operator after the chain so far.
+    pub(crate) fn operator(
+        self,
+        op: ast::BinaryOp,
+        file: FileId,
+    ) -> Result<Pending, ParseError<usize, Tok, SyntaxError>> {
+        let Chain { mut pending, last, start, end } = self;
+        let (mut rhs, mut start) = (last, start);
+        while pending.0.last().is_some_and(|top| top.2.precedence() >= op.precedence()) {
+            let Some((lhs, lhs_start, top)) = pending.0.pop() else { break };
+            rhs = binary(file, lhs, top, rhs, lhs_start, end)?;
+            start = lhs_start;
+        }
+        pending.0.push((rhs, start, op));
+        Ok(pending)
+    }
+
+    /// The tree of the whole chain.
+    pub(crate) fn finish(self, file: FileId) -> Result<ast::Expr, ParseError<usize, Tok, SyntaxError>> {
+        let Chain { mut pending, last, end, .. } = self;
+        let mut rhs = last;
+        while let Some((lhs, start, op)) = pending.0.pop() {
+            rhs = binary(file, lhs, op, rhs, start, end)?;
+        }
+        Ok(rhs)
+    }
+}
+
+impl Pending {
+    pub(crate) fn operand(self, e: ast::Expr, l: usize, r: usize) -> Chain {
+        Chain { pending: self, last: e, start: l as u32, end: r as u32 }
+    }
+}
+
+fn binary(
+    file: FileId,
+    lhs: ast::Expr,
+    op: ast::BinaryOp,
+    rhs: ast::Expr,
+    start: u32,
+    end: u32,
+) -> Result<ast::Expr, ParseError<usize, Tok, SyntaxError>> {
+    let kind = ast::ExprKind::Binary { op, lhs: Box::new(lhs), rhs: Box::new(rhs) };
+    node(file, start as usize, end as usize, kind)
+}
+
 /// The most syntax errors reported for one file (as clang's error limit):
 /// a broken file of thousands of lines gets its first errors and a count,
 /// not megabytes of echoes.
@@ -265,5 +335,107 @@ fn describe(w: &Wanted) -> String {
         Wanted::Item => "a function, material, constant, `import` or `scene`".into(),
         Wanted::MaterialMethod => "an interface method or `}`".into(),
         Wanted::Tokens(t) => t.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::syntax::ast::{BinaryOp, Expr, ExprKind};
+
+    const OPS: [(&str, BinaryOp); 13] = [
+        ("||", BinaryOp::Or),
+        ("&&", BinaryOp::And),
+        ("==", BinaryOp::Eq),
+        ("!=", BinaryOp::Ne),
+        ("<", BinaryOp::Lt),
+        ("<=", BinaryOp::Le),
+        (">", BinaryOp::Gt),
+        (">=", BinaryOp::Ge),
+        ("+", BinaryOp::Add),
+        ("-", BinaryOp::Sub),
+        ("*", BinaryOp::Mul),
+        ("/", BinaryOp::Div),
+        ("%", BinaryOp::Rem),
+    ];
+
+    /// The tree with every node parenthesised and spanned: `(a + b)@0..5`.
+    fn shape(e: &Expr, src: &str) -> String {
+        let at = format!("@{}..{}", e.span.start, e.span.end);
+        match &e.kind {
+            ExprKind::Binary { op, lhs, rhs } => {
+                format!("({} {} {}){at}", shape(lhs, src), op.symbol(), shape(rhs, src))
+            }
+            ExprKind::Unary { operand, .. } => format!("(-{}){at}", shape(operand, src)),
+            _ => format!("{}{at}", &src[e.span.start as usize..e.span.end as usize]),
+        }
+    }
+
+    fn parsed(src: &str) -> String {
+        let mut errors = Vec::new();
+        let tokens = tokens(src, &mut Vec::new()).map(Ok::<_, SyntaxError>).collect::<Vec<_>>();
+        let e = grammar::ExprParser::new().parse(FileId(0), &mut errors, tokens).unwrap();
+        assert!(errors.is_empty());
+        shape(&e, src)
+    }
+
+    /// The precedence tiers as a reference: recursive descent over the
+    /// atoms `x0 op x1 op ...` (one character each, one space around each
+    /// operator), giving the tree and spans the tiers' grammar gave.
+    fn tiers(atoms: &[usize], ops: &[(&str, BinaryOp)]) -> String {
+        fn level(tier: u8, lo: usize, hi: usize, atoms: &[usize], ops: &[(&str, BinaryOp)], src: &str) -> String {
+            if tier > 5 {
+                let a = atoms[lo];
+                return format!("{}@{a}..{}", &src[a..a + 1], a + 1);
+            }
+            // The last operator of this tier splits the range (left-associative).
+            match (lo..hi).rev().find(|&k| ops[k].1.precedence() == tier) {
+                Some(k) => format!(
+                    "({} {} {})@{}..{}",
+                    level(tier, lo, k, atoms, ops, src),
+                    ops[k].0,
+                    level(tier + 1, k + 1, hi, atoms, ops, src),
+                    atoms[lo],
+                    atoms[hi] + 1
+                ),
+                None => level(tier + 1, lo, hi, atoms, ops, src),
+            }
+        }
+        let src = source(ops);
+        level(0, 0, ops.len(), atoms, ops, &src)
+    }
+
+    fn source(ops: &[(&str, BinaryOp)]) -> String {
+        let mut src = "a".to_string();
+        for (k, (sym, _)) in ops.iter().enumerate() {
+            src += &format!(" {sym} {}", (b'b' + k as u8) as char);
+        }
+        src
+    }
+
+    #[test]
+    fn chains_build_the_trees_and_spans_of_the_precedence_tiers() {
+        // Every sequence of four operators: 28,561 chains of five operands.
+        for n in 0..OPS.len().pow(4) {
+            let ops: Vec<(&str, BinaryOp)> = (0..4).map(|k| OPS[n / OPS.len().pow(k) % OPS.len()]).collect();
+            let src = source(&ops);
+            let atoms: Vec<usize> = src.char_indices().filter(|c| c.1.is_ascii_lowercase()).map(|c| c.0).collect();
+            assert_eq!(parsed(&src), tiers(&atoms, &ops), "{src}");
+        }
+    }
+
+    #[test]
+    fn prefix_postfix_parentheses_and_the_ternary() {
+        assert_eq!(parsed("-a * b"), "((-a@1..2)@0..2 * b@5..6)@0..6");
+        assert_eq!(parsed("(a + b) * c"), "((a@1..2 + b@5..6)@1..6 * c@10..11)@0..11");
+        assert_eq!(parsed("a - -b - c"), "((a@0..1 - (-b@5..6)@4..6)@0..6 - c@9..10)@0..10");
+        let ternary = parsed("a < b ? c + d : e");
+        assert_eq!(ternary, "a < b ? c + d : e@0..17");
+        let mut errors = Vec::new();
+        let tokens = tokens("a < b ? c : d ? e : f", &mut Vec::new()).map(Ok::<_, SyntaxError>).collect::<Vec<_>>();
+        let e = grammar::ExprParser::new().parse(FileId(0), &mut errors, tokens).unwrap();
+        let ExprKind::Ternary { cond, else_expr, .. } = &e.kind else { panic!("{e:?}") };
+        assert!(matches!(cond.kind, ExprKind::Binary { op: BinaryOp::Lt, .. }));
+        assert!(matches!(else_expr.kind, ExprKind::Ternary { .. }), "right-associative");
     }
 }

@@ -256,8 +256,11 @@ pub fn render(args: RenderArgs) -> ExitCode {
     // Every frame's scene is checked before the first is rendered; the
     // first frame's description is kept for its render.
     let request = |frame| FrameRequest { frame, fps: args.fps };
+    // The frame the program was described at is used as it is, not copied
+    // (a scene of a million objects).
+    let described = |frame: i32| args.fps.is_none() && program.scene().is_some_and(|d| d.frame.number == frame);
     let mut first = None;
-    for &frame in &frames {
+    for &frame in frames.iter().filter(|f| !described(**f)) {
         match program.scene_at(&request(frame)) {
             Ok(desc) => {
                 first.get_or_insert(desc);
@@ -272,8 +275,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let content_hash = tsl::scene::content_hash(program.checked(), program.scene());
     let compiled = start.elapsed().as_secs_f64();
     for (k, &frame) in frames.iter().enumerate() {
-        let desc = match (k, first.take()) {
-            (0, Some(desc)) => desc,
+        let owned = match (described(frame), k, first.take()) {
+            (true, _, _) => None,
+            (false, 0, Some(desc)) => desc,
             _ => match program.scene_at(&request(frame)) {
                 Ok(desc) => desc,
                 Err(e) => {
@@ -282,10 +286,10 @@ pub fn render(args: RenderArgs) -> ExitCode {
                 }
             },
         };
+        let desc = if described(frame) { program.scene() } else { owned.as_ref() };
         let animated = args.frame.is_some() || args.frames.is_some();
         let first = k == 0;
-        let code =
-            render_frame(&args, &program, desc.as_ref(), animated.then_some(frame), first, compiled, &content_hash);
+        let code = render_frame(&args, &program, desc, animated.then_some(frame), first, compiled, &content_hash);
         if code != ExitCode::SUCCESS {
             return code;
         }

@@ -49,7 +49,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// Light left after `distance` inside `medium`.
     pub(super) fn absorb(&self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
         let Some(m) = medium else { return light };
-        let object = &self.scene.objects[m.object as usize];
+        let object = self.scene.object(m.object);
         if object.clear {
             return light;
         }
@@ -70,7 +70,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let entering = sh.surface.ng.dot(sh.wo) > 0.0;
         let inside = |m: &&Medium| m.object != sh.hit.object;
         let other = match media.as_slice().iter().rev().find(inside) {
-            Some(m) => self.refraction_index(&self.scene.objects[m.object as usize], self.entry_globals(m)),
+            Some(m) => self.refraction_index(self.scene.object(m.object), self.entry_globals(m)),
             None => self.ones,
         };
         let own = self.refraction_index(sh.object, sh.g);

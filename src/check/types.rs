@@ -1,0 +1,197 @@
+//! The type of every expression of a checked program, by the expression's
+//! span. A generated scene of a million objects has six million
+//! expressions, so an entry is 16 bytes (the span and a code: an index into
+//! the types that are not arrays, or into the array types met, few and
+//! shared), kept in a vector in the order the checker meets expressions,
+//! outermost first. That order is the spans' order (file, start, longest
+//! first) when every expression is checked once, in source order; otherwise
+//! the vector is sorted once when checking ends. Lookups search it.
+
+use super::Ty;
+use crate::diag::Span;
+use std::cmp::Reverse;
+
+/// The types without parameters, in code order.
+static PLAIN: [Ty; 14] = [
+    Ty::Float,
+    Ty::Int,
+    Ty::Bool,
+    Ty::Color,
+    Ty::Vector,
+    Ty::Point,
+    Ty::Normal,
+    Ty::Vec2,
+    Ty::Matrix,
+    Ty::BsdfSample,
+    Ty::String,
+    Ty::Material,
+    Ty::Void,
+    Ty::Error,
+];
+
+/// The code of a slot opened but not yet given its type.
+const OPEN: u32 = u32::MAX;
+
+/// An expression's span to its type; an expression checked twice has the
+/// type it was given last.
+#[derive(Debug, Clone)]
+pub struct ExprTypes {
+    entries: Vec<(Span, u32)>,
+    /// The array types met, by code minus `PLAIN.len()`.
+    arrays: Vec<Ty>,
+    /// Whether `entries` is in span order with no span twice.
+    ordered: bool,
+}
+
+impl Default for ExprTypes {
+    fn default() -> Self {
+        ExprTypes { entries: Vec::new(), arrays: Vec::new(), ordered: true }
+    }
+}
+
+/// The order of the entries: by file and start, an enclosing expression
+/// before the ones it contains.
+fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
+    (span.file.0, span.start, Reverse(span.end))
+}
+
+impl ExprTypes {
+    /// The type of the expression written at `span`.
+    pub fn get(&self, span: &Span) -> Option<&Ty> {
+        debug_assert!(self.ordered, "ExprTypes searched before finish");
+        let k = key(span);
+        let at = self.entries.binary_search_by(|(s, _)| key(s).cmp(&k)).ok()?;
+        Some(self.ty(self.entries[at].1))
+    }
+
+    pub fn contains_key(&self, span: &Span) -> bool {
+        self.get(span).is_some()
+    }
+
+    /// Every expression's span and type, in span order.
+    pub fn iter(&self) -> impl Iterator<Item = (&Span, &Ty)> {
+        self.entries.iter().map(|(span, code)| (span, self.ty(*code)))
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Opens the entry of an expression about to be checked, before the
+    /// expressions inside it, so entries arrive in span order; the
+    /// returned slot is given its type by [`ExprTypes::set`].
+    pub(super) fn open(&mut self, span: Span) -> usize {
+        if let Some((last, _)) = self.entries.last()
+            && key(last) >= key(&span)
+        {
+            self.ordered = false;
+        }
+        self.entries.push((span, OPEN));
+        self.entries.len() - 1
+    }
+
+    pub(super) fn set(&mut self, slot: usize, ty: &Ty) {
+        let code = match PLAIN.iter().position(|t| t == ty) {
+            Some(k) => k,
+            None => match self.arrays.iter().position(|t| t == ty) {
+                Some(k) => PLAIN.len() + k,
+                None => {
+                    self.arrays.push(ty.clone());
+                    PLAIN.len() + self.arrays.len() - 1
+                }
+            },
+        };
+        self.entries[slot].1 = code as u32;
+    }
+
+    pub(super) fn insert(&mut self, span: Span, ty: &Ty) {
+        let slot = self.open(span);
+        self.set(slot, ty);
+    }
+
+    /// Puts the entries in span order, keeping the last type given to a
+    /// span checked twice, once checking is done.
+    pub(super) fn finish(&mut self) {
+        if !self.ordered {
+            // Stable: of equal spans the last given stays last.
+            self.entries.sort_by_key(|(s, _)| key(s));
+            self.entries.dedup_by(|later, kept| {
+                let same = later.0 == kept.0;
+                if same {
+                    kept.1 = later.1;
+                }
+                same
+            });
+            self.ordered = true;
+        }
+        self.entries.shrink_to_fit();
+    }
+
+    fn ty(&self, code: u32) -> &Ty {
+        let code = code as usize;
+        PLAIN.get(code).unwrap_or_else(|| &self.arrays[code - PLAIN.len()])
+    }
+}
+
+impl<'a> IntoIterator for &'a ExprTypes {
+    type Item = (&'a Span, &'a Ty);
+    type IntoIter = Box<dyn Iterator<Item = (&'a Span, &'a Ty)> + 'a>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        Box::new(self.iter())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diag::FileId;
+
+    #[test]
+    fn every_type_comes_back_and_the_last_insert_wins() {
+        let mut types = ExprTypes::default();
+        let at = |k: u32| Span { file: FileId(k % 3), start: k, end: k + 1 };
+        let mut all: Vec<Ty> = PLAIN.to_vec();
+        all.push(Ty::Array(Box::new(Ty::Float), 4));
+        all.push(Ty::Array(Box::new(Ty::Color), 0));
+        all.push(Ty::Array(Box::new(Ty::Float), 4));
+        for (k, ty) in all.iter().enumerate() {
+            types.insert(at(k as u32), ty);
+        }
+        types.insert(at(0), &Ty::Int);
+        types.finish();
+        for (k, ty) in all.iter().enumerate().skip(1) {
+            assert_eq!(types.get(&at(k as u32)), Some(ty));
+        }
+        assert_eq!(types.arrays.len(), 2, "array types are shared");
+        assert_eq!(types.get(&at(0)), Some(&Ty::Int));
+        assert_eq!(types.get(&at(99)), None);
+        assert_eq!(types.iter().count(), all.len());
+    }
+
+    #[test]
+    fn nested_spans_opened_outermost_first_stay_in_order() {
+        let mut types = ExprTypes::default();
+        let span = |start, end| Span { file: FileId(1), start, end };
+        // `(a + b, c)`: the tuple, the sum, its operands, then `c`.
+        let outer = types.open(span(0, 10));
+        let sum = types.open(span(1, 6));
+        types.insert(span(1, 2), &Ty::Float);
+        types.insert(span(5, 6), &Ty::Int);
+        types.set(sum, &Ty::Float);
+        types.insert(span(8, 9), &Ty::Color);
+        types.set(outer, &Ty::Point);
+        assert!(types.ordered);
+        types.finish();
+        assert_eq!(types.get(&span(0, 10)), Some(&Ty::Point));
+        assert_eq!(types.get(&span(1, 6)), Some(&Ty::Float));
+        assert_eq!(types.get(&span(1, 2)), Some(&Ty::Float));
+        assert_eq!(types.get(&span(5, 6)), Some(&Ty::Int));
+        assert_eq!(types.get(&span(8, 9)), Some(&Ty::Color));
+        assert_eq!(types.get(&span(1, 5)), None);
+    }
+}
