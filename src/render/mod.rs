@@ -342,7 +342,17 @@ fn render_tile<const N: usize>(
                     // phase per pixel: each u is uniform, and together they
                     // cover [0, 1) evenly.
                     let jitter = Sampler::new(seed ^ HERO_STREAM, px, py, k).next_1d();
-                    let u = ((k as f32 + jitter) / s.spp as f32 + hero_phase).fract();
+                    // Its `fract`, which below 2 (every sample up to the
+                    // scene's spp) is at most one subtraction, not a call
+                    // to `truncf`.
+                    let u = (k as f32 + jitter) / s.spp as f32 + hero_phase;
+                    let u = if u < 1.0 {
+                        u
+                    } else if u < 2.0 {
+                        u - 1.0
+                    } else {
+                        u.fract()
+                    };
                     tracer.hero = Some(wavelengths::HeroSample::draw(u));
                 }
                 // One sample per pixel looks through the pixel centre, as

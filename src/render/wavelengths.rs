@@ -32,6 +32,8 @@ pub struct HeroSample {
     pub film: [[f32; HERO_LANES]; 3],
     /// What shaders weigh lanes by (`ShadingGlobals::rgb_weights`).
     pub shader: [[f32; HERO_LANES]; 3],
+    /// Where each lane reads a scene color's 64 bins ([`Self::tabulated`]).
+    bins: [(usize, f32); HERO_LANES],
 }
 
 fn tanh_at(nm: f32) -> f32 {
@@ -59,23 +61,52 @@ pub fn sample_visible(u: f32) -> f32 {
 /// Cells of the tabulated inverse distribution function.
 const CDF_CELLS: usize = 1024;
 
+/// Entries of the `rgb_matching` table, one per nanometre of 380–780.
+const MATCHING: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
+
+/// The bins of the scene colors' tables (`crate::Color::lanes`): where each
+/// lane reads them is found once per sample, not once per lookup.
+const SCENE_BINS: usize = 64;
+
 /// What drawing a sample reads, made once: the inverse distribution of
 /// [`sample_visible`] at `CDF_CELLS + 1` points (drawing interpolates it,
 /// and the density is that interpolation's own, so the estimate stays
-/// unbiased), and `rgb_matching` every nanometre.
+/// unbiased), and `rgb_matching` every nanometre. Arrays, not vectors: the
+/// clamped indices need no bounds checks.
 struct Tables {
-    inverse_cdf: Vec<f32>,
-    matching: Vec<[f32; 3]>,
+    inverse_cdf: [f32; CDF_CELLS + 1],
+    matching: [[f32; 3]; MATCHING],
 }
 
 fn tables() -> &'static Tables {
     static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
     TABLES.get_or_init(|| Tables {
-        inverse_cdf: (0..=CDF_CELLS).map(|k| sample_visible(k as f32 / CDF_CELLS as f32)).collect(),
-        matching: (0..=(LAMBDA_MAX - LAMBDA_MIN) as usize)
-            .map(|k| color::rgb_matching(color::White::D65, f64::from(LAMBDA_MIN) + k as f64).map(|x| x as f32))
-            .collect(),
+        inverse_cdf: std::array::from_fn(|k| sample_visible(k as f32 / CDF_CELLS as f32)),
+        matching: std::array::from_fn(|k| {
+            color::rgb_matching(color::White::D65, f64::from(LAMBDA_MIN) + k as f64).map(|x| x as f32)
+        }),
     })
+}
+
+/// `x as usize` clamped to `0..=max`: the same index for every float (NaN
+/// and negatives give 0), clamped as a float first so that the conversion
+/// is one instruction, not a saturating one's compares and branches (this
+/// runs a dozen times per camera sample).
+fn index(x: f32, max: usize) -> usize {
+    // `f32::max` takes 0 for NaN.
+    let x = x.max(0.0).min(max as f32);
+    // SAFETY: x is finite and in 0..=max, which every table here keeps
+    // far below i32::MAX.
+    (unsafe { x.to_int_unchecked::<i32>() }) as usize
+}
+
+/// Where lane `nm` reads a table of [`SCENE_BINS`] bins: the lower bin and
+/// the fraction toward the next ([`interpolate_bins`]'s arithmetic).
+fn bin_position(nm: f32) -> (usize, f32) {
+    let x = (nm - LAMBDA_MIN) * (SCENE_BINS as f32 / (LAMBDA_MAX - LAMBDA_MIN)) - 0.5;
+    let x = x.clamp(0.0, (SCENE_BINS - 1) as f32);
+    let k = index(x, SCENE_BINS - 2);
+    (k, x - k as f32)
 }
 
 impl HeroSample {
@@ -87,19 +118,20 @@ impl HeroSample {
         let mut wavelengths = [0.0; HERO_LANES];
         let mut pdf = [0.0; HERO_LANES];
         let mut film = [[0.0; HERO_LANES]; 3];
+        let mut bins = [(0, 0.0); HERO_LANES];
         for i in 0..HERO_LANES {
             // `u + i / n` wrapped into [0, 1) without a call to `fract`
             // (this runs once per camera sample).
             let wrapped = u + i as f32 / HERO_LANES as f32;
             let wrapped = if wrapped >= 1.0 { wrapped - 1.0 } else { wrapped };
             let ui = wrapped * CDF_CELLS as f32;
-            let k = (ui as usize).min(CDF_CELLS - 1);
+            let k = index(ui, CDF_CELLS - 1);
             let (a, b) = (t.inverse_cdf[k], t.inverse_cdf[k + 1]);
             let l = a + (b - a) * (ui - k as f32);
             wavelengths[i] = l;
             pdf[i] = 1.0 / (CDF_CELLS as f32 * (b - a));
             let x = (l - LAMBDA_MIN).clamp(0.0, LAMBDA_MAX - LAMBDA_MIN);
-            let j = (x as usize).min(t.matching.len() - 2);
+            let j = index(x, MATCHING - 2);
             let f = x - j as f32;
             // 1 / (pdf · n), without dividing twice.
             let weight = (b - a) * (CDF_CELLS as f32 / HERO_LANES as f32);
@@ -107,6 +139,7 @@ impl HeroSample {
                 let (m0, m1) = (t.matching[j][c], t.matching[j + 1][c]);
                 row[i] = (m0 + (m1 - m0) * f) * weight;
             }
+            bins[i] = bin_position(l);
         }
         // Shaders' weights: the film's over their luminance, so that a flat
         // spectrum's brightness is exactly 1 on every sample.
@@ -114,7 +147,7 @@ impl HeroSample {
         let y: f32 = (0..HERO_LANES).map(lum).sum();
         let norm = if y > 0.0 && y.is_finite() { 1.0 / y } else { 0.0 };
         let shader = film.map(|row| row.map(|w| w * norm));
-        HeroSample { wavelengths, pdf, film, shader }
+        HeroSample { wavelengths, pdf, film, shader, bins }
     }
 
     /// The film's linear sRGB of radiance `l` at these wavelengths.
@@ -126,6 +159,12 @@ impl HeroSample {
     /// hero render's scene describes its lights), at these wavelengths.
     pub fn tabulated<const N: usize>(&self, table: &[f32]) -> Spectrum<N> {
         let mut s = Spectrum::ZERO;
+        if let Ok(table) = <&[f32; SCENE_BINS]>::try_from(table) {
+            for (o, &(k, f)) in s.0.iter_mut().zip(&self.bins) {
+                *o = table[k] + (table[k + 1] - table[k]) * f;
+            }
+            return s;
+        }
         for (i, l) in self.wavelengths.iter().enumerate().take(N) {
             s.0[i] = interpolate_bins(table, *l);
         }
@@ -215,6 +254,28 @@ mod tests {
                     assert!((got[i] - want[i]).abs() < 2e-3 * scale, "{} vs {}", got[i], want[i]);
                 }
             }
+        }
+    }
+
+    #[test]
+    fn tabulated_lanes_are_the_interpolation_at_each_wavelength() {
+        // The bins found once per draw give what interpolating each lookup
+        // gives, bit for bit; other table sizes take the general path.
+        let table: Vec<f32> = (0..64).map(|i| ((i * 37 % 64) as f32).sqrt()).collect();
+        let short: Vec<f32> = (0..16).map(|i| i as f32 * 0.5).collect();
+        for k in 0..=200 {
+            let h = HeroSample::draw(k as f32 / 200.0);
+            let got = h.tabulated::<4>(&table);
+            let short_got = h.tabulated::<4>(&short);
+            for (i, &l) in h.wavelengths.iter().enumerate() {
+                assert_eq!(got.0[i].to_bits(), interpolate_bins(&table, l).to_bits(), "lane {i} at {l} nm");
+                assert_eq!(short_got.0[i].to_bits(), interpolate_bins(&short, l).to_bits());
+            }
+        }
+        // The draw's indices at the ends: u = 1 reads the last cell.
+        for u in [0.0, 0.999_999_9, 1.0] {
+            let h = HeroSample::draw(u);
+            assert!(h.wavelengths.iter().all(|l| (LAMBDA_MIN..=LAMBDA_MAX).contains(l)), "{u}: {h:?}");
         }
     }
 
