@@ -17,7 +17,10 @@
 //! [`ColorModel::wavelengths`] gives the bin centres. A measured curve
 //! (`spectrum(...)`, [`resample_weights`]) and a Smits spectrum fill lane `i`
 //! with their *average* over bin `i`; a Jakob–Hanika spectrum with its value
-//! at the bin centre (half the quadrature error of the average, measured).
+//! at the bin centre. `Spectral` lanes are read as samples at the centres:
+//! the film integrates the piecewise cubic through them (fourth order in the
+//! bin width, for products of spectra along a path too), `Smits` lanes as
+//! constant over their bins.
 //! A `Hero` color's four lanes are its values at the wavelengths in the
 //! shading globals, drawn per camera sample by the renderer.
 //!
@@ -34,8 +37,9 @@
 //! between the table rows. [`rgb_matching`] is
 //! `scale · XYZ_TO_SRGB · cmf(λ) · white(λ) / ∫ ȳ · white`: a spectrum's
 //! linear sRGB is its integral against it, and the binned models' `to_rgb`
-//! weights are its integrals over each bin (exact: Gauss–Legendre on every
-//! 5 nm piece, where the integrand is a quadratic). `scale` is a
+//! weights are its integrals over each bin (`Smits`) or against each lane's
+//! cardinal cubic (`Spectral`), exact: Gauss–Legendre on every piece between
+//! table rows and centres, where the integrand is a polynomial. `scale` is a
 //! per-channel factor (a von Kries scale in the sRGB primaries) that makes
 //! the flat spectrum exactly `(1, 1, 1)`, so greys survive RGB → spectrum →
 //! RGB: for D65 it is within 4e-4 of 1 (the table's D65 against sRGB's
@@ -79,15 +83,16 @@
 //! conventions; `tests/data/color_oracle.json`), the ColorChecker's 24
 //! patches resampled with [`resample_weights`] from their measured 380–780 nm
 //! data (under D65 for `rgb` and `spectralN`, under E for `smitsN`):
-//! `rgb` 4.1e-4 (the 5 nm table's interpolation), `spectral16` 1.1e-2,
-//! `spectral64` 1e-3 (box-averaged lanes: second order for smooth curves).
+//! `rgb` 4.1e-4 (the 5 nm table's interpolation), `spectral16` 7.0e-3,
+//! `spectral64` 6.8e-4 (box-averaged lanes: second order for smooth curves).
 //!
 //! RGB round trips (RGB → spectrum → RGB), in the limit of infinitely many
 //! lanes: Jakob–Hanika's table median 1.7e-4, 99% 6e-4, worst 3.7e-3 over
 //! random colors, 4.2e-4 on the ColorChecker (exact fits,
 //! [`jakob_hanika::upsample_exact`], within 1e-6); in
-//! `spectral16`/`32`/`64` lanes add up to 1.8e-2, 2.8e-3, 6.9e-4 on saturated
-//! colors. Smits (1999): 8.8e-3 saturated, 3.6e-3 unsaturated in the limit,
+//! `spectral16`/`32`/`64` the round trip is within 1.1e-2, 5.1e-4, 3.0e-4 on
+//! saturated colors, and the film of the Cornell red wall lit by its light
+//! (a product of spectra) within 1.8e-4 of the exact integral at 64 lanes. Smits (1999): 8.8e-3 saturated, 3.6e-3 unsaturated in the limit,
 //! 2.0e-2 / 1.1e-2 in `smits16`. Greys survive within 1e-5 (Jakob–Hanika)
 //! and 6e-4 relative (Smits, whose white dips to 0.9992), and the flat
 //! spectrum is `(1, 1, 1)` with brightness 1 to `f32` rounding.
@@ -132,8 +137,9 @@ pub const XYZ_TO_SRGB: [[f64; 3]; 3] = invert3(SRGB_TO_XYZ);
 pub enum ColorModel {
     /// Three lanes of linear sRGB.
     Rgb,
-    /// `samples` lanes, each the average of a spectrum over one of `samples`
-    /// equal bins of 380–780 nm; RGB upsampled by Jakob and Hanika (2019),
+    /// `samples` lanes, each the value of a spectrum at the centre of one of
+    /// `samples` equal bins of 380–780 nm (a measured curve's average over
+    /// the bin); RGB upsampled by Jakob and Hanika (2019),
     /// spectra relative to D65. Valid models have `samples` in
     /// `1..=MAX_SAMPLES` (see [`ColorModel::spectral`]); the functions of this
     /// module do not panic on others (0 lanes gives empty vectors; more than
@@ -283,8 +289,10 @@ pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
 
 /// Weights of `to_rgb(c)`: linear sRGB rows R, G, B, one weight per lane.
 /// `Rgb`: the identity. Binned models: CIE 1931 times the model's white
-/// integrated over each bin (Y of the white = 1), [`XYZ_TO_SRGB`], then a
-/// per-channel scale that makes the flat spectrum exactly `(1, 1, 1)`.
+/// integrated over each bin (`Smits`) or against the lane's cardinal cubic
+/// (`Spectral`, lanes read as samples at the centres), with Y of the white
+/// = 1, [`XYZ_TO_SRGB`], then a per-channel scale that makes the flat
+/// spectrum exactly `(1, 1, 1)`.
 /// `Hero`: [`hero_rgb_weights`] at [`HERO_DEFAULT_WAVELENGTHS`] drawn
 /// uniformly.
 pub fn to_rgb_weights(model: ColorModel) -> [Vec<f32>; 3] {
