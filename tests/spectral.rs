@@ -153,11 +153,15 @@ fn sphere_mean(kd: [f32; 3], model: ColorModel) -> [f64; 3] {
 #[test]
 fn saturated_spheres_match_the_rgb_render_and_greys_are_unchanged() {
     // Issue 16's spheres: Smits' 16 bins put green 6.7% and 10% off. With
-    // Jakob-Hanika the binned model's error is its quadrature: measured
-    // (0.9, 0.1, 0.1) green +0.25%, (0.1, 0.1, 0.9) green +0.24% at 64 lanes.
-    let cases: [([f32; 3], ColorModel, f64); 5] = [
-        ([0.9, 0.1, 0.1], ColorModel::Spectral { samples: 64 }, 5e-3),
-        ([0.1, 0.1, 0.9], ColorModel::Spectral { samples: 64 }, 5e-3),
+    // Jakob-Hanika the binned model's error is its quadrature, the cubic
+    // through the lanes: measured at 64 lanes within 0.05% ((0.9, 0.1, 0.1)
+    // blue), at 16 within 1.2% (with each bin's integral as a lane's weight
+    // 64 lanes put green +0.25%, 16 lanes +3.9%).
+    let cases: [([f32; 3], ColorModel, f64); 7] = [
+        ([0.9, 0.1, 0.1], ColorModel::Spectral { samples: 64 }, 1e-3),
+        ([0.1, 0.1, 0.9], ColorModel::Spectral { samples: 64 }, 1e-3),
+        ([0.9, 0.1, 0.1], ColorModel::Spectral { samples: 16 }, 1.5e-2),
+        ([0.1, 0.1, 0.9], ColorModel::Spectral { samples: 16 }, 1.5e-2),
         ([0.5, 0.5, 0.5], ColorModel::Spectral { samples: 16 }, 1e-5),
         ([0.18, 0.18, 0.18], ColorModel::Spectral { samples: 64 }, 1e-5),
         // Smits' white dips to 0.9992, in the sphere and in the light.

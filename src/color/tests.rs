@@ -155,8 +155,16 @@ fn weights_are_consistent_across_functions() {
             assert!(max_diff(&linear_srgb_to_xyz(r), &x) < 1e-6);
             let y709 = 0.2126 * r[0] + 0.7152 * r[1] + 0.0722 * r[2];
             assert!((lum[i] - y709).abs() < 1e-6, "{} lane {i}", model.name());
-            // Brightness of a non-negative spectrum is non-negative.
-            assert!(lum[i] >= 0.0, "{} lane {i}: {}", model.name(), lum[i]);
+            // Brightness of a non-negative spectrum is non-negative. A
+            // `Spectral` lane weighs the cubic through its neighbours,
+            // whose lobes outweigh the faint ends of ȳ in a few end lanes:
+            // by at most 6.4e-5 (of 1) from 16 lanes on.
+            let floor = match model {
+                ColorModel::Spectral { samples } if samples < 16 => f32::NEG_INFINITY,
+                ColorModel::Spectral { .. } => -1e-4,
+                _ => 0.0,
+            };
+            assert!(lum[i] >= floor, "{} lane {i}: {}", model.name(), lum[i]);
         }
     }
 }
@@ -419,13 +427,15 @@ fn colorchecker_error(model: ColorModel) -> (f32, f32) {
 fn colorchecker_matches_colour_science() {
     // (model, bound): measured worst channel error rounded up. The RGB model
     // integrates exactly, so only the 5 nm table (vs the oracle's 1 nm) shows;
-    // spectral models add the error of averaging into lanes.
+    // spectral models add the error of averaging into lanes (measured:
+    // 8 lanes 3.1e-2, 16 7.0e-3, 32 1.7e-3, 64 6.8e-4; with each bin's
+    // integral as a lane's film weight 4.0e-2, 9.8e-3, 2.8e-3, 9.4e-4).
     let bounds = [
         (ColorModel::Rgb, 5e-4),
-        (spectral(8), 5e-2),
-        (spectral(16), 1.1e-2),
-        (spectral(32), 3e-3),
-        (spectral(64), 1e-3),
+        (spectral(8), 3.5e-2),
+        (spectral(16), 8e-3),
+        (spectral(32), 2e-3),
+        (spectral(64), 8e-4),
         (smits(16), 1.1e-2),
         (smits(64), 1e-3),
     ];
@@ -596,11 +606,13 @@ fn jakob_hanika_table_is_the_generators() {
 
 #[test]
 fn jakob_hanika_lanes() {
-    // Binned lanes hold the spectrum at the bin centres; the round trip is
-    // then off by the lanes' quadrature, second order in the bin width.
+    // Binned lanes hold the spectrum at the bin centres and the film
+    // integrates the cubic through them: the round trip is off by that
+    // quadrature (fourth order in the bin width) and the table's own error.
     // Measured worst channel error over the chart and the colours above:
-    // 16 lanes 1.7e-2, 32 lanes 2.8e-3, 64 lanes 6.9e-4.
-    for (n, bound) in [(16, 0.018), (32, 3e-3), (64, 7e-4)] {
+    // 16 lanes 1.1e-2, 32 lanes 5.1e-4, 64 lanes 3.0e-4 (each bin's
+    // integral as the lane's weight: 1.7e-2, 2.8e-3, 6.9e-4).
+    for (n, bound) in [(16, 0.012), (32, 6e-4), (64, 4e-4)] {
         let m = spectral(n);
         let wl = m.wavelengths();
         for rgb in colorchecker_d65().into_iter().chain(SATURATED).chain(UNSATURATED) {
@@ -611,6 +623,33 @@ fn jakob_hanika_lanes() {
             }
             let back = lanes_to_rgb(m, &lanes);
             assert!(max_diff(&back, &rgb) <= bound, "{n} lanes: {rgb:?} -> {back:?}");
+        }
+    }
+}
+
+#[test]
+fn binned_film_integrates_products_of_spectra() {
+    // Lanes multiply pointwise (a light's spectrum reflected by walls), so
+    // the film must integrate products of steep spectra, not only one
+    // round trip. Issue 16's Cornell red wall lit by its light, directly and
+    // after the white walls, against the exact integral: measured 64 lanes
+    // within 1.8e-4, 32 lanes 2.7e-3 (relative, worst channel: the small
+    // green); each bin's integral as a lane's weight was off by 5.5e-3 at 64.
+    let red = jakob_hanika::upsample([0.570068, 0.0430135, 0.0443706]);
+    let white = jakob_hanika::upsample([0.885809, 0.698859, 0.666422]);
+    let light = jakob_hanika::upsample([18.387, 13.9873, 6.75357]);
+    let paths: [&[jakob_hanika::Sigmoid]; 3] = [&[red, light], &[red, white, light], &[red, red, light]];
+    for (n, bound) in [(32, 3e-3), (64, 3e-4)] {
+        let m = spectral(n);
+        for spectra in paths {
+            let exact = reflectance_rgb(|l| spectra.iter().map(|s| s.eval64(l)).product());
+            let lanes: Vec<f32> =
+                m.wavelengths().iter().map(|&l| spectra.iter().map(|s| s.eval(l)).product()).collect();
+            let got = lanes_to_rgb(m, &lanes);
+            for c in 0..3 {
+                let rel = f64::from(got[c]) / f64::from(exact[c]) - 1.0;
+                assert!(rel.abs() <= bound, "{n} lanes, {} spectra: channel {c} {got:?} vs {exact:?}", spectra.len());
+            }
         }
     }
 }
