@@ -75,7 +75,7 @@ pub struct SceneOptions {
     /// unbiased, converges to the exact spectral integral; dispersion works.
     /// `spectralN` (`spectral` = 16): N fixed bins of 380-780 nm; RGB
     /// upsampled by Jakob-Hanika, lights D65-based; saturated colours off
-    /// the RGB render by up to 4% at 16 bins, 0.3% at 64 (quadrature).
+    /// the RGB render by up to 1.2% at 16 bins, 0.05% at 64 (quadrature).
     /// `smitsN`: the same bins with Smits' upsampling and white E (the old
     /// model). Costs and accuracy: README, "Color models".
     #[arg(long, default_value = "rgb", value_parser = parse_color)]
