@@ -121,8 +121,10 @@ impl Tokens<'_> {
 fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usize)> {
     let (_, Tok::LBrace, _) = tokens.take()? else { return None };
     let mut entries = Vec::new();
-    // One buffer for every property value's tokens.
+    // One buffer for every property value's tokens, one for a block's
+    // properties.
     let mut value = Vec::new();
+    let mut read = Vec::new();
     loop {
         let (nl, tok, nr) = tokens.take()?;
         if tok == Tok::RBrace {
@@ -139,14 +141,15 @@ fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usiz
                 false => None,
             };
             let (_, Tok::LBrace, _) = tokens.take()? else { return None };
-            let mut props = Vec::new();
             let r = loop {
                 let (pl, tok, pr) = tokens.take()?;
                 if tok == Tok::RBrace {
                     break pr;
                 }
-                props.push(prop(file, scene_name(file, pl, tok, pr)?, tokens, &mut value)?);
+                read.push(prop(file, scene_name(file, pl, tok, pr)?, tokens, &mut value)?);
             };
+            // Exactly as long (a vector grown by pushes holds 4 for 3).
+            let props = read.drain(..).collect();
             let span = Span::new(file, nl, r);
             entries.push(SceneEntry::Block(SceneBlock { keyword: name, kind, props, span }));
         } else {
