@@ -149,7 +149,8 @@ fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usiz
                 read.push(prop(file, scene_name(file, pl, tok, pr)?, tokens, &mut value)?);
             };
             // Exactly as long (a vector grown by pushes holds 4 for 3).
-            let props = read.drain(..).collect();
+            let mut props = Vec::with_capacity(read.len());
+            props.append(&mut read);
             let span = Span::new(file, nl, r);
             entries.push(SceneEntry::Block(SceneBlock { keyword: name, kind, props, span }));
         } else {
