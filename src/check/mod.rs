@@ -336,7 +336,7 @@ struct Body {
     frame_globals: FrameGlobals,
     /// In the scene: the entry being checked and its name (`camera`), so
     /// each value is a node of the dependency graph.
-    scene_entry: Option<(usize, String)>,
+    scene_entry: Option<(usize, &'static str)>,
     /// Whether material values may appear (material trees only).
     materials_allowed: bool,
     /// What is being checked, for messages: "a function", "a constant", ...
