@@ -654,7 +654,7 @@ impl<'a> Describer<'a> {
                 let found = self
                     .program
                     .symbols
-                    .get(n)
+                    .get(n.as_str())
                     .filter(|s| matches!(s.kind, SymbolKind::Material | SymbolKind::MaterialTree))
                     .map(|_| Arc::<str>::from(n.as_str()));
                 self.named.clone_from(&found);

@@ -209,7 +209,7 @@ fn tokens<'s>(src: &'s str, errors: &'s mut Vec<SpannedLexError>) -> impl Iterat
                 }
                 LexError::BadNumber => Some(Tok::Float(0.0)),
                 // Parsed as the identifier it means, so nothing else is reported.
-                LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").to_string())),
+                LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").into())),
                 LexError::UnexpectedChar | LexError::UnterminatedComment => None,
             };
             let token = stand_in.map(|t| (e.span.start, t, e.span.end));

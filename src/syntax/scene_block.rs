@@ -128,15 +128,17 @@ fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usiz
     loop {
         let (nl, tok, nr) = tokens.take()?;
         if tok == Tok::RBrace {
+            // Grown by doubling: up to half of it spare.
+            entries.shrink_to_fit();
             return Some((Scene { entries, span: Span::new(file, l, nr) }, nr));
         }
-        let name = scene_name(file, nl, tok, nr)?;
+        let name = scene_name(file, nl, tok, nr, tokens)?;
         let kind_follows = matches!(tokens.peek(1), Some(Tok::LBrace)) && is_scene_name(tokens.peek(0)?);
         if kind_follows || matches!(tokens.peek(0), Some(Tok::LBrace)) {
             let kind = match kind_follows {
                 true => {
                     let (kl, k, kr) = tokens.take()?;
-                    Some(scene_name(file, kl, k, kr)?)
+                    Some(scene_name(file, kl, k, kr, tokens)?)
                 }
                 false => None,
             };
@@ -146,7 +148,8 @@ fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usiz
                 if tok == Tok::RBrace {
                     break pr;
                 }
-                read.push(prop(file, scene_name(file, pl, tok, pr)?, tokens, &mut value)?);
+                let name = scene_name(file, pl, tok, pr, tokens)?;
+                read.push(prop(file, name, tokens, &mut value)?);
             };
             // Exactly as long (a vector grown by pushes holds 4 for 3).
             let mut props = Vec::with_capacity(read.len());
@@ -165,13 +168,13 @@ fn is_scene_name(tok: &Tok) -> bool {
 
 /// The grammar's `SceneName`: an identifier or one of the keywords a scene
 /// uses as a word.
-fn scene_name(file: FileId, l: usize, tok: Tok, r: usize) -> Option<Ident> {
+fn scene_name(file: FileId, l: usize, tok: Tok, r: usize, tokens: &mut Tokens<'_>) -> Option<Ident> {
     let name = match tok {
         Tok::Ident(name) => name,
-        Tok::KwPoint => "point".into(),
-        Tok::Material => "material".into(),
-        Tok::KwNormal => "normal".into(),
-        Tok::KwColor => "color".into(),
+        Tok::KwPoint => tokens.lexer.intern("point"),
+        Tok::Material => tokens.lexer.intern("material"),
+        Tok::KwNormal => tokens.lexer.intern("normal"),
+        Tok::KwColor => tokens.lexer.intern("color"),
         _ => return None,
     };
     Some(Ident { name, span: Span::new(file, l, r) })
