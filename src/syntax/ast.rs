@@ -475,8 +475,10 @@ pub enum ExprKind {
     Str(String),
     Name(Name),
     /// `f(a, name: b)`; also builtins and material instances.
+    /// The callee is boxed, as the member's field: expressions are
+    /// smaller (a generated scene holds millions of literals).
     Call {
-        callee: Ident,
+        callee: Box<Ident>,
         args: Vec<Arg>,
     },
     /// `vector(1, 0, 0)`, `vec2(u, v)`: a type keyword used as a constructor.
@@ -487,7 +489,7 @@ pub enum ExprKind {
     },
     Member {
         base: Box<Expr>,
-        field: Ident,
+        field: Box<Ident>,
     },
     Index {
         base: Box<Expr>,
