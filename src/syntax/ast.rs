@@ -479,13 +479,13 @@ pub enum ExprKind {
     /// smaller (a generated scene holds millions of literals).
     Call {
         callee: Box<Ident>,
-        args: Vec<Arg>,
+        args: Box<[Arg]>,
     },
     /// `vector(1, 0, 0)`, `vec2(u, v)`: a type keyword used as a constructor.
     Construct {
         ty: BaseType,
         ty_span: Span,
-        args: Vec<Arg>,
+        args: Box<[Arg]>,
     },
     Member {
         base: Box<Expr>,
