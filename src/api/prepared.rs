@@ -68,7 +68,7 @@ impl Program {
             .iter()
             .map(|n| {
                 self.material(n)?;
-                Ok(Expr { kind: ExprKind::Name(n.to_string()), span: Default::default(), depth: 1 })
+                Ok(Expr { kind: ExprKind::Name((*n).into()), span: Default::default(), depth: 1 })
             })
             .collect::<Result<_, Error>>()?;
         let materials: Vec<(String, &Expr)> = names.iter().map(|n| n.to_string()).zip(&exprs).collect();

@@ -163,7 +163,7 @@ impl<'a> Checker<'a> {
             _ => return,
         };
         if self.lookup_local(name).is_some_and(|l| l.kind == LocalKind::Param) {
-            let options = self.string_options.entry((self.current, name.clone())).or_default();
+            let options = self.string_options.entry((self.current, name.to_string())).or_default();
             if !options.contains(literal) {
                 options.push(literal.clone());
             }
@@ -187,7 +187,7 @@ impl<'a> Checker<'a> {
             self.string_args.push(StringArg {
                 callee: (sym.module, sym.item),
                 callee_name: callee.to_string(),
-                param: p.name.name.clone(),
+                param: p.name.name.to_string(),
                 literal: literal.clone(),
                 default,
                 span: a.value.span,

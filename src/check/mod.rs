@@ -247,11 +247,11 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                 continue;
             }
             let symbol = Symbol { kind, module: m, item: i, span: name.span };
-            match symbols.get(&name.name) {
-                Some(_) if from_prelude[&name.name] && !module.is_prelude => {
+            match symbols.get(name.name.as_str()) {
+                Some(_) if from_prelude[name.name.as_str()] && !module.is_prelude => {
                     // A user definition shadows the prelude's.
-                    symbols.insert(name.name.clone(), symbol);
-                    from_prelude.insert(name.name.clone(), false);
+                    symbols.insert(name.name.to_string(), symbol);
+                    from_prelude.insert(name.name.to_string(), false);
                 }
                 Some(prev) => {
                     diags.push(
@@ -261,12 +261,12 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                     );
                 }
                 None => {
-                    symbols.insert(name.name.clone(), symbol);
-                    from_prelude.insert(name.name.clone(), module.is_prelude);
+                    symbols.insert(name.name.to_string(), symbol);
+                    from_prelude.insert(name.name.to_string(), module.is_prelude);
                 }
             }
             if module.is_prelude {
-                prelude.entry(name.name.clone()).or_insert(symbol);
+                prelude.entry(name.name.to_string()).or_insert(symbol);
             }
         }
     }
@@ -336,7 +336,7 @@ struct Body {
     frame_globals: FrameGlobals,
     /// In the scene: the entry being checked and its name (`camera`), so
     /// each value is a node of the dependency graph.
-    scene_entry: Option<(usize, String)>,
+    scene_entry: Option<(usize, &'static str)>,
     /// Whether material values may appear (material trees only).
     materials_allowed: bool,
     /// What is being checked, for messages: "a function", "a constant", ...
@@ -473,7 +473,7 @@ impl<'a> Checker<'a> {
 }
 
 fn required_params(params: &[Param]) -> Vec<String> {
-    params.iter().filter(|p| p.default.is_none()).map(|p| p.name.name.clone()).collect()
+    params.iter().filter(|p| p.default.is_none()).map(|p| p.name.name.to_string()).collect()
 }
 
 fn plural(n: usize) -> &'static str {

@@ -5,7 +5,7 @@
 use super::{Checker, FrameGlobals, Node, Ty};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
-use rustc_hash::FxHashMap as HashMap;
+use smallvec::SmallVec;
 
 /// What a property's value must be.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -255,11 +255,12 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
     // `light environment` blocks and `background`: at most one in all.
     let mut environments: Vec<Span> = Vec::new();
     for (k, entry) in scene.entries.iter().enumerate() {
+        // A block's values are only checked in the blocks that exist.
         let name = match entry {
             SceneEntry::Prop(_) => "scene",
-            SceneEntry::Block(b) => b.keyword.name.as_str(),
+            SceneEntry::Block(b) => BLOCKS.iter().find(|&&k| k == b.keyword.name).copied().unwrap_or("scene"),
         };
-        cx.body.scene_entry = Some((k, name.to_string()));
+        cx.body.scene_entry = Some((k, name));
         match entry {
             SceneEntry::Prop(p) => {
                 if p.name.name == "background" {
@@ -302,7 +303,7 @@ pub(super) fn check_scene(cx: &mut Checker<'_>, scene: &Scene) {
             },
         }
     }
-    cx.body.scene_entry = Some((usize::MAX, "scene".into()));
+    cx.body.scene_entry = Some((usize::MAX, "scene"));
     check_prop_list(cx, &top_props, TOP, &[]);
     cx.body.scene_entry = None;
     if cameras.is_empty() {
@@ -389,8 +390,8 @@ fn check_props(
                     .with_help(format!("add `{first_alternative} ...;` inside the block")),
             ),
             (Some(first), Some(second)) => cx.error(
-                Diagnostic::error(given[second].name.span, format!("give {}, not both", list()))
-                    .with_label(given[first].name.span, "already given here"),
+                Diagnostic::error(given.get(second).name.span, format!("give {}, not both", list()))
+                    .with_label(given.get(first).name.span, "already given here"),
             ),
             _ => {}
         }
@@ -406,14 +407,34 @@ fn check_props(
     }
 }
 
+/// The properties given in a block, by name: the last of each name. A
+/// block has a few, so a list on the stack beats hashing.
+struct Given<'p>(SmallVec<[(&'p str, &'p SceneProp); 8]>);
+
+impl<'p> Given<'p> {
+    fn contains_key(&self, name: &str) -> bool {
+        self.0.iter().any(|(n, _)| *n == name)
+    }
+
+    fn get(&self, name: &str) -> &'p SceneProp {
+        self.0.iter().find(|(n, _)| *n == name).map(|(_, p)| *p).expect("a property given")
+    }
+
+    /// Records `p`; returns the property of that name given before.
+    fn insert(&mut self, name: &'p str, p: &'p SceneProp) -> Option<&'p SceneProp> {
+        match self.0.iter_mut().find(|(n, _)| *n == name) {
+            Some(slot) => Some(std::mem::replace(&mut slot.1, p)),
+            None => {
+                self.0.push((name, p));
+                None
+            }
+        }
+    }
+}
+
 /// Checks each property against the schema; returns the names given.
-fn check_prop_list<'p>(
-    cx: &mut Checker<'_>,
-    props: &[&'p SceneProp],
-    own: &[Prop],
-    common: &[Prop],
-) -> HashMap<&'p str, &'p SceneProp> {
-    let mut given: HashMap<&str, &SceneProp> = HashMap::default();
+fn check_prop_list<'p>(cx: &mut Checker<'_>, props: &[&'p SceneProp], own: &[Prop], common: &[Prop]) -> Given<'p> {
+    let mut given = Given(SmallVec::new());
     for p in props {
         let name = p.name.name.as_str();
         let Some(spec) = own.iter().chain(common).find(|s| s.name == name) else {

@@ -40,7 +40,7 @@ impl<'a> Checker<'a> {
 
     /// Parameters are never reported unused: interface methods often ignore some.
     pub(super) fn declare_param(&mut self, name: &Ident, ty: Ty) {
-        self.declare(Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Param, used: true });
+        self.declare(Local { name: name.name.to_string(), ty, span: name.span, kind: LocalKind::Param, used: true });
     }
 
     pub(super) fn lookup_local(&mut self, name: &str) -> Option<&mut Local> {
@@ -89,7 +89,7 @@ impl<'a> Checker<'a> {
                 }
                 self.warn_shadowed_global(name);
                 let local =
-                    Local { name: name.name.clone(), ty, span: name.span, kind: LocalKind::Var, used: bad_type };
+                    Local { name: name.name.to_string(), ty, span: name.span, kind: LocalKind::Var, used: bad_type };
                 self.declare(local);
             }
             StmtKind::Assign { target, op, value } => self.assign(target, *op, value),
@@ -128,7 +128,7 @@ impl<'a> Checker<'a> {
                 self.push_scope();
                 self.warn_shadowed_global(var);
                 self.declare(Local {
-                    name: var.name.clone(),
+                    name: var.name.to_string(),
                     ty: Ty::Int,
                     span: var.span,
                     kind: LocalKind::LoopVar,

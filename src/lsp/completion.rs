@@ -194,7 +194,7 @@ impl Completer<'_> {
                 .iter()
                 .map(|p| {
                     let meaning = doc.as_deref().and_then(|d| super::docs::param_doc(d, &p.name.name));
-                    (p.name.name.clone(), a.param_text(p), meaning)
+                    (p.name.name.to_string(), a.param_text(p), meaning)
                 })
                 .collect()
         } else if let Some(b) = builtin(&call.callee) {

@@ -139,7 +139,7 @@ pub fn context_at(text: &str, offset: usize) -> Context {
     }
     let member_of = match tokens.last() {
         Some((_, Tok::Dot, _)) => Some(match tokens.len().checked_sub(2).map(|k| &tokens[k].1) {
-            Some(Tok::Ident(name)) => Some(name.clone()),
+            Some(Tok::Ident(name)) => Some(name.to_string()),
             _ => None,
         }),
         _ => None,
@@ -208,7 +208,7 @@ impl Scan {
                 let (callee, definition) = match (prev(1), prev(2)) {
                     (Some(Tok::Ident(name)), p2) => {
                         let definition = p2.is_some_and(|t| type_keyword(t).is_some() || *t == Tok::RBracket);
-                        (Some(name.clone()), definition)
+                        (Some(name.to_string()), definition)
                     }
                     (Some(t), _) if type_keyword(t).is_some() => (type_keyword(t).map(String::from), false),
                     _ => (None, false),
@@ -237,7 +237,7 @@ impl Scan {
                     (prev(1), self.stack.last_mut())
                     && *arg_start + 1 == k
                 {
-                    named.push(name.clone());
+                    named.push(name.to_string());
                 }
             }
             Tok::Semi => {
@@ -368,8 +368,8 @@ impl Scan {
             }
             Some(Frame::Scene) => match statement {
                 [] => Place::Scene,
-                [(_, Tok::Ident(kw), _)] if kw == "light" || kw == "object" => Place::SceneKind(kw.clone()),
-                [(_, Tok::Ident(prop), _), ..] => Place::SceneValue { block: None, prop: prop.clone() },
+                [(_, Tok::Ident(kw), _)] if kw == "light" || kw == "object" => Place::SceneKind(kw.to_string()),
+                [(_, Tok::Ident(prop), _), ..] => Place::SceneValue { block: None, prop: prop.to_string() },
                 _ => Place::Scene,
             },
             Some(Frame::SceneBlock { keyword, kind, given }) => match statement {
@@ -405,7 +405,7 @@ impl Scan {
         };
         let current = &toks[(*arg_start).min(toks.len())..];
         let current_name = match current {
-            [(_, Tok::Ident(n), _), (_, Tok::Colon, _), ..] => Some(n.clone()),
+            [(_, Tok::Ident(n), _), (_, Tok::Colon, _), ..] => Some(n.to_string()),
             _ => None,
         };
         Some(Call {
@@ -422,7 +422,7 @@ impl Scan {
 /// A scene property's name: a word, or `material` (a keyword).
 fn prop_name(t: &Tok) -> Option<String> {
     match t {
-        Tok::Ident(name) => Some(name.clone()),
+        Tok::Ident(name) => Some(name.to_string()),
         Tok::Material => Some("material".into()),
         _ => None,
     }

@@ -146,7 +146,7 @@ fn scene_block_hover(b: &SceneBlock) -> String {
     let props = scene_properties(Some(&b.keyword.name), kind);
     let title = match kind {
         Some(k) => format!("{} {k}", b.keyword.name),
-        None => b.keyword.name.clone(),
+        None => b.keyword.name.to_string(),
     };
     if props.is_empty() {
         let kinds = check::scene_kinds(&b.keyword.name);

@@ -74,7 +74,7 @@ fn describe(analysis: &Analysis, callee: &str, in_material: bool) -> Option<Desc
         let params = item_params(item)?
             .iter()
             .map(|p| Shown {
-                name: p.name.name.clone(),
+                name: p.name.name.to_string(),
                 text: analysis.param_text(p),
                 doc: doc.as_deref().and_then(|d| docs::param_doc(d, &p.name.name)),
             })

@@ -52,7 +52,7 @@ pub fn document_symbols(analysis: &Analysis, doc: &Document) -> Vec<DocumentSymb
             }
             Item::Function(f) => symbol(
                 doc,
-                f.name.name.clone(),
+                f.name.name.to_string(),
                 Some(format!("{} {}", type_text(&f.ret), params(&f.params))),
                 SymbolKind::FUNCTION,
                 f.span,
@@ -65,19 +65,27 @@ pub fn document_symbols(analysis: &Analysis, doc: &Document) -> Vec<DocumentSymb
                     .iter()
                     .map(|m| {
                         let detail = format!("{} {}", type_text(&m.ret), params(&m.params));
-                        symbol(doc, m.name.name.clone(), Some(detail), SymbolKind::METHOD, m.span, m.name.span, vec![])
+                        symbol(
+                            doc,
+                            m.name.name.to_string(),
+                            Some(detail),
+                            SymbolKind::METHOD,
+                            m.span,
+                            m.name.span,
+                            vec![],
+                        )
                     })
                     .collect();
                 let detail = Some(format!("material {}", params(&d.params)));
-                symbol(doc, d.name.name.clone(), detail, SymbolKind::CLASS, d.span, d.name.span, methods)
+                symbol(doc, d.name.name.to_string(), detail, SymbolKind::CLASS, d.span, d.name.span, methods)
             }
             Item::MaterialTree(t) => {
                 let detail = Some(one_line(analysis.snippet(t.body.span), 60));
-                symbol(doc, t.name.name.clone(), detail, SymbolKind::OBJECT, t.span, t.name.span, Vec::new())
+                symbol(doc, t.name.name.to_string(), detail, SymbolKind::OBJECT, t.span, t.name.span, Vec::new())
             }
             Item::Const(c) => symbol(
                 doc,
-                c.name.name.clone(),
+                c.name.name.to_string(),
                 Some(type_text(&c.ty)),
                 SymbolKind::CONSTANT,
                 c.span,
@@ -87,7 +95,7 @@ pub fn document_symbols(analysis: &Analysis, doc: &Document) -> Vec<DocumentSymb
             Item::Scene(s) => {
                 let prop = |p: &SceneProp| {
                     let detail = p.value.as_ref().map(|v| one_line(analysis.snippet(v.span), 40));
-                    symbol(doc, p.name.name.clone(), detail, SymbolKind::PROPERTY, p.span, p.name.span, vec![])
+                    symbol(doc, p.name.name.to_string(), detail, SymbolKind::PROPERTY, p.span, p.name.span, vec![])
                 };
                 let entries = s
                     .entries
@@ -97,7 +105,7 @@ pub fn document_symbols(analysis: &Analysis, doc: &Document) -> Vec<DocumentSymb
                         SceneEntry::Block(b) => {
                             let name = match &b.kind {
                                 Some(k) => format!("{} {}", b.keyword.name, k.name),
-                                None => b.keyword.name.clone(),
+                                None => b.keyword.name.to_string(),
                             };
                             let children = b.props.iter().map(prop).collect();
                             symbol(doc, name, None, SymbolKind::STRUCT, b.span, b.keyword.span, children)

@@ -430,7 +430,7 @@ impl<'a> Builder<'a> {
             match &o.surface {
                 Surface::Material(m) => match &m.name {
                     Some(name) => {
-                        if let Some(&shared) = by_name.get(name.as_str()) {
+                        if let Some(&shared) = by_name.get(&**name) {
                             surface_of_object.push(shared);
                             geometry.push(placed);
                             continue;

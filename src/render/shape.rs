@@ -51,18 +51,32 @@ pub use crate::scene::ShapeKind;
 #[derive(Debug, Clone)]
 pub struct Shape {
     kind: ShapeKind,
-    to_world: Mat4,
-    to_object: Mat4,
-    /// Transforms normals: the inverse transpose of the linear part.
-    normal_matrix: Mat3,
+    /// How the shape is placed; `None` when its transform is exactly the
+    /// identity (most objects of a generated scene: a shape was 320 bytes
+    /// with its matrices, about a third of a million-sphere render).
+    placement: Option<Box<Placement>>,
     /// For planes and disks: the tangent frame of the normal; for
     /// cylinders: the frame of the axis. Unit normals and axes.
     frame: Frame,
+    /// Whether the transform equals the identity (as numbers: `-0` is
+    /// `0`); rays and normals are then not transformed.
     identity: bool,
     /// For quads: `edge1 x edge2` and one over its squared length.
     quad_n: Vec3,
     quad_inv_n2: f32,
 }
+
+/// A transformed shape's matrices.
+#[derive(Debug, Clone)]
+struct Placement {
+    to_world: Mat4,
+    to_object: Mat4,
+    /// Transforms normals: the inverse transpose of the linear part.
+    normal_matrix: Mat3,
+}
+
+/// The `to_world` of a shape without placement.
+static IDENTITY: Mat4 = Mat4::IDENTITY;
 
 /// Tangents `s, t` of a unit normal with `s x t = n`: `s` is +x made
 /// perpendicular to `n` (or +z when `n` is near the x axis).
@@ -87,8 +101,11 @@ impl Shape {
             ShapeKind::Quad { edge1, edge2, .. } => plane_frame(edge1.cross(edge2).normalize()),
             ShapeKind::Cylinder { axis, .. } => plane_frame(axis),
         };
-        let to_object = to_world.inverse();
         let linear = Mat3::from_mat4(to_world);
+        let exactly_identity = to_world.to_cols_array().map(f32::to_bits) == IDENTITY.to_cols_array().map(f32::to_bits);
+        let placement = (!exactly_identity).then(|| {
+            Box::new(Placement { to_world, to_object: to_world.inverse(), normal_matrix: linear.inverse().transpose() })
+        });
         let quad_n = match kind {
             ShapeKind::Quad { edge1, edge2, .. } => edge1.cross(edge2),
             _ => Vec3::Z,
@@ -97,9 +114,7 @@ impl Shape {
             quad_n,
             quad_inv_n2: 1.0 / quad_n.length_squared(),
             kind,
-            to_world,
-            to_object,
-            normal_matrix: linear.inverse().transpose(),
+            placement,
             frame,
             identity: to_world == Mat4::IDENTITY,
         })
@@ -110,12 +125,19 @@ impl Shape {
     }
 
     pub fn to_world(&self) -> Mat4 {
-        self.to_world
+        *self.world()
+    }
+
+    fn world(&self) -> &Mat4 {
+        self.placement.as_ref().map_or(&IDENTITY, |p| &p.to_world)
     }
 
     /// The ray in the shape's frame (for a shape that is transformed).
     fn local_ray(&self, ray: &Ray) -> Ray {
-        Ray::new(self.to_object.transform_point3a(ray.origin), self.to_object.transform_vector3a(ray.dir))
+        match &self.placement {
+            Some(p) => Ray::new(p.to_object.transform_point3a(ray.origin), p.to_object.transform_vector3a(ray.dir)),
+            None => *ray,
+        }
     }
 
     /// The ray in the shape's own frame: `ray` itself when the shape is
@@ -157,7 +179,7 @@ impl Shape {
                 if k & 2 == 0 { lo.y } else { hi.y },
                 if k & 4 == 0 { lo.z } else { hi.z },
             );
-            let w = self.to_world.transform_point3a(c);
+            let w = self.world().transform_point3a(c);
             wlo = wlo.min(w);
             whi = whi.max(w);
         }
@@ -316,14 +338,13 @@ impl Shape {
                 }
             }
         };
-        let (ng, mut dpdu, mut dpdv) = if self.identity {
-            (n.normalize_or(Vec3::Y), dpdu, dpdv)
-        } else {
-            (
-                (self.normal_matrix * n).normalize_or(Vec3::Y),
-                self.to_world.transform_vector3a(dpdu),
-                self.to_world.transform_vector3a(dpdv),
-            )
+        let (ng, mut dpdu, mut dpdv) = match &self.placement {
+            Some(p) if !self.identity => (
+                (p.normal_matrix * n).normalize_or(Vec3::Y),
+                p.to_world.transform_vector3a(dpdu),
+                p.to_world.transform_vector3a(dpdv),
+            ),
+            _ => (n.normalize_or(Vec3::Y), dpdu, dpdv),
         };
         // Degenerate parametrisations (sphere poles, disk centres): any
         // tangent frame of the normal, so shaders never see a zero vector.
@@ -338,7 +359,7 @@ impl Shape {
     /// World-space area (exact for planar shapes under any affine map,
     /// and for the rest under a similarity transform).
     pub fn area(&self) -> f32 {
-        let m = |v: Vec3| self.to_world.transform_vector3a(v);
+        let m = |v: Vec3| self.world().transform_vector3a(v);
         // The scale factor of a similarity transform.
         let similarity = m(Vec3::X).length();
         match self.kind {
@@ -363,7 +384,7 @@ impl Shape {
     /// spheres and cylinders under a similarity transform. The infinite
     /// plane gives its point.
     pub fn sample_area(&self, u: [f32; 2]) -> Vec3 {
-        let m = |v: Vec3| self.to_world.transform_vector3a(v);
+        let m = |v: Vec3| self.world().transform_vector3a(v);
         let local = match self.kind {
             ShapeKind::Box { min, max } => {
                 // A face in proportion to its world area, then uniform on it.
@@ -411,7 +432,7 @@ impl Shape {
             ShapeKind::Sphere { center, radius } => center + radius * sampling::square_to_uniform_sphere(u),
             ShapeKind::Plane { point, .. } => point,
         };
-        self.to_world.transform_point3a(local)
+        self.world().transform_point3a(local)
     }
 }
 

@@ -386,7 +386,8 @@ pub enum Surface {
 #[derive(Debug, Clone, PartialEq)]
 pub struct MaterialDesc {
     pub material: MaterialRef,
-    pub name: Option<String>,
+    /// Shared by the objects that name one material.
+    pub name: Option<Arc<str>>,
     pub span: Span,
 }
 

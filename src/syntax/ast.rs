@@ -9,6 +9,7 @@
 //! demand.
 
 use crate::diag::Span;
+use std::sync::Arc;
 
 /// The deepest nesting of expressions or statements the parser accepts.
 pub const MAX_NESTING: u32 = 256;
@@ -25,8 +26,121 @@ pub fn with_stack<R>(f: impl FnOnce() -> R) -> R {
 /// A name with the span where it is written.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ident {
-    pub name: String,
+    pub name: Name,
     pub span: Span,
+}
+
+/// An identifier's text. The lexer interns them per file, so the
+/// occurrences of one name share one allocation (a generated scene writes
+/// `object sphere { ... material red; }` a million times). Compares,
+/// hashes, prints and dereferences as its `str`.
+#[derive(Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct Name(Arc<str>);
+
+impl Name {
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::ops::Deref for Name {
+    type Target = str;
+    fn deref(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::borrow::Borrow<str> for Name {
+    fn borrow(&self) -> &str {
+        &self.0
+    }
+}
+
+impl AsRef<str> for Name {
+    fn as_ref(&self) -> &str {
+        &self.0
+    }
+}
+
+impl std::fmt::Debug for Name {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(&*self.0, f)
+    }
+}
+
+impl std::fmt::Display for Name {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl From<&str> for Name {
+    fn from(s: &str) -> Name {
+        Name(s.into())
+    }
+}
+
+impl From<String> for Name {
+    fn from(s: String) -> Name {
+        Name(s.into())
+    }
+}
+
+impl From<Name> for String {
+    fn from(n: Name) -> String {
+        n.0.to_string()
+    }
+}
+
+impl PartialEq<str> for Name {
+    fn eq(&self, other: &str) -> bool {
+        *self.0 == *other
+    }
+}
+
+impl PartialEq<&str> for Name {
+    fn eq(&self, other: &&str) -> bool {
+        *self.0 == **other
+    }
+}
+
+impl PartialEq<String> for Name {
+    fn eq(&self, other: &String) -> bool {
+        *self.0 == **other
+    }
+}
+
+impl PartialEq<Name> for str {
+    fn eq(&self, other: &Name) -> bool {
+        *self == *other.0
+    }
+}
+
+impl PartialEq<Name> for &str {
+    fn eq(&self, other: &Name) -> bool {
+        **self == *other.0
+    }
+}
+
+impl PartialEq<Name> for String {
+    fn eq(&self, other: &Name) -> bool {
+        **self == *other.0
+    }
+}
+
+/// The names met in one file, each allocated once.
+#[derive(Debug, Default)]
+pub struct Names(rustc_hash::FxHashSet<Arc<str>>);
+
+impl Names {
+    pub fn intern(&mut self, s: &str) -> Name {
+        if let Some(a) = self.0.get(s) {
+            return Name(a.clone());
+        }
+        let a: Arc<str> = s.into();
+        self.0.insert(a.clone());
+        Name(a)
+    }
 }
 
 /// One parsed `.tsl` file.
@@ -359,21 +473,23 @@ pub enum ExprKind {
     Float(f64),
     Bool(bool),
     Str(String),
-    Name(String),
+    Name(Name),
     /// `f(a, name: b)`; also builtins and material instances.
+    /// The callee is boxed, as the member's field: expressions are
+    /// smaller (a generated scene holds millions of literals).
     Call {
-        callee: Ident,
-        args: Vec<Arg>,
+        callee: Box<Ident>,
+        args: Box<[Arg]>,
     },
     /// `vector(1, 0, 0)`, `vec2(u, v)`: a type keyword used as a constructor.
     Construct {
         ty: BaseType,
         ty_span: Span,
-        args: Vec<Arg>,
+        args: Box<[Arg]>,
     },
     Member {
         base: Box<Expr>,
-        field: Ident,
+        field: Box<Ident>,
     },
     Index {
         base: Box<Expr>,

@@ -5,6 +5,7 @@
 //! Invariant: lexing never fails as a whole. A byte sequence that forms no
 //! token becomes a [`LexError`] for that span and lexing continues after it.
 
+use crate::syntax::ast::{Name, Names};
 use logos::Logos;
 use std::fmt;
 use std::ops::Range;
@@ -59,7 +60,7 @@ fn string_body(lex: &mut logos::Lexer<'_, Tok>) -> Result<String, LexError> {
     Ok(s[1..s.len() - 1].to_string())
 }
 
-fn non_ascii_ident(_: &mut logos::Lexer<'_, Tok>) -> Result<String, LexError> {
+fn non_ascii_ident(_: &mut logos::Lexer<'_, Tok>) -> Result<Name, LexError> {
     Err(LexError::NonAsciiIdent)
 }
 
@@ -75,6 +76,7 @@ fn float_value(lex: &mut logos::Lexer<'_, Tok>) -> Result<f64, LexError> {
 /// A TSL token.
 #[derive(Logos, Debug, Clone, PartialEq)]
 #[logos(error = LexError)]
+#[logos(extras = Names)]
 #[logos(skip r"[ \t\r\n\f]+")]
 #[logos(skip(r"//[^\n]*", allow_greedy = true))]
 pub enum Tok {
@@ -91,11 +93,11 @@ pub enum Tok {
     // needed for file names.
     #[regex(r#""[^"\n]*"?"#, string_body)]
     Str(String),
-    #[regex(r"[A-Za-z_][A-Za-z0-9_]*", |lex| lex.slice().to_string(), priority = 3)]
+    #[regex(r"[A-Za-z_][A-Za-z0-9_]*", |lex| lex.extras.intern(lex.slice()), priority = 3)]
     // A word with other letters is one error, not one per character (the
     // longer match wins over the ASCII rule).
     #[regex(r"[\p{XID_Start}_][\p{XID_Continue}]*", non_ascii_ident, priority = 1)]
-    Ident(String),
+    Ident(Name),
 
     // Keywords.
     #[token("import")]
@@ -316,6 +318,11 @@ pub struct Lexer<'src> {
 impl<'src> Lexer<'src> {
     pub fn new(src: &'src str) -> Self {
         Lexer { inner: Tok::lexer(src).spanned() }
+    }
+
+    /// `s` as a name of this lexer's file (a keyword used as a name).
+    pub fn intern(&mut self, s: &str) -> Name {
+        self.inner.extras.intern(s)
     }
 }
 

@@ -4,5 +4,6 @@
 pub mod ast;
 pub mod lexer;
 pub mod parser;
+mod scene_block;
 
 pub use parser::parse;

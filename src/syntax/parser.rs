@@ -12,7 +12,7 @@ use lalrpop_util::{ErrorRecovery, ParseError};
 
 lalrpop_util::lalrpop_mod!(
     #[allow(clippy::all, clippy::pedantic, clippy::panic, unused_parens, unused_imports, dead_code)]
-    grammar,
+    pub(crate) grammar,
     "/tsl.rs"
 );
 
@@ -113,6 +113,15 @@ pub const MAX_SYNTAX_ERRORS: usize = 100;
 
 /// Parses one source file.
 pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
+    // Scene blocks by hand when the file has one and no error: the same tree.
+    if let Some(ast) = super::scene_block::parse(file, src) {
+        return (ast, Vec::new());
+    }
+    parse_with_lalrpop(file, src)
+}
+
+/// [`parse`] by the lalrpop parser alone, which words every error.
+pub(crate) fn parse_with_lalrpop(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {
     let mut diags = Vec::new();
     // Lexer errors are reported and lexing goes on. A bad string or number
     // still becomes a token, so the parser does not report it a second time.
@@ -200,7 +209,7 @@ fn tokens<'s>(src: &'s str, errors: &'s mut Vec<SpannedLexError>) -> impl Iterat
                 }
                 LexError::BadNumber => Some(Tok::Float(0.0)),
                 // Parsed as the identifier it means, so nothing else is reported.
-                LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").to_string())),
+                LexError::NonAsciiIdent => Some(Tok::Ident(src.get(e.span.clone()).unwrap_or("").into())),
                 LexError::UnexpectedChar | LexError::UnterminatedComment => None,
             };
             let token = stand_in.map(|t| (e.span.start, t, e.span.end));

@@ -45,7 +45,7 @@ impl<'p> Lowerer<'p> {
                     }
                 },
             };
-            values.push((p.name.name.clone(), v));
+            values.push((p.name.name.to_string(), v));
         }
         let id = self.id();
         Rc::new(Instance { id, def, params: values, in_prelude: self.is_prelude(sym) })
@@ -142,7 +142,7 @@ impl<'p> Lowerer<'p> {
         let e = mat.expr;
         match &e.kind {
             ExprKind::Name(n) => {
-                if let Some(Val::Material(m)) = mat.env.get(n) {
+                if let Some(Val::Material(m)) = mat.env.get(n.as_str()) {
                     let m = m.clone();
                     return self.mat_method(b, &m, im, args, ctx);
                 }
@@ -257,7 +257,7 @@ impl<'p> Lowerer<'p> {
                     self.expr_as(b, &mut fr, ctx, expr, &ty)
                 }
             };
-            env.insert(p.name.name.clone(), v);
+            env.insert(p.name.name.to_string(), v);
         }
         Rc::new(env)
     }
@@ -284,7 +284,7 @@ impl<'p> Lowerer<'p> {
         let defines = |def: &ast::MaterialDef| def.methods.iter().any(|m| m.name.name == im.name);
         match &mat.expr.kind {
             ExprKind::Name(n) => {
-                if let Some(Val::Material(m)) = mat.env.get(n) {
+                if let Some(Val::Material(m)) = mat.env.get(n.as_str()) {
                     return self.uses_default(m, im, depth + 1);
                 }
                 match self.symbol(mat.in_prelude, n) {
@@ -332,7 +332,7 @@ impl<'p> Lowerer<'p> {
                                     (None, None) => continue,
                                 };
                                 if let Some(v) = self.material_binding(&Ty::from_ast(&p.ty), bound) {
-                                    env.insert(p.name.name.clone(), v);
+                                    env.insert(p.name.name.to_string(), v);
                                 }
                             }
                             let body = Mat { expr: &t.body, env: Rc::new(env), in_prelude: self.is_prelude(sym) };

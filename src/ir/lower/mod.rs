@@ -101,7 +101,7 @@ pub fn lower_entries(
         match (sym.kind, lw.item(*sym)) {
             (SymbolKind::Function, Item::Function(f)) => {
                 let params: Vec<(String, Ty)> =
-                    f.params.iter().map(|p| (p.name.name.clone(), Ty::from_ast(&p.ty))).collect();
+                    f.params.iter().map(|p| (p.name.name.to_string(), Ty::from_ast(&p.ty))).collect();
                 let ret = Ty::from_ast(&f.ret);
                 if ret == Ty::Void || !params.iter().chain([&(String::new(), ret.clone())]).all(|(_, t)| lw.is_plain(t))
                 {

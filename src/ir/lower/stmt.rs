@@ -308,7 +308,7 @@ impl<'p> Lowerer<'p> {
                     fr.scopes.push(HashMap::default());
                     let i = b.get(counter);
                     if let Some(scope) = fr.scopes.last_mut() {
-                        scope.insert(var.name.clone(), Binding::Val(Val::Lanes(vec![i])));
+                        scope.insert(var.name.to_string(), Binding::Val(Val::Lanes(vec![i])));
                     }
                     self.block(b, fr, ctx, body);
                     fr.scopes.pop();
@@ -546,7 +546,7 @@ pub(super) fn assigned_names(block: &ast::Block) -> HashSet<String> {
                     match &t.kind {
                         ExprKind::Member { base, .. } | ExprKind::Index { base, .. } => t = base,
                         ExprKind::Name(n) => {
-                            out.insert(n.clone());
+                            out.insert(n.to_string());
                             break;
                         }
                         _ => break,

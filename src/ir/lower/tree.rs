@@ -176,7 +176,7 @@ impl<'p> Lowerer<'p> {
                 items.iter().map(|it| Mat { expr: it, env: mat.env.clone(), in_prelude: mat.in_prelude }).collect()
             }
             // A `material[N]` template parameter.
-            Some(ExprKind::Name(n)) => match mat.env.get(n) {
+            Some(ExprKind::Name(n)) => match mat.env.get(n.as_str()) {
                 Some(Val::Materials(items)) => items.clone(),
                 _ => Vec::new(),
             },
@@ -415,7 +415,7 @@ pub const BUMP_DELTA: f32 = 1.0 / 1024.0;
 pub(super) fn empty_def() -> &'static ast::MaterialDef {
     static EMPTY: std::sync::OnceLock<ast::MaterialDef> = std::sync::OnceLock::new();
     EMPTY.get_or_init(|| ast::MaterialDef {
-        name: ast::Ident { name: String::new(), span: Span::default() },
+        name: ast::Ident { name: ast::Name::default(), span: Span::default() },
         params: Vec::new(),
         methods: Vec::new(),
         span: Span::default(),
