@@ -21,6 +21,7 @@ mod expr;
 mod interface;
 mod items;
 mod scene;
+mod span_map;
 mod stmt;
 mod ty;
 mod types;
@@ -28,6 +29,7 @@ mod types;
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
+pub use span_map::SpanMap;
 pub use ty::{SAMPLE_FIELDS, Ty};
 pub use types::ExprTypes;
 
@@ -59,7 +61,7 @@ pub struct Program {
     pub prelude_symbols: HashMap<String, Symbol>,
     pub expr_types: ExprTypes,
     /// The global item each name or call resolved to, keyed by its span.
-    pub resolutions: FxHashMap<Span, Symbol>,
+    pub resolutions: SpanMap<Symbol>,
     /// The local variable or parameter each name resolved to: the span of
     /// the use to the span of the declared name (for editors).
     pub local_uses: FxHashMap<Span, Span>,
@@ -167,7 +169,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         prelude_symbols: &prelude_symbols,
         in_prelude: false,
         current: (0, 0),
-        resolutions: FxHashMap::default(),
+        resolutions: SpanMap::default(),
         local_uses: FxHashMap::default(),
         reads_globals: HashMap::new(),
         reads_frame: HashMap::new(),
@@ -188,7 +190,8 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.report_varying_values();
     let mut expr_types = std::mem::take(&mut checker.expr_types);
     expr_types.finish();
-    let resolutions = std::mem::take(&mut checker.resolutions);
+    let mut resolutions = std::mem::take(&mut checker.resolutions);
+    resolutions.finish();
     let local_uses = std::mem::take(&mut checker.local_uses);
     let images = std::mem::take(&mut checker.images);
     let texture_calls = std::mem::take(&mut checker.texture_calls);
@@ -364,7 +367,7 @@ struct Checker<'a> {
     in_prelude: bool,
     /// The item being checked.
     current: ItemId,
-    resolutions: FxHashMap<Span, Symbol>,
+    resolutions: SpanMap<Symbol>,
     /// Name uses that are locals, to their declarations.
     local_uses: FxHashMap<Span, Span>,
     /// Items whose own code reads a shading global, with the first use.
