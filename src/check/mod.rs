@@ -102,26 +102,30 @@ pub struct TextureCall {
 /// pass around instead of syntax; [`Program::material_expr`] finds the
 /// expression.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+// u32 indices: one of these is in each object of a scene's description
+// (a source file is at most 256 MiB, so its indices fit).
 pub enum MaterialRef {
     /// The body of material tree `item` of `module`.
-    TreeBody { module: usize, item: usize },
+    TreeBody { module: u32, item: u32 },
     /// The value of property `prop` of block `entry` of the scene that is
     /// item `item` of `module` (a scene object's `material`).
-    SceneValue { module: usize, item: usize, entry: usize, prop: usize },
+    SceneValue { module: u32, item: u32, entry: u32, prop: u32 },
 }
 
 impl Program {
     /// The expression `r` names, if it names one of this program.
     pub fn material_expr(&self, r: MaterialRef) -> Option<&Expr> {
         match r {
-            MaterialRef::TreeBody { module, item } => match self.loaded.modules.get(module)?.ast.items.get(item)? {
-                Item::MaterialTree(t) => Some(&t.body),
-                _ => None,
-            },
+            MaterialRef::TreeBody { module, item } => {
+                match self.loaded.modules.get(module as usize)?.ast.items.get(item as usize)? {
+                    Item::MaterialTree(t) => Some(&t.body),
+                    _ => None,
+                }
+            }
             MaterialRef::SceneValue { module, item, entry, prop } => {
-                match self.loaded.modules.get(module)?.ast.items.get(item)? {
-                    Item::Scene(scene) => match scene.entries.get(entry)? {
-                        SceneEntry::Block(b) => b.props.get(prop)?.value.as_ref(),
+                match self.loaded.modules.get(module as usize)?.ast.items.get(item as usize)? {
+                    Item::Scene(scene) => match scene.entries.get(entry as usize)? {
+                        SceneEntry::Block(b) => b.props.get(prop as usize)?.value.as_ref(),
                         SceneEntry::Prop(_) => None,
                     },
                     _ => None,
