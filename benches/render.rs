@@ -366,7 +366,7 @@ fn main() {
     if let Ok(mesh) = mesh {
         let bounds: Vec<_> = (0..mesh.triangles.len() as u32).map(|t| mesh.bounds(t)).collect();
         let start = Instant::now();
-        let bvh = render::accel::Bvh::build(&bounds);
+        let bvh = render::accel::Bvh::build(bounds.iter().copied());
         figure(&format!("heavy BVH build {} triangles", bvh.len()), start.elapsed().as_secs_f64() * 1e3, "ms");
     }
     bench_scene("heavy", &scene_file, None);

@@ -535,9 +535,10 @@ impl Program {
                 .ok_or_else(|| Error::plain(format!("no material named `{name}`")))?;
             let item = &self.inner.program.loaded.modules[sym.module].ast.items[sym.item];
             match item {
-                Item::MaterialTree(t) if t.params.is_none() => {
-                    refs.push((name.to_string(), MaterialRef::TreeBody { module: sym.module, item: sym.item }))
-                }
+                Item::MaterialTree(t) if t.params.is_none() => refs.push((
+                    name.to_string(),
+                    MaterialRef::TreeBody { module: sym.module as u32, item: sym.item as u32 },
+                )),
                 _ => return Err(Error::plain(format!("`{name}` is not a material tree without parameters"))),
             }
         }

@@ -21,6 +21,7 @@ mod expr;
 mod interface;
 mod items;
 mod scene;
+mod span_map;
 mod stmt;
 mod ty;
 mod types;
@@ -28,6 +29,7 @@ mod types;
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
+pub use span_map::SpanMap;
 pub use ty::{SAMPLE_FIELDS, Ty};
 pub use types::ExprTypes;
 
@@ -59,7 +61,7 @@ pub struct Program {
     pub prelude_symbols: HashMap<String, Symbol>,
     pub expr_types: ExprTypes,
     /// The global item each name or call resolved to, keyed by its span.
-    pub resolutions: FxHashMap<Span, Symbol>,
+    pub resolutions: SpanMap<Symbol>,
     /// The local variable or parameter each name resolved to: the span of
     /// the use to the span of the declared name (for editors).
     pub local_uses: FxHashMap<Span, Span>,
@@ -100,26 +102,30 @@ pub struct TextureCall {
 /// pass around instead of syntax; [`Program::material_expr`] finds the
 /// expression.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+// u32 indices: one of these is in each object of a scene's description
+// (a source file is at most 256 MiB, so its indices fit).
 pub enum MaterialRef {
     /// The body of material tree `item` of `module`.
-    TreeBody { module: usize, item: usize },
+    TreeBody { module: u32, item: u32 },
     /// The value of property `prop` of block `entry` of the scene that is
     /// item `item` of `module` (a scene object's `material`).
-    SceneValue { module: usize, item: usize, entry: usize, prop: usize },
+    SceneValue { module: u32, item: u32, entry: u32, prop: u32 },
 }
 
 impl Program {
     /// The expression `r` names, if it names one of this program.
     pub fn material_expr(&self, r: MaterialRef) -> Option<&Expr> {
         match r {
-            MaterialRef::TreeBody { module, item } => match self.loaded.modules.get(module)?.ast.items.get(item)? {
-                Item::MaterialTree(t) => Some(&t.body),
-                _ => None,
-            },
+            MaterialRef::TreeBody { module, item } => {
+                match self.loaded.modules.get(module as usize)?.ast.items.get(item as usize)? {
+                    Item::MaterialTree(t) => Some(&t.body),
+                    _ => None,
+                }
+            }
             MaterialRef::SceneValue { module, item, entry, prop } => {
-                match self.loaded.modules.get(module)?.ast.items.get(item)? {
-                    Item::Scene(scene) => match scene.entries.get(entry)? {
-                        SceneEntry::Block(b) => b.props.get(prop)?.value.as_ref(),
+                match self.loaded.modules.get(module as usize)?.ast.items.get(item as usize)? {
+                    Item::Scene(scene) => match scene.entries.get(entry as usize)? {
+                        SceneEntry::Block(b) => b.props.get(prop as usize)?.value.as_ref(),
                         SceneEntry::Prop(_) => None,
                     },
                     _ => None,
@@ -167,7 +173,7 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         prelude_symbols: &prelude_symbols,
         in_prelude: false,
         current: (0, 0),
-        resolutions: FxHashMap::default(),
+        resolutions: SpanMap::default(),
         local_uses: FxHashMap::default(),
         reads_globals: HashMap::new(),
         reads_frame: HashMap::new(),
@@ -188,7 +194,8 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     checker.report_varying_values();
     let mut expr_types = std::mem::take(&mut checker.expr_types);
     expr_types.finish();
-    let resolutions = std::mem::take(&mut checker.resolutions);
+    let mut resolutions = std::mem::take(&mut checker.resolutions);
+    resolutions.finish();
     let local_uses = std::mem::take(&mut checker.local_uses);
     let images = std::mem::take(&mut checker.images);
     let texture_calls = std::mem::take(&mut checker.texture_calls);
@@ -364,7 +371,7 @@ struct Checker<'a> {
     in_prelude: bool,
     /// The item being checked.
     current: ItemId,
-    resolutions: FxHashMap<Span, Symbol>,
+    resolutions: SpanMap<Symbol>,
     /// Name uses that are locals, to their declarations.
     local_uses: FxHashMap<Span, Span>,
     /// Items whose own code reads a shading global, with the first use.

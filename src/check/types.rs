@@ -51,7 +51,7 @@ impl Default for ExprTypes {
 
 /// The order of the entries: by file and start, an enclosing expression
 /// before the ones it contains.
-fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
+pub(super) fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
     (span.file.0, span.start, Reverse(span.end))
 }
 

@@ -8,7 +8,10 @@
 
 use super::{Ray, Vec3};
 use obvhs::aabb::Aabb;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::ray::{Ray as BvhRay, RayHit};
 
 pub struct Bvh {
@@ -27,26 +30,40 @@ impl obvhs::Boundable for Bounds {
 }
 
 impl Bvh {
-    /// Builds over `(min, max)` bounds; primitive `k` is `bounds[k]`.
-    pub fn build(bounds: &[(Vec3, Vec3)]) -> Bvh {
-        let mut kept = Vec::with_capacity(bounds.len());
-        let mut ids = Vec::with_capacity(bounds.len());
-        for (k, (lo, hi)) in bounds.iter().enumerate() {
-            if lo.is_finite() && hi.is_finite() && lo.cmple(*hi).all() {
-                kept.push(Bounds(Aabb::new(*lo, *hi)));
+    /// Builds over `(min, max)` bounds; primitive `k` is the `k`th.
+    pub fn build(bounds: impl IntoIterator<Item = (Vec3, Vec3)>) -> Bvh {
+        let bounds = bounds.into_iter();
+        let mut kept = Vec::with_capacity(bounds.size_hint().0);
+        let mut ids = Vec::with_capacity(bounds.size_hint().0);
+        for (k, (lo, hi)) in bounds.enumerate() {
+            if lo.is_finite() && hi.is_finite() && lo.cmple(hi).all() {
+                kept.push(Bounds(Aabb::new(lo, hi)));
                 ids.push(k as u32);
             }
         }
         if kept.is_empty() {
             return Bvh { tree: None, ids, len: 0 };
         }
-        let mut time = std::time::Duration::default();
-        // fast_build: PLOC with a short search and reinsertion; builds a
-        // million primitives in a fraction of a second on two cores, and
-        // traces within a few percent of the slower presets here.
-        let tree = obvhs::cwbvh::builder::build_cwbvh(&kept, obvhs::BvhBuildParams::fast_build(), &mut time);
+        // obvhs's `build_cwbvh` with `fast_build` (PLOC with a short search
+        // and reinsertion; a million primitives in a fraction of a second
+        // on two cores, tracing within a few percent of the slower
+        // presets), written out to free the bounds before the conversion
+        // to the wide BVH, the peak of a large scene's memory.
+        let params = obvhs::BvhBuildParams::fast_build();
+        let mut bvh2 = PlocBuilder::with_capacity(kept.len()).build(
+            params.ploc_search_distance,
+            &kept,
+            (0..kept.len() as u32).collect(),
+            params.sort_precision,
+            params.search_depth_threshold,
+        );
+        let len = kept.len();
+        drop(kept);
+        ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+        let tree = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
+        drop(bvh2);
         let ids = tree.primitive_indices.iter().map(|&i| ids[i as usize]).collect();
-        Bvh { tree: Some(tree), ids, len: kept.len() }
+        Bvh { tree: Some(tree), ids, len }
     }
 
     /// Primitives in the BVH.
@@ -124,7 +141,7 @@ mod tests {
         let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
         let spheres: Vec<(Vec3, f32)> = (0..500).map(|_| (rng.vec(20.0), 0.1 + rng.next() * 0.6)).collect();
         let bounds: Vec<(Vec3, Vec3)> = spheres.iter().map(|(c, r)| (*c - *r, *c + *r)).collect();
-        let bvh = Bvh::build(&bounds);
+        let bvh = Bvh::build(bounds);
         assert_eq!(bvh.len(), 500);
         let mut hits = 0;
         for k in 0..2000 {
@@ -162,7 +179,7 @@ mod tests {
             (Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, 1.0, 2.0)),
             (Vec3::new(-1.0, -1.0, 5.0), Vec3::new(1.0, 1.0, 6.0)),
         ];
-        let bvh = Bvh::build(&bounds);
+        let bvh = Bvh::build(bounds);
         let ray = Ray::new(Vec3::ZERO, Vec3::Z);
         let got = bvh.closest(&ray, 0.0, f32::INFINITY, |id, _, _| (id == 1).then_some(5.0));
         assert_eq!(got, Some((1, 5.0)));
@@ -174,13 +191,13 @@ mod tests {
     #[test]
     fn empty_single_and_bad_bounds() {
         let ray = Ray::new(Vec3::ZERO, Vec3::Z);
-        let empty = Bvh::build(&[]);
+        let empty = Bvh::build([]);
         assert!(empty.is_empty());
         assert_eq!(empty.closest(&ray, 0.0, f32::INFINITY, |_, _, _| Some(1.0)), None);
         assert!(!empty.any(&ray, 0.0, f32::INFINITY, |_, _, _| true));
-        let one = Bvh::build(&[(Vec3::splat(-1.0), Vec3::splat(1.0))]);
+        let one = Bvh::build([(Vec3::splat(-1.0), Vec3::splat(1.0))]);
         assert_eq!(one.closest(&ray, 0.0, f32::INFINITY, |_, _, _| Some(1.0)), Some((0, 1.0)));
-        let bad = Bvh::build(&[
+        let bad = Bvh::build([
             (Vec3::splat(f32::NAN), Vec3::ONE),
             (Vec3::ONE, Vec3::ZERO),
             (Vec3::splat(-1.0), Vec3::splat(1.0)),

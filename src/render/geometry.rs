@@ -11,7 +11,8 @@ use super::{Ray, Vec3};
 /// The geometry of one object.
 pub enum ObjectGeometry {
     Shape(Shape),
-    Mesh(Mesh),
+    /// Boxed: a mesh is 160 bytes, most objects are shapes.
+    Mesh(Box<Mesh>),
 }
 
 /// A primitive of the BVH: an analytic shape, or one triangle of a mesh.
@@ -46,30 +47,33 @@ const LINEAR_MAX: usize = 4;
 
 impl Geometry {
     pub fn new(objects: Vec<ObjectGeometry>) -> Geometry {
-        let mut prims = Vec::new();
-        let mut bounds = Vec::new();
+        let count = objects
+            .iter()
+            .map(|o| match o {
+                ObjectGeometry::Shape(_) => 1,
+                ObjectGeometry::Mesh(m) => m.triangles.len(),
+            })
+            .sum();
+        let mut prims = Vec::with_capacity(count);
         let mut unbounded = Vec::new();
         for (k, o) in objects.iter().enumerate() {
             let object = k as u32;
             match o {
-                ObjectGeometry::Shape(s) => match s.bounds() {
-                    Some(b) => {
-                        prims.push(Prim { object, tri: 0 });
-                        bounds.push(b);
-                    }
-                    None => unbounded.push(object),
-                },
-                ObjectGeometry::Mesh(m) => {
-                    for tri in 0..m.triangles.len() as u32 {
-                        prims.push(Prim { object, tri });
-                        bounds.push(m.bounds(tri));
-                    }
-                }
+                ObjectGeometry::Shape(s) if s.bounds().is_none() => unbounded.push(object),
+                ObjectGeometry::Shape(_) => prims.push(Prim { object, tri: 0 }),
+                ObjectGeometry::Mesh(m) => prims.extend((0..m.triangles.len() as u32).map(|tri| Prim { object, tri })),
             }
         }
         let linear = (prims.len() <= LINEAR_MAX)
             .then(|| prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 })).collect());
-        let bvh = if linear.is_some() { Bvh::build(&[]) } else { Bvh::build(&bounds) };
+        // The bounds go straight into the BVH builder, not through a list
+        // of their own (24 bytes a primitive at the peak of a large scene).
+        let bounds = prims.iter().map(|p| match &objects[p.object as usize] {
+            // Unbounded shapes are not primitives.
+            ObjectGeometry::Shape(s) => s.bounds().unwrap_or((Vec3::NAN, Vec3::NAN)),
+            ObjectGeometry::Mesh(m) => m.bounds(p.tri),
+        });
+        let bvh = if linear.is_some() { Bvh::build([]) } else { Bvh::build(bounds) };
         Geometry { objects, prims, unbounded, bvh, linear }
     }
 

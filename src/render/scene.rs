@@ -419,7 +419,7 @@ impl<'a> Builder<'a> {
             let to_world = o.to_world();
             let placed = match (&o.shape, o.shape.kind()) {
                 (ShapeDesc::Mesh { file }, _) => Mesh::from_data(&file.value, to_world)
-                    .map(ObjectGeometry::Mesh)
+                    .map(|m| ObjectGeometry::Mesh(Box::new(m)))
                     .map_err(|m| self.error(file.span, m))?,
                 (_, Some(kind)) => {
                     ObjectGeometry::Shape(Shape::new(kind, to_world).map_err(|m| self.error(o.span, m))?)

@@ -662,7 +662,12 @@ impl<'a> Describer<'a> {
             }
             _ => None,
         };
-        let material = MaterialRef::SceneValue { module: self.module, item: self.item, entry, prop };
+        let material = MaterialRef::SceneValue {
+            module: self.module as u32,
+            item: self.item as u32,
+            entry: entry as u32,
+            prop: prop as u32,
+        };
         Some(MaterialDesc { material, name, span: e.span })
     }
 
