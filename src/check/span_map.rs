@@ -1,12 +1,19 @@
 //! A map from spans to values kept as a vector in span order, searched by
-//! bisection: the checker's name resolutions, one for each name a scene
-//! object's `material` uses, are a million entries in a generated scene,
-//! and a hash table of them was twice their size (half its buckets empty).
+//! bisection: the checker's expression types ([`super::ExprTypes`]) and
+//! name resolutions. A generated scene of a million objects has a million
+//! resolutions (one per `material` name), and a hash table of them was
+//! twice their size (half its buckets empty).
 //! Entries arrive in span order when every expression is checked once, in
 //! source order; otherwise the vector is sorted once when checking ends.
 
-use super::types::key;
 use crate::diag::Span;
+use std::cmp::Reverse;
+
+/// The order of the entries: by file and start, an enclosing expression
+/// before the ones it contains.
+fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
+    (span.file.0, span.start, Reverse(span.end))
+}
 
 #[derive(Debug, Clone)]
 pub struct SpanMap<T> {
@@ -35,6 +42,12 @@ impl<T> SpanMap<T> {
         self.entries.iter().map(|(span, value)| (span, value))
     }
 
+    /// Whether no entry has come out of span order (so `finish` sorts nothing).
+    #[cfg(test)]
+    pub(super) fn is_ordered(&self) -> bool {
+        self.ordered
+    }
+
     pub fn len(&self) -> usize {
         self.entries.len()
     }
@@ -44,13 +57,21 @@ impl<T> SpanMap<T> {
     }
 
     /// Gives `span` its value; a span given values twice keeps the last.
-    pub(super) fn insert(&mut self, span: Span, value: T) {
+    /// Returns the entry's slot, whose value [`SpanMap::set`] may replace
+    /// until [`SpanMap::finish`].
+    pub(super) fn insert(&mut self, span: Span, value: T) -> usize {
         if let Some((last, _)) = self.entries.last()
             && key(last) >= key(&span)
         {
             self.ordered = false;
         }
         self.entries.push((span, value));
+        self.entries.len() - 1
+    }
+
+    /// Replaces the value of the entry `insert` returned `slot` for.
+    pub(super) fn set(&mut self, slot: usize, value: T) {
+        self.entries[slot].1 = value;
     }
 
     /// Puts the entries in span order, once checking is done.

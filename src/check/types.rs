@@ -2,14 +2,13 @@
 //! span. A generated scene of a million objects has six million
 //! expressions, so an entry is 16 bytes (the span and a code: an index into
 //! the types that are not arrays, or into the array types met, few and
-//! shared), kept in a vector in the order the checker meets expressions,
-//! outermost first. That order is the spans' order (file, start, longest
-//! first) when every expression is checked once, in source order; otherwise
-//! the vector is sorted once when checking ends. Lookups search it.
+//! shared), kept in a [`SpanMap`] in the order the checker meets
+//! expressions, outermost first: that is the spans' order (file, start,
+//! longest first) when every expression is checked once, in source order.
 
 use super::Ty;
+use super::span_map::SpanMap;
 use crate::diag::Span;
-use std::cmp::Reverse;
 
 /// The types without parameters, in code order.
 static PLAIN: [Ty; 14] = [
@@ -34,64 +33,42 @@ const OPEN: u32 = u32::MAX;
 
 /// An expression's span to its type; an expression checked twice has the
 /// type it was given last.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct ExprTypes {
-    entries: Vec<(Span, u32)>,
+    /// Each expression's type code.
+    codes: SpanMap<u32>,
     /// The array types met, by code minus `PLAIN.len()`.
     arrays: Vec<Ty>,
-    /// Whether `entries` is in span order with no span twice.
-    ordered: bool,
-}
-
-impl Default for ExprTypes {
-    fn default() -> Self {
-        ExprTypes { entries: Vec::new(), arrays: Vec::new(), ordered: true }
-    }
-}
-
-/// The order of the entries: by file and start, an enclosing expression
-/// before the ones it contains.
-pub(super) fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
-    (span.file.0, span.start, Reverse(span.end))
 }
 
 impl ExprTypes {
     /// The type of the expression written at `span`.
     pub fn get(&self, span: &Span) -> Option<&Ty> {
-        debug_assert!(self.ordered, "ExprTypes searched before finish");
-        let k = key(span);
-        let at = self.entries.binary_search_by(|(s, _)| key(s).cmp(&k)).ok()?;
-        Some(self.ty(self.entries[at].1))
+        self.codes.get(span).map(|code| self.ty(*code))
     }
 
     pub fn contains_key(&self, span: &Span) -> bool {
-        self.get(span).is_some()
+        self.codes.get(span).is_some()
     }
 
     /// Every expression's span and type, in span order.
     pub fn iter(&self) -> impl Iterator<Item = (&Span, &Ty)> {
-        self.entries.iter().map(|(span, code)| (span, self.ty(*code)))
+        self.codes.iter().map(|(span, code)| (span, self.ty(*code)))
     }
 
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.codes.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.codes.is_empty()
     }
 
     /// Opens the entry of an expression about to be checked, before the
     /// expressions inside it, so entries arrive in span order; the
     /// returned slot is given its type by [`ExprTypes::set`].
     pub(super) fn open(&mut self, span: Span) -> usize {
-        if let Some((last, _)) = self.entries.last()
-            && key(last) >= key(&span)
-        {
-            self.ordered = false;
-        }
-        self.entries.push((span, OPEN));
-        self.entries.len() - 1
+        self.codes.insert(span, OPEN)
     }
 
     pub(super) fn set(&mut self, slot: usize, ty: &Ty) {
@@ -105,7 +82,7 @@ impl ExprTypes {
                 }
             },
         };
-        self.entries[slot].1 = code as u32;
+        self.codes.set(slot, code as u32);
     }
 
     pub(super) fn insert(&mut self, span: Span, ty: &Ty) {
@@ -116,19 +93,7 @@ impl ExprTypes {
     /// Puts the entries in span order, keeping the last type given to a
     /// span checked twice, once checking is done.
     pub(super) fn finish(&mut self) {
-        if !self.ordered {
-            // Stable: of equal spans the last given stays last.
-            self.entries.sort_by_key(|(s, _)| key(s));
-            self.entries.dedup_by(|later, kept| {
-                let same = later.0 == kept.0;
-                if same {
-                    kept.1 = later.1;
-                }
-                same
-            });
-            self.ordered = true;
-        }
-        self.entries.shrink_to_fit();
+        self.codes.finish();
     }
 
     fn ty(&self, code: u32) -> &Ty {
@@ -185,7 +150,7 @@ mod tests {
         types.set(sum, &Ty::Float);
         types.insert(span(8, 9), &Ty::Color);
         types.set(outer, &Ty::Point);
-        assert!(types.ordered);
+        assert!(types.codes.is_ordered());
         types.finish();
         assert_eq!(types.get(&span(0, 10)), Some(&Ty::Point));
         assert_eq!(types.get(&span(1, 6)), Some(&Ty::Float));
