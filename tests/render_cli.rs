@@ -104,6 +104,22 @@ fn light_sampling_is_chosen_on_the_command_line() {
 }
 
 #[test]
+fn spectral_means_sampled_wavelengths_as_in_mitsuba_and_pbrt() {
+    let dir = scratch("spectral");
+    let render = |model: &str| {
+        let out = dir.join(format!("{model}.exr"));
+        let args = ["render", "examples/cornell.tsl", "-o", &s(&out), "--res", "12x12", "--spp", "2", "--quiet"];
+        let o = tslc(&[&args[..], &["--color", model]].concat());
+        assert!(o.status.success(), "{model}: {}", stderr(&o));
+        tsl::render::image_io::read_exr(&out).unwrap().color
+    };
+    let spectral = render("spectral");
+    assert_eq!(spectral, render("hero"));
+    assert_ne!(spectral, render("spectral16"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn bad_invocations_are_clear_errors_and_write_nothing() {
     let dir = scratch("bad");
     let out = dir.join("out.png");

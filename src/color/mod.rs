@@ -237,10 +237,19 @@ impl ColorModel {
 
     /// Reads a [`ColorModel::name`]: `"rgb"`, `"hero"`, or `"spectral<N>"`
     /// or `"smits<N>"` with `1 <= N <= MAX_SAMPLES`; `None` otherwise.
+    /// `"spectral"` alone is `Hero`: wavelengths sampled per camera sample,
+    /// as the spectral modes of Mitsuba 3 and pbrt-v4 are.
+    ///
+    /// ```
+    /// use tsl::ColorModel;
+    /// assert_eq!(ColorModel::parse("spectral"), Some(ColorModel::Hero));
+    /// assert_eq!(ColorModel::parse("spectral16"), Some(ColorModel::Spectral { samples: 16 }));
+    /// assert_eq!(ColorModel::parse("spectral65"), None);
+    /// ```
     pub fn parse(name: &str) -> Option<ColorModel> {
         match name {
             "rgb" => return Some(ColorModel::Rgb),
-            "hero" => return Some(ColorModel::Hero),
+            "hero" | "spectral" => return Some(ColorModel::Hero),
             _ => {}
         }
         let (digits, smits) = match name.strip_prefix("spectral") {

@@ -68,11 +68,10 @@ fn model_basics() {
     assert!(!ColorModel::Spectral { samples: 0 }.is_valid());
     assert_eq!(ColorModel::parse("smits16"), Some(smits(16)));
     assert_eq!(ColorModel::parse("hero"), Some(ColorModel::Hero));
+    assert_eq!(ColorModel::parse("spectral"), Some(ColorModel::Hero));
     assert_eq!((ColorModel::Hero.lanes(), ColorModel::Hero.wavelengths()), (4, HERO_DEFAULT_WAVELENGTHS.to_vec()));
     assert_eq!((smits(16).white(), spectral(16).white(), ColorModel::Hero.white()), (White::E, White::D65, White::D65));
-    for bad in
-        ["", "RGB", "spectral", "spectral0", "spectral65", "spectral+4", "spectral 4", "spectrum16", "smits0", "hero4"]
-    {
+    for bad in ["", "RGB", "spectral0", "spectral65", "spectral+4", "spectral 4", "spectrum16", "smits0", "hero4"] {
         assert_eq!(ColorModel::parse(bad), None, "{bad:?}");
     }
 }

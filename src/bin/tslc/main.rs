@@ -83,7 +83,7 @@ struct EmitArgs {
     /// What to print.
     #[arg(long, value_enum, default_value_t = EmitKind::Ir)]
     emit: EmitKind,
-    /// The color model: `rgb`, `hero`, `spectralN` (e.g. `spectral16`) or `smitsN`.
+    /// The color model: `rgb`, `spectral` (= `hero`), `spectralN` (e.g. `spectral16`) or `smitsN`.
     #[arg(long, default_value = "rgb", value_parser = parse_color_model)]
     color_model: tsl::ColorModel,
     /// Only functions whose name starts with this (e.g. `wood.` or `rings`).
@@ -105,8 +105,9 @@ enum EmitKind {
 }
 
 fn parse_color_model(s: &str) -> Result<tsl::ColorModel, String> {
-    tsl::ColorModel::parse(s)
-        .ok_or_else(|| format!("`{s}` is not a color model: use rgb, hero, spectralN or smitsN with N in 1..=64"))
+    tsl::ColorModel::parse(s).ok_or_else(|| {
+        format!("`{s}` is not a color model: use rgb, spectral (= hero), spectralN or smitsN with N in 1..=64")
+    })
 }
 
 #[derive(clap::Args)]
