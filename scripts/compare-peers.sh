@@ -26,7 +26,7 @@
 #             Mitsuba figures are printed alone.
 # spectral    the Cornell box in Mitsuba 3's scalar_spectral at SPECTRAL_SPP
 #             (default 1024) against tslc's color models at the same spp
-#             (hero, spectral64, spectral16, smits16, rgb): each wall's and
+#             (spectral = hero, spectral64, spectral16, smits16, rgb): each wall's and
 #             block's per-channel mean relative to Mitsuba's; whole-process
 #             times; then Mitsuba itself and hero and spectral64 against
 #             Mitsuba with the red wall's spectrum fitted exactly
@@ -224,7 +224,7 @@ if [[ $which == spectral ]]; then
     fi
     "$TSLC" render examples/cornell.tsl -o "$OUT/cornell_ids.exr" --spp 1 --aov --quiet
     images=()
-    for model in hero spectral64 spectral16 smits16 rgb; do
+    for model in spectral spectral64 spectral16 smits16 rgb; do
         image="$OUT/cornell_tsl_$model$spp.exr"
         t=$(timed "$TSLC" render examples/cornell.tsl -o "$image" --spp "$spp" --seed 1 --color "$model" --quiet)
         echo "time: tslc --color $model ${t}s"
