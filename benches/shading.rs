@@ -269,7 +269,11 @@ fn main() {
         bench_lookups();
     }
     if part("compile") {
-        bench_compile();
+        // Other words filter the compiled sources by name:
+        // `-- compile texture_tree`.
+        let parts = ["materials", "spectral", "lookups", "compile"];
+        let names: Vec<&str> = only.iter().map(String::as_str).filter(|o| !parts.contains(o)).collect();
+        bench_compile(&names);
     }
 }
 
@@ -291,7 +295,7 @@ fn bench_spectral(rgb: &Program) {
 }
 
 /// Compile time, source to callable code.
-fn bench_compile() {
+fn bench_compile(names: &[&str]) {
     let mut sources: Vec<(String, String)> = vec![("stdlib".into(), "const float UNUSED = 0;".into())];
     let mut examples: Vec<_> =
         std::fs::read_dir("examples").map(|d| d.filter_map(Result::ok).map(|e| e.path()).collect()).unwrap_or_default();
@@ -302,6 +306,7 @@ fn bench_compile() {
             sources.push((p.display().to_string(), text));
         }
     }
+    sources.retain(|(name, _)| names.is_empty() || names.iter().any(|n| name.contains(n)));
     for (name, text) in &sources {
         // The stdlib line compiles every prelude entry; examples compile
         // their own entries (prelude ones are compiled when first used).

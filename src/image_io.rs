@@ -75,9 +75,21 @@ pub fn read_picture(path: &Path, encoding: Encoding) -> Result<Picture, String> 
         }
     };
     if encoding == Encoding::Srgb && !linear_file {
+        // 8-bit files give 256 values k / 255: decoded from a table (the
+        // same function's values), any other value by the curve itself.
+        let table: Vec<(f32, f32)> = (0..=255u8)
+            .map(|k| {
+                let v = f32::from(k) / 255.0;
+                (v, srgb_to_linear(v))
+            })
+            .collect();
         for t in &mut picture.texels {
             for c in &mut t[..3] {
-                *c = srgb_to_linear(*c);
+                let k = (*c * 255.0).round();
+                *c = match table.get(k as usize) {
+                    Some(&(v, linear)) if k >= 0.0 && v.to_bits() == c.to_bits() => linear,
+                    _ => srgb_to_linear(*c),
+                };
             }
         }
     }

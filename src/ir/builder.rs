@@ -30,6 +30,10 @@ pub(crate) struct Builder {
     pub(crate) contexts: HashMap<(u32, GlobalChanges), u32>,
     /// In a hit group: what is per-call, for [`Builder::hoisted`].
     pub(crate) hoisting: Option<super::hoist::Hoisting>,
+    /// Conditions known inside the scope being built (innermost last):
+    /// a hit group lowers all its methods under one branch of a `select`,
+    /// and each method's own branch on the same condition folds.
+    pub(crate) facts: Vec<(Value, bool)>,
 }
 
 /// Shading globals replaced in a coordinate context, by name.
@@ -122,6 +126,7 @@ impl Builder {
             noise_budget: NOISE_INLINE_SITES,
             contexts: HashMap::default(),
             hoisting: None,
+            facts: Vec::new(),
         }
     }
 
@@ -166,7 +171,10 @@ impl Builder {
     }
 
     pub(crate) fn konst(&self, v: Value) -> Option<Const> {
-        self.consts.get(&v).copied()
+        match self.consts.get(&v) {
+            Some(c) => Some(*c),
+            None => self.facts.iter().rev().find(|(f, _)| *f == v).map(|(_, known)| Const::B(*known)),
+        }
     }
 
     pub(crate) fn fconst(&self, v: Value) -> Option<f32> {

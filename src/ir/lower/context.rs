@@ -16,6 +16,7 @@ impl<'p> Lowerer<'p> {
             samplers: HashMap::default(),
             direction_only: false,
             absolute_spectra: false,
+            types: Default::default(),
         }
     }
 

@@ -78,13 +78,12 @@ impl<'p> Lowerer<'p> {
         b.hoist_above_per_call(hit_words);
         b.noise_budget = HIT_NOISE_INLINE_SITES;
         let ctx = self.root_ctx();
-        let mut parts = Vec::new();
-        let mut entries = Vec::new();
-        let mut outputs: Vec<(Scalar, Value)> = Vec::new();
+        // Every method's own arguments first: they are parameters, read
+        // wherever the methods are lowered.
+        let mut lowered = Vec::new();
         for &method in methods {
             let first_param = b.func.params.len() as u32;
-            let first_result = outputs.len() as u32;
-            let (params, ret) = match method {
+            let (own, args) = match method {
                 HitMethod::Interface(m) => {
                     let Some(im) = interface_method(m) else { continue };
                     let own: Vec<(String, Ty)> = im
@@ -93,30 +92,15 @@ impl<'p> Lowerer<'p> {
                         .filter(|(n, _)| !matches!(*n, "wo" | "eta"))
                         .map(|(n, t)| (n.to_string(), t.clone()))
                         .collect();
-                    let mut own_args = self.method_args(&mut b, &own).into_iter();
-                    let args: Vec<Vec<Value>> = im
-                        .params
-                        .iter()
-                        .map(|(n, _)| match *n {
-                            "wo" => wo.clone(),
-                            "eta" => eta.clone(),
-                            _ => own_args.next().unwrap_or_default(),
-                        })
-                        .collect();
-                    let result = self.mat_method(&mut b, &mat, im, &args, &ctx);
-                    outputs.extend(self.words(&im.ret).into_iter().zip(result));
-                    (own, im.ret.clone())
+                    let args = self.method_args(&mut b, &own);
+                    (own, args)
                 }
                 HitMethod::EvalPdf => {
                     let own = vec![("wi".to_string(), Ty::Vector)];
-                    let wi = self.method_args(&mut b, &own).remove(0);
-                    let results = self.eval_pdf(&mut b, &mat, &wi, &wo, &eta, &ctx);
-                    (own, self.float_words(&mut outputs, results))
+                    let args = self.method_args(&mut b, &own);
+                    (own, args)
                 }
-                HitMethod::DeltaLobes => {
-                    let lobes = self.delta_lobes(&mut b, &mat, &wo, &eta, &ctx);
-                    (Vec::new(), self.float_words(&mut outputs, lobes))
-                }
+                HitMethod::DeltaLobes => (Vec::new(), Vec::new()),
                 HitMethod::ReflectionSum(lights) => {
                     let mut own = Vec::new();
                     for k in 0..lights {
@@ -124,17 +108,39 @@ impl<'p> Lowerer<'p> {
                         own.push((format!("light{k}"), Ty::Color));
                     }
                     let args = self.method_args(&mut b, &own);
-                    let sum = self.reflection_sum(&mut b, &mat, &args, &wo, &ctx);
-                    outputs.extend(self.words(&Ty::Color).into_iter().zip(sum));
-                    (own, Ty::Color)
+                    (own, args)
                 }
             };
+            lowered.push(HitCall { method, own, args, params: first_param..b.func.params.len() as u32 });
+        }
+        // A `select` at the root (a box with a material per face) lowers
+        // every method under one branch per child: each method's own
+        // choice folds there, so the child's generators are lowered once,
+        // not once per method in sibling branches.
+        let choice = self.root_select(&mut b, &mat, &ctx);
+        let results = match &choice {
+            Some(hits) => {
+                self.under_choice(&mut b, hits, &mut |me, b| me.hit_methods(b, &mat, &lowered, &wo, &eta, &ctx))
+            }
+            None => self.hit_methods(&mut b, &mat, &lowered, &wo, &eta, &ctx),
+        };
+        let mut parts = Vec::new();
+        let mut entries = Vec::new();
+        let mut outputs: Vec<(Scalar, Value)> = Vec::new();
+        let mut results = results.into_iter();
+        for call in lowered {
+            let first_result = outputs.len() as u32;
+            let ret = self.hit_ret(call.method);
+            for t in self.hit_words_of(call.method, &ret) {
+                let v = results.next().unwrap_or_else(|| b.f(0.0));
+                outputs.push((t, v));
+            }
             parts.push(Part {
-                name: format!("{name}.hit.{}", method_name(method)),
-                params: first_param..b.func.params.len() as u32,
+                name: format!("{name}.hit.{}", method_name(call.method)),
+                params: call.params,
                 results: first_result..outputs.len() as u32,
             });
-            entries.push(HitEntry { method, params, ret });
+            entries.push(HitEntry { method: call.method, params: call.own, ret });
         }
         b.func.results = outputs.iter().map(|(t, _)| *t).collect();
         for (k, (_, v)) in outputs.iter().enumerate() {
@@ -144,12 +150,161 @@ impl<'p> Lowerer<'p> {
         HitGroup { split: split::split(&combined, hit_words, &parts), combined, entries }
     }
 
-    /// Appends `results` as float words; the array type hosts read them as.
-    fn float_words(&self, outputs: &mut Vec<(Scalar, Value)>, results: Vec<Value>) -> Ty {
-        let n = results.len() as u32;
-        outputs.extend(results.into_iter().map(|v| (Scalar::F32, v)));
-        Ty::Array(Box::new(Ty::Float), n)
+    /// The result type of a method in a group.
+    fn hit_ret(&self, method: HitMethod) -> Ty {
+        match method {
+            HitMethod::Interface(m) => interface_method(m).map_or(Ty::Float, |im| im.ret.clone()),
+            HitMethod::EvalPdf => Ty::Array(Box::new(Ty::Float), self.lanes as u32 + 1),
+            // Both directions and their responses.
+            HitMethod::DeltaLobes => Ty::Array(Box::new(Ty::Float), 6 + 2 * self.lanes as u32),
+            HitMethod::ReflectionSum(_) => Ty::Color,
+        }
     }
+
+    /// The result words of a method: floats for the arrays hosts read.
+    fn hit_words_of(&self, method: HitMethod, ret: &Ty) -> Vec<Scalar> {
+        match method {
+            HitMethod::Interface(_) | HitMethod::ReflectionSum(_) => self.words(ret),
+            HitMethod::EvalPdf | HitMethod::DeltaLobes => match ret {
+                Ty::Array(_, n) => vec![Scalar::F32; *n as usize],
+                _ => Vec::new(),
+            },
+        }
+    }
+
+    /// Every method of a group lowered on `mat` in turn: their results,
+    /// one list.
+    fn hit_methods(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        calls: &[HitCall],
+        wo: &[Value],
+        eta: &[Value],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let mut out = Vec::new();
+        for call in calls {
+            let words = self.hit_words_of(call.method, &self.hit_ret(call.method)).len();
+            let mut result = match call.method {
+                HitMethod::Interface(m) => {
+                    let Some(im) = interface_method(m) else { continue };
+                    let mut own_args = call.args.iter();
+                    let args: Vec<Vec<Value>> = im
+                        .params
+                        .iter()
+                        .map(|(n, _)| match *n {
+                            "wo" => wo.to_vec(),
+                            "eta" => eta.to_vec(),
+                            _ => own_args.next().cloned().unwrap_or_default(),
+                        })
+                        .collect();
+                    self.mat_method(b, mat, im, &args, ctx)
+                }
+                HitMethod::EvalPdf => {
+                    let wi = call.args.first().cloned().unwrap_or_default();
+                    self.eval_pdf(b, mat, &wi, wo, eta, ctx)
+                }
+                HitMethod::DeltaLobes => self.delta_lobes(b, mat, wo, eta, ctx),
+                HitMethod::ReflectionSum(_) => self.reflection_sum(b, mat, &call.args, wo, ctx),
+            };
+            // The declared words, whatever lowering gave (never different
+            // once checked).
+            result.resize_with(words, || b.f(0.0));
+            out.extend(result);
+        }
+        out
+    }
+
+    /// The conditions of a `select` at the root of `mat` (named or not),
+    /// `hits[k]` true for child k; `None` for any other root.
+    fn root_select(&mut self, b: &mut Builder, mat: &Mat<'p>, ctx: &Ctx) -> Option<Vec<Value>> {
+        match &mat.expr.kind {
+            ExprKind::Name(n) => {
+                if let Some(Val::Material(m)) = mat.env.get(n.as_str()) {
+                    let m = m.clone();
+                    return self.root_select(b, &m, ctx);
+                }
+                let sym = self.symbol(mat.in_prelude, n)?;
+                let Item::MaterialTree(t) = self.item(sym) else { return None };
+                let m = Mat { expr: &t.body, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) };
+                self.root_select(b, &m, ctx)
+            }
+            ExprKind::Call { callee, args: call_args } => {
+                if self.program.resolutions.get(&callee.span).is_some() {
+                    return None;
+                }
+                let node = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node())?;
+                if node != TreeNode::Select {
+                    return None;
+                }
+                let params: Vec<(&str, Ty)> = node.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
+                let bound = bind_args(&params, call_args);
+                let index = bound.first().copied().flatten()?;
+                let items = self.material_items(bound.get(1).copied().flatten(), mat);
+                if items.len() < 2 {
+                    return None;
+                }
+                // As `tree_node` computes it: the same values, numbered once.
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let i = self.expr(b, &mut fr, ctx, index);
+                let i = self.scalar(b, i);
+                let i = self.clamp_index(b, i, items.len() as i32);
+                // Each method's choice only when it is point-only (it is
+                // for every index a checked program can give, but a
+                // per-call one would not fold).
+                if b.is_per_call(i) {
+                    return None;
+                }
+                Some(
+                    (0..items.len() - 1)
+                        .map(|k| {
+                            let kv = b.i(k as i32);
+                            b.bin(BinOp::IEq, i, kv)
+                        })
+                        .collect(),
+                )
+            }
+            _ => None,
+        }
+    }
+
+    /// `lower` under the chain of branches `hits` (as `select_child`
+    /// makes), with each branch's outcome known inside it.
+    fn under_choice(
+        &mut self,
+        b: &mut Builder,
+        hits: &[Value],
+        lower: &mut dyn FnMut(&mut Self, &mut Builder) -> Vec<Value>,
+    ) -> Vec<Value> {
+        let Some((&hit, rest)) = hits.split_first() else { return lower(self, b) };
+        let mut then_vals = Vec::new();
+        let mut then_body = b.nested_under(&[hit], |b| {
+            b.facts.push((hit, true));
+            then_vals = lower(self, b);
+            b.facts.pop();
+        });
+        let vars: Vec<Var> = then_vals.iter().map(|v| b.var(b.ty(*v))).collect();
+        then_body.extend(vars.iter().zip(&then_vals).map(|(var, v)| Inst::Set(*var, *v)));
+        let else_body = b.nested_under(&[hit], |b| {
+            b.facts.push((hit, false));
+            let vals = self.under_choice(b, rest, lower);
+            b.facts.pop();
+            for (var, v) in vars.iter().zip(&vals) {
+                b.push(Inst::Set(*var, *v));
+            }
+        });
+        b.push(Inst::If { cond: hit, then_body, else_body });
+        vars.iter().map(|v| b.get(*v)).collect()
+    }
+}
+
+/// A method of a group with its own parameters, read once.
+struct HitCall {
+    method: HitMethod,
+    own: Vec<(String, Ty)>,
+    args: Vec<Vec<Value>>,
+    params: std::ops::Range<u32>,
 }
 
 /// The name of a method's function in a group (`NAME.hit.sample`).

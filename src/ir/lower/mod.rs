@@ -361,6 +361,10 @@ struct Lowerer<'p> {
     /// `spectrum(...)` curves are absolute spectral power (a scene light's
     /// value), not D65-relative: [`color::emission_resample_weights`].
     absolute_spectra: bool,
+    /// The checker's types of expressions already lowered: inlined
+    /// functions ask for the same expressions' types many times, and a
+    /// hash probe is cheaper than the checker's bisection.
+    types: std::cell::RefCell<HashMap<Span, &'p Ty>>,
 }
 
 // ---------------------------------------------------------------- values
