@@ -242,7 +242,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
     if args.crop.is_some() && args.tile.is_some() {
         return fail("--crop and --tile cannot be combined");
     }
-    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene);
+    // One frame described once: the scene's syntax can go once described.
+    let lean = args.frame.is_none() && args.frames.is_none() && args.fps.is_none();
+    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene).lean(lean);
     for dir in &args.options.include {
         compiler = compiler.import_path(dir);
     }
