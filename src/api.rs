@@ -395,6 +395,15 @@ impl Program {
         self.inner.scene.as_ref()
     }
 
+    /// Takes the described scene out of the program, for a caller that
+    /// builds it once and wants its memory back as soon as it is placed
+    /// ([`Scene::build_owned`](crate::render::Scene::build_owned)); `None`
+    /// without a scene or when the program is shared (cloned).
+    /// [`Program::scene`] is `None` afterwards.
+    pub fn take_scene(&mut self) -> Option<SceneDesc> {
+        Arc::get_mut(&mut self.inner)?.scene.take()
+    }
+
     /// The program's scene described at one frame of an animation: values
     /// that read `frame` or `time` take that frame's values, and the
     /// files it names are not read again. `Ok(None)` without a scene; an

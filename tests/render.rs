@@ -787,6 +787,13 @@ fn a_lean_program_renders_the_same_image_with_less_kept() {
     };
     let (a, b) = (image(&full), image(&lean));
     assert_eq!(a.color, b.color);
+    // Given its description, the builder frees the objects once placed.
+    let mut given = compile(true);
+    let desc = given.take_scene().unwrap();
+    assert!(given.scene().is_none());
+    let scene = Scene::build_owned(&given, desc, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(render::render(&scene, &RenderOptions::default()).unwrap().0.color, a.color);
+    assert!(full.clone().take_scene().is_none(), "a shared program keeps its scene");
     // Kept: the first object of each material name and the inline material.
     let entries = |p: &tsl::Program| {
         p.checked()
