@@ -189,6 +189,16 @@ impl Compiler {
         self
     }
 
+    /// For a one-shot render of one frame: the syntax, types and name
+    /// resolutions of the scene's objects are dropped once the scene is
+    /// described, except what materials compile from (a generated scene of
+    /// a million spheres then renders in half the memory).
+    /// [`Program::scene_at`] can then describe no other frame.
+    pub fn lean(mut self, lean: bool) -> Self {
+        self.options.lean = lean;
+        self
+    }
+
     /// Parses, checks, lowers and JIT-compiles the program.
     pub fn compile(self) -> Result<Program, Error> {
         let checked = match (&self.file, &self.source) {
@@ -217,7 +227,7 @@ impl Compiler {
         }
         // Checking described the scene in RGB; another model evaluates its
         // colors again (the files it read are reused).
-        let scene = match self.model {
+        let mut scene = match self.model {
             ColorModel::Rgb => checked.scene,
             model => {
                 let (scene, diags) = crate::scene::describe(&checked.program, model, checked.scene.as_ref());
@@ -227,7 +237,9 @@ impl Compiler {
                 scene
             }
         };
-        let program = checked.program;
+        let mut program = checked.program;
+        let lean =
+            self.options.lean && scene.as_mut().is_some_and(|d| crate::scene::drop_object_syntax(&mut program, d));
         let jit_options = JitOptions { keep_clif: self.keep_clif, optimize_large: self.optimize_large };
         let mut parts = Vec::new();
         if self.eager || self.eager_prelude {
@@ -251,6 +263,7 @@ impl Compiler {
                 model: self.model,
                 program,
                 scene,
+                lean,
                 jit_options,
                 parts: RwLock::new(parts),
                 compiled: Mutex::new(compiled),
@@ -287,6 +300,8 @@ struct Inner {
     program: check::Program,
     /// The program's scene, described in the program's color model.
     scene: Option<SceneDesc>,
+    /// The scene's object syntax was dropped ([`Compiler::lean`]).
+    lean: bool,
     jit_options: JitOptions,
     /// The parts compiled so far: up front, then as names are first used.
     parts: RwLock<Vec<Arc<Part>>>,
@@ -380,6 +395,15 @@ impl Program {
         self.inner.scene.as_ref()
     }
 
+    /// Takes the described scene out of the program, for a caller that
+    /// builds it once and wants its memory back as soon as it is placed
+    /// ([`Scene::build_owned`](crate::render::Scene::build_owned)); `None`
+    /// without a scene or when the program is shared (cloned).
+    /// [`Program::scene`] is `None` afterwards.
+    pub fn take_scene(&mut self) -> Option<SceneDesc> {
+        Arc::get_mut(&mut self.inner)?.scene.take()
+    }
+
     /// The program's scene described at one frame of an animation: values
     /// that read `frame` or `time` take that frame's values, and the
     /// files it names are not read again. `Ok(None)` without a scene; an
@@ -399,6 +423,11 @@ impl Program {
         let reuse = self.inner.scene.as_ref();
         if reuse.is_some_and(|d| d.frame.number == request.frame) && request.fps.is_none() {
             return Ok(reuse.cloned());
+        }
+        if self.inner.lean {
+            let message =
+                "internal error: a lean program (`Compiler::lean`) describes its scene at its first frame only";
+            return Err(Error::plain(message.into()));
         }
         let (desc, diags) = crate::scene::describe_frame(&self.inner.program, self.inner.model, reuse, request);
         if diags.iter().any(Diagnostic::is_error) {

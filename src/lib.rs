@@ -120,6 +120,10 @@ fn finish(
         let scene = if diagnostics.iter().any(Diagnostic::is_error) {
             None
         } else {
+            if options.lean {
+                let spans = scene::forgettable_spans(&program);
+                program.forget_exprs(&spans);
+            }
             let (scene, more) = scene::describe(&program, ColorModel::Rgb, previous);
             diagnostics.extend(more);
             scene

@@ -31,11 +31,21 @@ pub struct LoadOptions {
     pub prelude: bool,
     /// Where images named by `texture` calls are loaded and cached.
     pub textures: std::sync::Arc<crate::texture::TextureManager>,
+    /// For a one-shot tool (`tslc check`, `tslc render`): once the program
+    /// checks clean, forget the types and resolutions of the scene values
+    /// nothing reads again ([`crate::scene::forgettable_spans`]). Editors
+    /// hover over them: off by default.
+    pub lean: bool,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        LoadOptions { import_paths: Vec::new(), prelude: true, textures: crate::texture::TextureManager::global() }
+        LoadOptions {
+            import_paths: Vec::new(),
+            prelude: true,
+            textures: crate::texture::TextureManager::global(),
+            lean: false,
+        }
     }
 }
 

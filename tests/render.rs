@@ -757,3 +757,65 @@ fn a_film_beyond_the_budget_says_to_render_in_tiles() {
     assert!(e.contains("--tile I/3"), "{e}");
     assert!(render::film_bytes(16384, 8192, false) <= render::FILM_BUDGET_BYTES);
 }
+
+/// `Compiler::lean` drops the syntax, types and resolutions of the scene's
+/// objects once described, but renders the same image: named materials
+/// shared, inline materials and transforms kept, light blocks untouched.
+#[test]
+fn a_lean_program_renders_the_same_image_with_less_kept() {
+    let src = r#"
+        material red = lambert(kd: rgb(0.8, 0.1, 0.1));
+        material blue = lambert(kd: rgb(0.1, 0.1, 0.8));
+        scene {
+            camera { from (0, 1, 6); to (0, 0, 0); fov 50; }
+            render { width 24; height 16; spp 4; integrator "path"; }
+            light point { at (2, 4, 3); intensity rgb(30, 30, 30); }
+            light sphere { center (-2, 3, 1); radius 0.3; radiance rgb(4, 4, 4); }
+            object sphere { center (-1.5, 0, 0); radius 0.5; material red; }
+            object sphere { center (0, -0.5 - 0.25, 0); radius 0.5; material blue; }
+            object sphere { center (1.5, 0, -0); radius 0.5; material red; translate (0, 0.2, 0); }
+            object box { min (-3, -1.5, -3); max (3, -1.25, 3); material lambert(kd: rgb(0.5, 0.5, 0.5)); }
+            object sphere { center (0, 1.2, 0); radius 0.4; material blue; }
+            object sphere { center (-0.7, 1.2, 1); radius -(-0.3); material red; }
+        }
+    "#;
+    let compile = |lean| Compiler::new().source("lean.tsl", src).lean(lean).compile().unwrap_or_else(|e| panic!("{e}"));
+    let (full, lean) = (compile(false), compile(true));
+    let image = |program: &tsl::Program| {
+        let scene = Scene::build(program, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+        render::render(&scene, &RenderOptions::default()).unwrap().0
+    };
+    let (a, b) = (image(&full), image(&lean));
+    assert_eq!(a.color, b.color);
+    // Given its description, the builder frees the objects once placed.
+    let mut given = compile(true);
+    let desc = given.take_scene().unwrap();
+    assert!(given.scene().is_none());
+    let scene = Scene::build_owned(&given, desc, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(render::render(&scene, &RenderOptions::default()).unwrap().0.color, a.color);
+    assert!(full.clone().take_scene().is_none(), "a shared program keeps its scene");
+    // Kept: the first object of each material name and the inline material.
+    let entries = |p: &tsl::Program| {
+        p.checked()
+            .loaded
+            .modules
+            .iter()
+            .filter(|m| !m.is_prelude)
+            .flat_map(|m| m.ast.items.iter())
+            .find_map(|i| match i {
+                tsl::syntax::ast::Item::Scene(s) => Some(s.entries.len()),
+                _ => None,
+            })
+            .unwrap()
+    };
+    assert_eq!((entries(&full), entries(&lean)), (10, 7));
+    let types = |p: &tsl::Program| p.checked().expr_types.len();
+    assert!(types(&lean) < types(&full), "{} types kept of {}", types(&lean), types(&full));
+    let resolutions = |p: &tsl::Program| p.checked().resolutions.len();
+    assert_eq!(resolutions(&full) - resolutions(&lean), 3, "the later `red`, `blue` and `red`");
+    // The same frame is the description kept; another cannot be made.
+    let frame = |n| tsl::scene::FrameRequest { frame: n, fps: None };
+    assert!(lean.scene_at(&frame(0)).unwrap().is_some());
+    assert!(lean.scene_at(&frame(1)).is_err());
+    assert!(full.scene_at(&frame(1)).unwrap().is_some());
+}

@@ -135,6 +135,33 @@ impl Program {
     }
 }
 
+impl Program {
+    /// Forgets the type and the resolution of every expression inside one
+    /// of `spans` (in span order, none inside another): what a one-shot
+    /// tool drops once nothing will read them (see
+    /// [`scene::forgettable_spans`](crate::scene::forgettable_spans)).
+    pub fn forget_exprs(&mut self, spans: &[Span]) {
+        if spans.is_empty() {
+            return;
+        }
+        // Both tables are in span order: one pass each, moving along `spans`.
+        fn inside(spans: &[Span]) -> impl FnMut(&Span) -> bool + '_ {
+            let mut at = 0;
+            move |s: &Span| {
+                let before = |a: &Span| a.file.0 < s.file.0 || (a.file == s.file && a.end <= s.start);
+                while at < spans.len() && before(&spans[at]) {
+                    at += 1;
+                }
+                spans.get(at).is_some_and(|a| a.file == s.file && a.start <= s.start && s.end <= a.end)
+            }
+        }
+        let mut drop = inside(spans);
+        self.expr_types.retain(|s| !drop(s));
+        let mut drop = inside(spans);
+        self.resolutions.retain(|s| !drop(s));
+    }
+}
+
 /// A global name and the item that defines it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Symbol {

@@ -74,6 +74,13 @@ impl<T> SpanMap<T> {
         self.entries[slot].1 = value;
     }
 
+    /// Keeps the entries whose span `keep` accepts, and gives the memory
+    /// of the others back.
+    pub(super) fn retain(&mut self, mut keep: impl FnMut(&Span) -> bool) {
+        self.entries.retain(|(span, _)| keep(span));
+        self.entries.shrink_to_fit();
+    }
+
     /// Puts the entries in span order, once checking is done.
     pub(super) fn finish(&mut self) {
         if !self.ordered {

@@ -96,6 +96,10 @@ impl ExprTypes {
         self.codes.finish();
     }
 
+    pub(super) fn retain(&mut self, keep: impl FnMut(&Span) -> bool) {
+        self.codes.retain(keep);
+    }
+
     fn ty(&self, code: u32) -> &Ty {
         let code = code as usize;
         PLAIN.get(code).unwrap_or_else(|| &self.arrays[code - PLAIN.len()])

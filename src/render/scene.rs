@@ -12,17 +12,19 @@
 use super::Vec3;
 use super::camera::Camera;
 use super::environment::{Environment, EnvironmentMap, EnvironmentSource};
-use super::geometry::{Geometry, ObjectGeometry};
+use super::geometry::{Blocks, Geometry, ObjectGeometry};
 use super::light::{Light, LightKind, LightSampler};
 use super::mesh::Mesh;
 use super::shape::Shape;
 use crate::diag::{Diagnostic, Span};
 use crate::scene::{
-    AreaEmission, EnvironmentDesc, EnvironmentSourceDesc, Frame, LightColor, LightDesc, MaterialRef, SceneDesc,
-    ShapeDesc, Surface,
+    AreaEmission, EnvironmentDesc, EnvironmentSourceDesc, Frame, LightColor, LightDesc, MaterialRef, ObjectDesc,
+    SceneDesc, ShapeDesc, Surface,
 };
 use crate::{Color, ColorModel, Error, Material, Program};
+use std::borrow::Cow;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 pub use crate::scene::{IntegratorKind, LightSampling};
 
@@ -253,7 +255,19 @@ impl Scene {
                 None => Error::plain(message.into()),
             });
         };
-        let scene = Builder { program, desc, model: program.color_model() }.build(overrides)?;
+        let scene =
+            Builder { program, desc, model: program.color_model() }.build(overrides, Cow::Borrowed(&desc.objects))?;
+        Ok(Scene { build_seconds: start.elapsed().as_secs_f64(), ..scene })
+    }
+
+    /// [`Scene::build_from`] given the description ([`Program::take_scene`]):
+    /// its objects are dropped once placed, before the BVH is built (a
+    /// million spheres' description is 200 MB).
+    pub fn build_owned(program: &Program, mut desc: SceneDesc, overrides: &Overrides) -> Result<Scene, Error> {
+        let start = std::time::Instant::now();
+        let objects = std::mem::take(&mut desc.objects);
+        let scene =
+            Builder { program, desc: &desc, model: program.color_model() }.build(overrides, Cow::Owned(objects))?;
         Ok(Scene { build_seconds: start.elapsed().as_secs_f64(), ..scene })
     }
 }
@@ -398,12 +412,13 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn build(&self, overrides: &Overrides) -> Result<Scene, Error> {
+    /// `descs`: the description's objects (taken out of it when owned).
+    fn build(&self, overrides: &Overrides, descs: Cow<'_, [ObjectDesc]>) -> Result<Scene, Error> {
         let settings = self.settings(overrides)?;
         let camera = self.camera(&settings)?;
         let environment = self.environment();
         let mut lights: Vec<Light> = self.desc.lights.iter().map(|l| Light { kind: self.light(l) }).collect();
-        let mut geometry = Vec::new();
+        let mut geometry = Blocks::default();
         // The distinct surfaces: objects naming one material share one.
         let mut objects = Vec::new();
         // Object materials that are not a plain name compile together.
@@ -411,11 +426,10 @@ impl<'a> Builder<'a> {
         // Each surface's material (none for `light rect`/`sphere`).
         let mut materials: Vec<Option<MaterialRef>> = Vec::new();
         // Each named material is looked up (and its code examined) once.
-        let mut by_name: HashMap<&str, u32> = HashMap::new();
-        let count = self.desc.objects.len();
+        let mut by_name: HashMap<Arc<str>, u32> = HashMap::new();
+        let count = descs.len();
         let mut surface_of_object: Vec<u32> = Vec::with_capacity(count);
-        geometry.reserve_exact(count);
-        for o in &self.desc.objects {
+        for o in descs.iter() {
             let to_world = o.to_world();
             let placed = match (&o.shape, o.shape.kind()) {
                 (ShapeDesc::Mesh { file }, _) => Mesh::from_data(&file.value, to_world)
@@ -435,7 +449,7 @@ impl<'a> Builder<'a> {
                             geometry.push(placed);
                             continue;
                         }
-                        by_name.insert(name, surface);
+                        by_name.insert(name.clone(), surface);
                         objects.push((Some(self.program.material(name)?), None, o.span));
                         materials.push(Some(m.material));
                     }
@@ -462,6 +476,7 @@ impl<'a> Builder<'a> {
             surface_of_object.push(surface);
             geometry.push(placed);
         }
+        drop(descs);
         if !pending.is_empty() {
             let refs: Vec<(String, MaterialRef)> = pending.iter().map(|(_, n, r)| (n.clone(), *r)).collect();
             let compiled = self.program.compile_material_exprs(&refs)?;

@@ -20,12 +20,14 @@
 
 mod content;
 mod describe;
+mod lean;
 mod mesh;
 mod shape;
 
 pub use crate::check::MaterialRef;
 pub use content::content_hash;
 pub use describe::{describe, describe_frame};
+pub use lean::{drop_object_syntax, forgettable_spans};
 pub use mesh::MeshData;
 pub use shape::{ShapeError, ShapeKind, Transform, affine_rows, compose, mesh_transform_error, shape_transform_error};
 

@@ -32,57 +32,60 @@ pub struct Ident {
 
 /// An identifier's text. The lexer interns them per file, so the
 /// occurrences of one name share one allocation (a generated scene writes
-/// `object sphere { ... material red; }` a million times). Compares,
-/// hashes, prints and dereferences as its `str`.
+/// `object sphere { ... material red; }` a million times), behind a thin
+/// pointer (an `Arc<str>` is two words: a million-sphere scene has five
+/// names an object). Compares, hashes, prints and dereferences as its
+/// `str`.
 #[derive(Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
-pub struct Name(Arc<str>);
+#[allow(clippy::rc_buffer)]
+pub struct Name(Arc<String>);
 
 impl Name {
     pub fn as_str(&self) -> &str {
-        &self.0
+        self.0.as_str()
     }
 }
 
 impl std::ops::Deref for Name {
     type Target = str;
     fn deref(&self) -> &str {
-        &self.0
+        self.0.as_str()
     }
 }
 
 impl std::borrow::Borrow<str> for Name {
     fn borrow(&self) -> &str {
-        &self.0
+        self.0.as_str()
     }
 }
 
 impl AsRef<str> for Name {
     fn as_ref(&self) -> &str {
-        &self.0
+        self.0.as_str()
     }
 }
 
 impl std::fmt::Debug for Name {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        std::fmt::Debug::fmt(&*self.0, f)
+        std::fmt::Debug::fmt(self.0.as_str(), f)
     }
 }
 
 impl std::fmt::Display for Name {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+        f.write_str(self.0.as_str())
     }
 }
 
 impl From<&str> for Name {
     fn from(s: &str) -> Name {
-        Name(s.into())
+        Name(Arc::new(s.to_string()))
     }
 }
 
 impl From<String> for Name {
     fn from(s: String) -> Name {
-        Name(s.into())
+        Name(Arc::new(s))
     }
 }
 
@@ -94,52 +97,52 @@ impl From<Name> for String {
 
 impl PartialEq<str> for Name {
     fn eq(&self, other: &str) -> bool {
-        *self.0 == *other
+        self.0.as_str() == other
     }
 }
 
 impl PartialEq<&str> for Name {
     fn eq(&self, other: &&str) -> bool {
-        *self.0 == **other
+        self.0.as_str() == *other
     }
 }
 
 impl PartialEq<String> for Name {
     fn eq(&self, other: &String) -> bool {
-        *self.0 == **other
+        self.0.as_str() == *other
     }
 }
 
 impl PartialEq<Name> for str {
     fn eq(&self, other: &Name) -> bool {
-        *self == *other.0
+        self == other.0.as_str()
     }
 }
 
 impl PartialEq<Name> for &str {
     fn eq(&self, other: &Name) -> bool {
-        **self == *other.0
+        *self == other.0.as_str()
     }
 }
 
 impl PartialEq<Name> for String {
     fn eq(&self, other: &Name) -> bool {
-        **self == *other.0
+        *self == other.0.as_str()
     }
 }
 
 /// The names met in one file, each allocated once.
 #[derive(Debug, Default)]
-pub struct Names(rustc_hash::FxHashSet<Arc<str>>);
+pub struct Names(rustc_hash::FxHashSet<Name>);
 
 impl Names {
     pub fn intern(&mut self, s: &str) -> Name {
-        if let Some(a) = self.0.get(s) {
-            return Name(a.clone());
+        if let Some(n) = self.0.get(s) {
+            return n.clone();
         }
-        let a: Arc<str> = s.into();
-        self.0.insert(a.clone());
-        Name(a)
+        let n = Name::from(s);
+        self.0.insert(n.clone());
+        n
     }
 }
 

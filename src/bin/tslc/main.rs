@@ -192,7 +192,7 @@ fn main() -> ExitCode {
 }
 
 fn check(args: CheckArgs) -> ExitCode {
-    let options = LoadOptions { import_paths: args.include.clone(), ..LoadOptions::default() };
+    let options = LoadOptions { import_paths: args.include.clone(), lean: true, ..LoadOptions::default() };
     let colors = match args.color {
         ColorChoice::Always => Colors::Always,
         ColorChoice::Never => Colors::Never,

@@ -2,6 +2,7 @@
 //! line. Progress goes to stderr: a bar on a terminal, plain lines when
 //! piped (render-farm managers parse them), nothing with `--quiet`.
 
+use std::borrow::Cow;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -242,17 +243,29 @@ pub fn render(args: RenderArgs) -> ExitCode {
     if args.crop.is_some() && args.tile.is_some() {
         return fail("--crop and --tile cannot be combined");
     }
-    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene);
+    // One frame described once: the scene's syntax can go once described.
+    let lean = args.frame.is_none() && args.frames.is_none() && args.fps.is_none();
+    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene).lean(lean);
     for dir in &args.options.include {
         compiler = compiler.import_path(dir);
     }
-    let program = match compiler.compile() {
+    let mut program = match compiler.compile() {
         Ok(p) => p,
         Err(e) => {
             eprint!("{e}");
             return ExitCode::from(1);
         }
     };
+    // One frame, described once: the scene builder is given the
+    // description, and frees its objects once placed.
+    if lean && program.scene().is_some() {
+        let content_hash = tsl::scene::content_hash(program.checked(), program.scene());
+        let compiled = start.elapsed().as_secs_f64();
+        let desc = program.take_scene().map(Cow::Owned);
+        let code = render_frame(&args, &program, desc, None, true, compiled, &content_hash);
+        std::mem::forget(program);
+        return code;
+    }
     // Every frame's scene is checked before the first is rendered; the
     // first frame's description is kept for its render.
     let request = |frame| FrameRequest { frame, fps: args.fps };
@@ -289,7 +302,15 @@ pub fn render(args: RenderArgs) -> ExitCode {
         let desc = if described(frame) { program.scene() } else { owned.as_ref() };
         let animated = args.frame.is_some() || args.frames.is_some();
         let first = k == 0;
-        let code = render_frame(&args, &program, desc, animated.then_some(frame), first, compiled, &content_hash);
+        let code = render_frame(
+            &args,
+            &program,
+            desc.map(Cow::Borrowed),
+            animated.then_some(frame),
+            first,
+            compiled,
+            &content_hash,
+        );
         if code != ExitCode::SUCCESS {
             return code;
         }
@@ -304,7 +325,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
 fn render_frame(
     args: &RenderArgs,
     program: &tsl::Program,
-    desc: Option<&tsl::scene::SceneDesc>,
+    desc: Option<Cow<'_, tsl::scene::SceneDesc>>,
     frame: Option<i32>,
     first: bool,
     compiled: f64,
@@ -319,7 +340,11 @@ fn render_frame(
         light_sampling: args.options.light_sampling,
         ..Default::default()
     };
-    let scene = match Scene::build_from(program, desc, &overrides) {
+    let built = match desc {
+        Some(Cow::Owned(desc)) => Scene::build_owned(program, desc, &overrides),
+        desc => Scene::build_from(program, desc.as_deref(), &overrides),
+    };
+    let scene = match built {
         Ok(s) => s,
         Err(e) => {
             eprint!("{e}");
