@@ -98,6 +98,7 @@ impl Compiler {
     /// RGB (3 floats) or spectral (N samples over 380–780 nm).
     pub fn color_model(mut self, model: ColorModel) -> Self {
         self.model = model;
+        self.options.color_model = model;
         self
     }
 
@@ -225,12 +226,12 @@ impl Compiler {
         if !checked.is_ok() {
             return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
         }
-        // Checking described the scene in RGB; another model evaluates its
-        // colors again (the files it read are reused).
-        let mut scene = match self.model {
-            ColorModel::Rgb => checked.scene,
-            model => {
-                let (scene, diags) = crate::scene::describe(&checked.program, model, checked.scene.as_ref());
+        // A scene checked in another model evaluates its colors again (the
+        // files it read are reused); the first description goes at once.
+        let mut scene = match checked.scene {
+            Some(scene) if scene.model == crate::scene::description_model(self.model) => Some(scene),
+            previous => {
+                let (scene, diags) = crate::scene::describe(&checked.program, self.model, previous.as_ref());
                 if diags.iter().any(Diagnostic::is_error) {
                     return Err(Error { diagnostics: diags, sources: checked.program.loaded.sources });
                 }

@@ -124,7 +124,7 @@ fn finish(
                 let spans = scene::forgettable_spans(&program);
                 program.forget_exprs(&spans);
             }
-            let (scene, more) = scene::describe(&program, ColorModel::Rgb, previous);
+            let (scene, more) = scene::describe(&program, options.color_model, previous);
             diagnostics.extend(more);
             scene
         };

@@ -36,6 +36,10 @@ pub struct LoadOptions {
     /// nothing reads again ([`crate::scene::forgettable_spans`]). Editors
     /// hover over them: off by default.
     pub lean: bool,
+    /// The color model the scene description's colors are evaluated in
+    /// ([`crate::Checked::scene`]): a compiler for another model describes
+    /// the scene again, so a one-shot spectral render asks for its own.
+    pub color_model: crate::ColorModel,
 }
 
 impl Default for LoadOptions {
@@ -45,6 +49,7 @@ impl Default for LoadOptions {
             prelude: true,
             textures: crate::texture::TextureManager::global(),
             lean: false,
+            color_model: crate::ColorModel::Rgb,
         }
     }
 }

@@ -18,6 +18,14 @@ use crate::syntax::ast::{Expr, ExprKind, Item, Scene, SceneBlock, SceneEntry, Sc
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// The model a scene's colors are evaluated in for a render in `model`
+/// ([`SceneDesc::model`]). A hero render's wavelengths change per camera
+/// sample: its scene colors are tabulated at the 64 bin centres and
+/// interpolated when drawn.
+pub fn description_model(model: ColorModel) -> ColorModel {
+    if model == ColorModel::Hero { ColorModel::Spectral { samples: crate::color::MAX_SAMPLES } } else { model }
+}
+
 /// Describes the program's scene (the first `scene { }` block of the root
 /// program and its imports) with colors in `model`. Files already read for
 /// `reuse` (a description of the same program in another color model) are
@@ -51,10 +59,7 @@ pub fn describe_frame(
         })
     });
     let Some((module, item, scene, file)) = found else { return (None, Vec::new()) };
-    // A hero render's wavelengths change per camera sample: its scene colors
-    // are tabulated at the 64 bin centres and interpolated when drawn.
-    let model =
-        if model == ColorModel::Hero { ColorModel::Spectral { samples: crate::color::MAX_SAMPLES } } else { model };
+    let model = description_model(model);
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
     let globals = ShadingGlobals { frame: request.frame, ..ShadingGlobals::default() }.words();
     let mut d = Describer { program, model, module, item, dir, reuse, globals, diags: Vec::new(), named: None };
@@ -826,6 +831,21 @@ mod tests {
         assert!(Arc::ptr_eq(&mesh(rgb), &mesh(&spectral)), "the mesh was read again");
         assert_eq!(spectral.objects[0].to_world(), Mat4::from_translation(glam::Vec3::Y));
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_compiler_for_a_spectral_model_describes_the_scene_once_in_it() {
+        // A million-object spectral render holds one description, not an
+        // RGB one beside it.
+        let src = "scene { camera { from (0, 0, 5); to (0, 0, 0); } light point { at (0, 4, 0); intensity gray(2); } }";
+        for model in [ColorModel::Rgb, ColorModel::Spectral { samples: 8 }, ColorModel::Hero] {
+            let options = crate::LoadOptions { color_model: model, ..crate::LoadOptions::default() };
+            let checked = crate::check_source("s.tsl", src, &options);
+            assert_eq!(checked.scene.as_ref().map(|d| d.model), Some(description_model(model)));
+            let program = crate::Compiler::new().color_model(model).source("s.tsl", src).compile().unwrap();
+            assert_eq!(program.scene().map(|d| d.model), Some(description_model(model)));
+        }
+        assert_eq!(description_model(ColorModel::Hero), ColorModel::Spectral { samples: crate::color::MAX_SAMPLES });
     }
 
     #[test]

@@ -26,7 +26,7 @@ mod shape;
 
 pub use crate::check::MaterialRef;
 pub use content::content_hash;
-pub use describe::{describe, describe_frame};
+pub use describe::{describe, describe_frame, description_model};
 pub use lean::{drop_object_syntax, forgettable_spans};
 pub use mesh::MeshData;
 pub use shape::{ShapeError, ShapeKind, Transform, affine_rows, compose, mesh_transform_error, shape_transform_error};

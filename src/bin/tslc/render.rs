@@ -263,6 +263,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
         let compiled = start.elapsed().as_secs_f64();
         let desc = program.take_scene().map(Cow::Owned);
         let code = render_frame(&args, &program, desc, None, true, compiled, &content_hash);
+        // As below: the process ends next.
         std::mem::forget(program);
         return code;
     }
