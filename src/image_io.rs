@@ -64,36 +64,13 @@ pub const MAX_IMAGE_SIZE: u32 = 16384;
 /// OpenEXR, chosen by extension. The error says what is wrong in words.
 pub fn read_picture(path: &Path, encoding: Encoding) -> Result<Picture, String> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-    let (mut picture, linear_file) = match ext.as_str() {
-        "exr" => (read_exr_picture(path)?, true),
-        "png" | "jpg" | "jpeg" | "hdr" => (read_with_image_crate(path)?, ext == "hdr"),
-        _ => {
-            return Err(format!(
-                "`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)",
-                path.display()
-            ));
-        }
-    };
-    if encoding == Encoding::Srgb && !linear_file {
-        // 8-bit files give 256 values k / 255: decoded from a table (the
-        // same function's values), any other value by the curve itself.
-        let table: Vec<(f32, f32)> = (0..=255u8)
-            .map(|k| {
-                let v = f32::from(k) / 255.0;
-                (v, srgb_to_linear(v))
-            })
-            .collect();
-        for t in &mut picture.texels {
-            for c in &mut t[..3] {
-                let k = (*c * 255.0).round();
-                *c = match table.get(k as usize) {
-                    Some(&(v, linear)) if k >= 0.0 && v.to_bits() == c.to_bits() => linear,
-                    _ => srgb_to_linear(*c),
-                };
-            }
-        }
+    let srgb = encoding == Encoding::Srgb;
+    match ext.as_str() {
+        "exr" => read_exr_picture(path),
+        "hdr" => read_with_image_crate(path, false),
+        "png" | "jpg" | "jpeg" => read_with_image_crate(path, srgb),
+        _ => Err(format!("`{}` is not an image format TSL reads (PNG, JPEG, Radiance HDR, OpenEXR)", path.display())),
     }
-    Ok(picture)
 }
 
 fn check_size(width: u32, height: u32) -> Result<(), String> {
@@ -106,7 +83,9 @@ fn check_size(width: u32, height: u32) -> Result<(), String> {
     Ok(())
 }
 
-fn read_with_image_crate(path: &Path) -> Result<Picture, String> {
+/// `srgb`: decode the sRGB curve from the color channels (alpha stays
+/// linear).
+fn read_with_image_crate(path: &Path, srgb: bool) -> Result<Picture, String> {
     let mut reader =
         image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
     // Refuse oversized pictures before decoding them.
@@ -118,8 +97,33 @@ fn read_with_image_crate(path: &Path) -> Result<Picture, String> {
     let (width, height) = (decoded.width(), decoded.height());
     check_size(width, height)?;
     let has_alpha = decoded.color().has_alpha();
-    let rgba = decoded.into_rgba32f();
-    let texels = rgba.pixels().map(|p| p.0).collect();
+    // (Gray pictures convert through another path in the image crate, one
+    // ulp away on some values: they keep it.)
+    let eight_bit = matches!(decoded, image::DynamicImage::ImageRgb8(_) | image::DynamicImage::ImageRgba8(_));
+    let texels = if eight_bit {
+        // Each channel value through a table of the 256 values: the same
+        // numbers as converting every texel (`into_rgba32f`'s k / 255, then
+        // the curve), without a `powf` per channel.
+        let unit: [f32; 256] = std::array::from_fn(|k| f32::from(k as u8) / 255.0);
+        let color = unit.map(|v| if srgb { srgb_to_linear(v) } else { v });
+        let rgba = decoded.into_rgba8();
+        rgba.pixels()
+            .map(|p| {
+                let [r, g, b, a] = p.0.map(usize::from);
+                [color[r], color[g], color[b], unit[a]]
+            })
+            .collect()
+    } else {
+        let mut texels: Vec<[f32; 4]> = decoded.into_rgba32f().pixels().map(|p| p.0).collect();
+        if srgb {
+            for t in &mut texels {
+                for c in &mut t[..3] {
+                    *c = srgb_to_linear(*c);
+                }
+            }
+        }
+        texels
+    };
     Ok(Picture { width, height, texels, has_alpha })
 }
 
@@ -602,6 +606,34 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .filter(|n| n.contains(".tmp-"))
             .collect()
+    }
+
+    #[test]
+    fn eight_bit_pictures_decode_as_each_texel_converted_on_its_own() {
+        let dir = temp_dir("eight-bit");
+        // Every byte value in every channel, in RGBA, RGB and gray.
+        let rgba = image::RgbaImage::from_fn(256, 2, |x, y| {
+            let k = x as u8;
+            image::Rgba([k, k.wrapping_add(85 * y as u8), 255 - k, k.wrapping_mul(7)])
+        });
+        let gray = image::GrayImage::from_fn(256, 1, |x, _| image::Luma([x as u8]));
+        let (a, b, c) = (dir.join("rgba.png"), dir.join("gray.png"), dir.join("rgb.png"));
+        rgba.save(&a).unwrap();
+        gray.save(&b).unwrap();
+        image::DynamicImage::ImageRgba8(rgba).into_rgb8().save(&c).unwrap();
+        for path in [a, b, c] {
+            let reference: Vec<[f32; 4]> = image::open(&path).unwrap().into_rgba32f().pixels().map(|p| p.0).collect();
+            for encoding in [Encoding::Srgb, Encoding::Raw] {
+                let picture = read_picture(&path, encoding).unwrap();
+                assert_eq!(picture.texels.len(), reference.len());
+                for (got, want) in picture.texels.iter().zip(&reference) {
+                    let curve = |c: f32| if encoding == Encoding::Srgb { srgb_to_linear(c) } else { c };
+                    let want = [curve(want[0]), curve(want[1]), curve(want[2]), want[3]];
+                    assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{} {encoding:?}", path.display());
+                }
+            }
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
