@@ -270,12 +270,15 @@ fn compile_parallel(
     order.sort_by_key(|&k| std::cmp::Reverse(sizes[k]));
     let next = AtomicUsize::new(0);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(ir_functions.len().max(1));
-    let compile_one = |k: usize, fctx: &mut FunctionBuilderContext| -> Result<Code, String> {
+    // Each thread reuses one Cranelift context (its register allocator's
+    // buffers above all), as Cranelift advises.
+    let compile_one = |k: usize, fctx: &mut FunctionBuilderContext, ctx: &mut Context| -> Result<Code, String> {
         let name = &ir_functions[k].name;
         let func = imports.translate(k, &ir_functions[k], fctx);
         let clif = keep_clif.then(|| func.display().to_string());
         let isa = isas[usize::from(sizes[k] > LARGE_FUNCTION)];
-        let mut ctx = Context::for_function(func);
+        ctx.clear();
+        ctx.func = func;
         ctx.compile(isa, &mut ControlPlane::default())
             .map_err(|e| format!("cannot compile `{name}`: {:?}", e.inner))?;
         let compiled = ctx.compiled_code().ok_or_else(|| format!("no code for `{name}`"))?;
@@ -288,10 +291,10 @@ fn compile_parallel(
         Ok(Code { bytes, alignment, relocs, clif })
     };
     let worker = || {
-        let mut fctx = FunctionBuilderContext::new();
+        let (mut fctx, mut ctx) = (FunctionBuilderContext::new(), Context::new());
         let mut done = Vec::new();
         while let Some(&k) = order.get(next.fetch_add(1, Ordering::Relaxed)) {
-            done.push((k, compile_one(k, &mut fctx)));
+            done.push((k, compile_one(k, &mut fctx, &mut ctx)));
         }
         done
     };
