@@ -14,7 +14,7 @@ use crate::check::{Program, SymbolKind, Ty};
 use crate::color::ColorModel;
 use crate::diag::{Diagnostic, Span};
 use crate::globals::ShadingGlobals;
-use crate::syntax::ast::{Expr, ExprKind, Item, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
+use crate::syntax::ast::{Expr, ExprKind, Scene, SceneBlock, SceneEntry, SceneProp, UnaryOp};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -52,13 +52,8 @@ pub fn describe_frame(
     reuse: Option<&SceneDesc>,
     request: &FrameRequest,
 ) -> (Option<SceneDesc>, Vec<Diagnostic>) {
-    let found = program.loaded.modules.iter().enumerate().filter(|(_, m)| !m.is_prelude).find_map(|(m, module)| {
-        module.ast.items.iter().enumerate().find_map(|(i, item)| match item {
-            Item::Scene(scene) => Some((m, i, scene, module.file)),
-            _ => None,
-        })
-    });
-    let Some((module, item, scene, file)) = found else { return (None, Vec::new()) };
+    let Some((module, item, scene)) = super::root_scene(program) else { return (None, Vec::new()) };
+    let file = program.loaded.modules[module].file;
     let model = description_model(model);
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
     let globals = ShadingGlobals { frame: request.frame, ..ShadingGlobals::default() }.words();

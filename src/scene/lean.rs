@@ -136,13 +136,7 @@ pub fn drop_object_syntax(program: &mut Program, desc: &mut SceneDesc) -> bool {
     true
 }
 
-/// The root program's scene (as [`describe`](super::describe) finds it):
-/// its module, item and entries.
+/// The root program's scene's module, item and entries.
 fn root_scene(program: &Program) -> Option<(usize, usize, &[SceneEntry])> {
-    program.loaded.modules.iter().enumerate().filter(|(_, m)| !m.is_prelude).find_map(|(m, module)| {
-        module.ast.items.iter().enumerate().find_map(|(i, item)| match item {
-            Item::Scene(scene) => Some((m, i, &scene.entries[..])),
-            _ => None,
-        })
-    })
+    super::root_scene(program).map(|(m, i, scene)| (m, i, &scene.entries[..]))
 }

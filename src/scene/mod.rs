@@ -33,6 +33,7 @@ pub use shape::{ShapeError, ShapeKind, Transform, affine_rows, compose, mesh_tra
 
 use crate::color::ColorModel;
 use crate::diag::Span;
+use crate::syntax::ast;
 use std::sync::Arc;
 
 /// Vectors and matrices of the description are glam's, as the renderer's.
@@ -400,6 +401,17 @@ pub enum AreaEmission {
     Radiance(Prop<Lanes>),
     /// `power` (W), spread over the surface.
     Power(Prop<Lanes>),
+}
+
+/// The scene a program renders: the first `scene { }` block of the root
+/// program and its imports (not the prelude), with its module and item.
+pub(crate) fn root_scene(program: &crate::check::Program) -> Option<(usize, usize, &ast::Scene)> {
+    program.loaded.modules.iter().enumerate().filter(|(_, m)| !m.is_prelude).find_map(|(m, module)| {
+        module.ast.items.iter().enumerate().find_map(|(i, item)| match item {
+            ast::Item::Scene(scene) => Some((m, i, scene)),
+            _ => None,
+        })
+    })
 }
 
 #[cfg(test)]
