@@ -63,31 +63,17 @@ impl fmt::Display for Error {
 impl std::error::Error for Error {}
 
 /// Builds a [`Program`] from TSL source.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Compiler {
-    model: ColorModel,
     source: Option<(String, String)>,
     file: Option<PathBuf>,
+    /// The color model too (`options.color_model`): checking describes the
+    /// scene in it.
     options: LoadOptions,
     keep_clif: bool,
     optimize_large: bool,
     eager: bool,
     eager_prelude: bool,
-}
-
-impl Default for Compiler {
-    fn default() -> Self {
-        Compiler {
-            model: ColorModel::Rgb,
-            source: None,
-            file: None,
-            options: LoadOptions::default(),
-            keep_clif: false,
-            optimize_large: false,
-            eager: false,
-            eager_prelude: false,
-        }
-    }
 }
 
 impl Compiler {
@@ -97,7 +83,6 @@ impl Compiler {
 
     /// RGB (3 floats) or spectral (N samples over 380–780 nm).
     pub fn color_model(mut self, model: ColorModel) -> Self {
-        self.model = model;
         self.options.color_model = model;
         self
     }
@@ -226,12 +211,13 @@ impl Compiler {
         if !checked.is_ok() {
             return Err(Error { diagnostics: checked.diagnostics, sources: checked.program.loaded.sources });
         }
+        let model = self.options.color_model;
         // A scene checked in another model evaluates its colors again (the
         // files it read are reused); the first description goes at once.
         let mut scene = match checked.scene {
-            Some(scene) if scene.model == crate::scene::description_model(self.model) => Some(scene),
+            Some(scene) if scene.model == crate::scene::description_model(model) => Some(scene),
             previous => {
-                let (scene, diags) = crate::scene::describe(&checked.program, self.model, previous.as_ref());
+                let (scene, diags) = crate::scene::describe(&checked.program, model, previous.as_ref());
                 if diags.iter().any(Diagnostic::is_error) {
                     return Err(Error { diagnostics: diags, sources: checked.program.loaded.sources });
                 }
@@ -245,7 +231,7 @@ impl Compiler {
         let mut parts = Vec::new();
         if self.eager || self.eager_prelude {
             let (own, prelude) = (self.eager, self.eager_prelude);
-            let first = compile_part(&program, self.model, &jit_options, |_, sym| {
+            let first = compile_part(&program, model, &jit_options, |_, sym| {
                 if program.loaded.modules[sym.module].is_prelude { prelude } else { own }
             })?;
             parts.push(Arc::new(first));
@@ -261,7 +247,7 @@ impl Compiler {
             .collect();
         Ok(Program {
             inner: Arc::new(Inner {
-                model: self.model,
+                model,
                 program,
                 scene,
                 lean,
