@@ -292,6 +292,31 @@ fn dispersion_spreads_white_into_colours_only_with_hero_sampling() {
     assert!(hero > 0.15 && binned < 0.02, "hero {hero}, spectral16 {binned}");
 }
 
+/// Where dispersion ends the companions, the hero carries the path on, and
+/// the hero is any of the four lanes with equal chance: in a uniform white
+/// world every wavelength sees the same radiance however it bends, so a
+/// dispersive glass ball stays white on average. (A hero always drawn from
+/// one part of the spectrum would tint every refracted pixel.)
+#[test]
+fn dispersion_is_unbiased_across_the_spectrum() {
+    let src = "
+        const color FLINT = spectrum([(400, 1.72), (550, 1.645), (700, 1.615)]);
+        material flint = glass(ior: FLINT);
+        scene {
+            camera { from (0, 0, -3); to (0, 0, 0); fov 30; }
+            render { integrator \"whitted\"; max_depth 6; }
+            light environment { radiance rgb(1, 1, 1); }
+            object sphere { center (0, 0, 0); radius 1; material flint; }
+        }";
+    let image = render_src(src, ColorModel::Hero, (24, 24), 256, 1);
+    let mean = image_mean(&image);
+    let grey = (mean[0] + mean[1] + mean[2]) / 3.0;
+    assert!(grey > 0.5, "the ball lets light through: {mean:?}");
+    for c in 0..3 {
+        assert!((mean[c] / grey - 1.0).abs() < 0.02, "channel {c} off white: {mean:?}");
+    }
+}
+
 /// A scene light's `spectrum(...)` is absolute spectral power, as Mitsuba
 /// reads an emitter's spectrum: the flat curve 1 is the equal-energy light
 /// of luminance 1, slightly pink in sRGB, while `rgb(1, 1, 1)` is D65 and

@@ -254,16 +254,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// says whether this path's companions ended already.
     fn disperse(&self, eta: Spectrum<N>, beta: &mut Spectrum<N>, done: &mut bool) -> Spectrum<N> {
         let lanes = self.lanes;
-        if self.hero.is_none() || eta.0[..lanes].iter().all(|x| *x == eta.0[0]) {
+        let Some(h) = &self.hero else { return eta };
+        if eta.0[..lanes].iter().all(|x| *x == eta.0[0]) {
             return eta;
         }
         if !*done {
             *done = true;
-            let hero = beta.0[0] * lanes as f32;
+            let hero = beta.0[h.hero] * lanes as f32;
             *beta = Spectrum::ZERO;
-            beta.0[0] = hero;
+            beta.0[h.hero] = hero;
         }
-        Spectrum::splat(eta.0[0], lanes)
+        Spectrum::splat(eta.0[h.hero], lanes)
     }
 
     // ------------------------------------------------------------ material calls
