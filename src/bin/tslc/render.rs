@@ -76,7 +76,7 @@ pub struct SceneOptions {
     /// sampling, as Mitsuba 3 and pbrt-v4 render spectrally): unbiased,
     /// converges to the exact spectral integral (Cornell walls within 1% of
     /// Mitsuba, saturated colours within 0.06% of RGB), dispersion works,
-    /// colour noise at few samples; about 1.2-1.4x the time of `rgb`.
+    /// colour noise at few samples; about 1.1-1.2x the time of `rgb`.
     /// `spectralN`: N fixed bins of 380-780 nm, noise-free; saturated colours
     /// off by up to 1.2% at 16 bins, 0.05% at 64 (quadrature). RGB is
     /// upsampled by Jakob-Hanika, lights are D65-based. `smitsN`: the bins
