@@ -111,7 +111,7 @@ impl Geometry {
         for (k, o) in objects.iter().enumerate() {
             let object = k as u32;
             match o {
-                ObjectGeometry::Shape(s) if s.bounds().is_none() => unbounded.push(object),
+                ObjectGeometry::Shape(s) if !s.is_bounded() => unbounded.push(object),
                 ObjectGeometry::Shape(_) => prims.push(Prim { object, tri: 0 }),
                 ObjectGeometry::Mesh(m) => prims.extend((0..m.triangles.len() as u32).map(|tri| Prim { object, tri })),
             }

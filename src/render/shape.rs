@@ -148,6 +148,12 @@ impl Shape {
         if self.identity { ray } else { slot.insert(self.local_ray(ray)) }
     }
 
+    /// Whether the shape has [`Self::bounds`]: all but the infinite plane.
+    /// Cheaper than asking for them.
+    pub fn is_bounded(&self) -> bool {
+        !matches!(self.kind, ShapeKind::Plane { .. })
+    }
+
     /// The world bounding box; `None` for the infinite plane.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let (lo, hi) = match self.kind {
@@ -627,6 +633,7 @@ mod tests {
             for transform in [Mat4::IDENTITY, m] {
                 let s = Shape::new(kind, transform).unwrap();
                 let bounds = s.bounds();
+                assert_eq!(bounds.is_some(), s.is_bounded(), "{kind:?}");
                 let mut hits = 0;
                 for _ in 0..2000 {
                     let o = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 8.0;
@@ -698,7 +705,7 @@ mod tests {
         assert!(hit(&p, Vec3::new(0.0, 1.0, 0.0), Vec3::X).is_none(), "parallel");
         let h = hit(&p, Vec3::new(3.0, 1.0, -4.0), Vec3::NEG_Y).unwrap();
         assert!((h.u - 1.5).abs() < 1e-5 && (h.v - 2.0).abs() < 1e-5, "u along +x, v along -z, per tile");
-        assert!(p.bounds().is_none());
+        assert!(p.bounds().is_none() && !p.is_bounded());
         let q = shape(ShapeKind::Quad {
             corner: Vec3::new(-1.0, 0.0, 1.0),
             edge1: Vec3::new(2.0, 0.0, 0.0),
