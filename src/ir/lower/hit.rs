@@ -238,17 +238,13 @@ impl<'p> Lowerer<'p> {
                 if node != TreeNode::Select {
                     return None;
                 }
-                let params: Vec<(&str, Ty)> = node.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
-                let bound = bind_args(&params, call_args);
-                let index = bound.first().copied().flatten()?;
-                let items = self.material_items(bound.get(1).copied().flatten(), mat);
+                let (index, items) = self.select_parts(mat, call_args);
+                let index = index?;
                 if items.len() < 2 {
                     return None;
                 }
                 // As `tree_node` computes it: the same values, numbered once.
-                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
-                let i = self.expr(b, &mut fr, ctx, index);
-                let i = self.scalar(b, i);
+                let i = self.node_scalar(b, mat, index, ctx);
                 let i = self.clamp_index(b, i, items.len() as i32);
                 // Each method's choice only when it is point-only (it is
                 // for every index a checked program can give, but a

@@ -86,11 +86,7 @@ impl<'p> Lowerer<'p> {
             TreeNode::Blend => {
                 let t = scalar(self, b, 0, ctx);
                 let spline = match bound.get(2).copied().flatten() {
-                    Some(e) => {
-                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
-                        let v = self.expr(b, &mut fr, ctx, e);
-                        self.scalar(b, v)
-                    }
+                    Some(e) => self.node_scalar(b, mat, e, ctx),
                     None => b.b(false),
                 };
                 let items = self.material_items(bound.get(1).copied().flatten(), mat);
@@ -102,18 +98,14 @@ impl<'p> Lowerer<'p> {
                 }
             }
             TreeNode::Select => {
-                let i = match bound.first().copied().flatten() {
-                    Some(e) => {
-                        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
-                        let v = self.expr(b, &mut fr, ctx, e);
-                        self.scalar(b, v)
-                    }
+                let (index, items) = self.select_parts(mat, call_args);
+                let i = match index {
+                    Some(e) => self.node_scalar(b, mat, e, ctx),
                     None => {
                         ruled_out!("`select` without its index");
                         b.i(0)
                     }
                 };
-                let items = self.material_items(bound.get(1).copied().flatten(), mat);
                 self.select_clamped(b, i, &items, im, args, ctx)
             }
             TreeNode::Bump => {
@@ -168,6 +160,23 @@ impl<'p> Lowerer<'p> {
                 self.mat_method(b, &m, im, args, &moved)
             }
         }
+    }
+
+    /// The index expression of `select(index, [children])` (`None` without
+    /// one) and its children, as [`Self::tree_node`] and the hit groups'
+    /// root `select` (`lower::hit`) both read them.
+    pub(super) fn select_parts(&self, mat: &Mat<'p>, call_args: &'p [ast::Arg]) -> (Option<&'p Expr>, Vec<Mat<'p>>) {
+        // Only the names matter to `bind_args`.
+        let params: Vec<(&str, Ty)> = TreeNode::Select.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
+        let bound = bind_args(&params, call_args);
+        (bound.first().copied().flatten(), self.material_items(bound.get(1).copied().flatten(), mat))
+    }
+
+    /// A node's float argument `e`, evaluated where the node is written.
+    pub(super) fn node_scalar(&mut self, b: &mut Builder, mat: &Mat<'p>, e: &'p Expr, ctx: &Ctx) -> Value {
+        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+        let v = self.expr(b, &mut fr, ctx, e);
+        self.scalar(b, v)
     }
 
     pub(super) fn material_items(&self, e: Option<&'p Expr>, mat: &Mat<'p>) -> Vec<Mat<'p>> {
