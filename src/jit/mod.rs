@@ -649,8 +649,10 @@ impl<'a, 'b> Gen<'a, 'b> {
                 let c = ins.fcmp(FloatCC::LessThan, x, y);
                 self.b.ins().select(c, x, y)
             }
+            // `y < x` rather than `x > y` (the same answer, NaN included):
+            // the form Cranelift lowers to one `maxss`, as `fmin` to `minss`.
             BinOp::FMax => {
-                let c = ins.fcmp(FloatCC::GreaterThan, x, y);
+                let c = ins.fcmp(FloatCC::LessThan, y, x);
                 self.b.ins().select(c, x, y)
             }
             BinOp::IAdd => ins.iadd(x, y),
