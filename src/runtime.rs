@@ -68,6 +68,17 @@ impl NativeFn {
         }
     }
 
+    /// Calls the native with `args` (at least its arity of them).
+    pub fn call(&self, args: &[f32]) -> f32 {
+        match *self {
+            NativeFn::F1(g) => g(args[0]),
+            NativeFn::F2(g) => g(args[0], args[1]),
+            NativeFn::F3(g) => g(args[0], args[1], args[2]),
+            NativeFn::F4(g) => g(args[0], args[1], args[2], args[3]),
+            NativeFn::F6(g) => g(args[0], args[1], args[2], args[3], args[4], args[5]),
+        }
+    }
+
     /// The code address, for a JIT symbol table.
     pub fn ptr(&self) -> *const u8 {
         match *self {

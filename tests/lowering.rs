@@ -280,6 +280,21 @@ fn inlined_noise_is_the_native_noise() {
 }
 
 #[test]
+fn natives_of_constants_fold_to_their_own_value() {
+    let p = compile(
+        r#"
+        float k() { return sin(0.349) + cos(0.349); }
+        float w() { return sin(P.x); }
+        "#,
+    );
+    let k = ir(&p, "k");
+    assert!(!all_ops(&k).iter().any(|op| matches!(op, Op::Call { .. })), "{k}");
+    let want = tsl::runtime::tsl_sin(0.349) + tsl::runtime::tsl_cos(0.349);
+    assert_eq!(float_at(&p, "k", &ShadingGlobals::default()).to_bits(), want.to_bits());
+    assert_eq!(calls(&ir(&p, "w"), "tsl_sin"), 1);
+}
+
+#[test]
 fn powers_by_multiplication_are_pow() {
     let p = compile(
         r#"

@@ -11,7 +11,7 @@ use crate::ir::semantics::{
     MAX_CALL_ITERATIONS, clamp_index, float_to_int, fmax, fmin, int_div, int_rem, loop_trips, table_index,
 };
 use crate::ir::{BinOp, Function, Inst, Label, Op, UnOp};
-use crate::runtime::{NativeFn, native};
+use crate::runtime::native;
 use crate::texture::Lookup;
 
 /// Runs `func` on the given globals and argument words, writing the result
@@ -239,14 +239,7 @@ impl Machine<'_, '_> {
                     c.noise += 1.0;
                 }
                 let a: Vec<f32> = args.iter().map(|v| f(self.v(*v))).collect();
-                let r = match native(name).map(|n| &n.f) {
-                    Some(NativeFn::F1(g)) => g(a[0]),
-                    Some(NativeFn::F2(g)) => g(a[0], a[1]),
-                    Some(NativeFn::F3(g)) => g(a[0], a[1], a[2]),
-                    Some(NativeFn::F4(g)) => g(a[0], a[1], a[2], a[3]),
-                    Some(NativeFn::F6(g)) => g(a[0], a[1], a[2], a[3], a[4], a[5]),
-                    None => f32::NAN,
-                };
+                let r = native(name).filter(|n| a.len() >= n.arity).map_or(f32::NAN, |n| n.f.call(&a));
                 fw(r)
             }
         }

@@ -318,6 +318,13 @@ impl Builder {
                 };
                 self.konst(chosen)
             }
+            // Natives are pure: constant arguments give a constant, computed
+            // by the same function the code would call (the same bits).
+            Op::Call { native, args } => {
+                let n = crate::runtime::native(native).filter(|n| n.arity == args.len())?;
+                let args: Vec<f32> = args.iter().map(|a| self.fconst(*a)).collect::<Option<_>>()?;
+                Some(F(n.f.call(&args)))
+            }
             _ => None,
         }
     }

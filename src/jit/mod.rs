@@ -553,7 +553,10 @@ impl<'a, 'b> Gen<'a, 'b> {
     }
 
     fn op(&mut self, op: &Op, ty: Scalar) -> ClValue {
-        let readonly = MemFlagsData::trusted().with_readonly();
+        // The globals, arguments and tables do not change during a call, and
+        // every address is in bounds: Cranelift may load them where they are
+        // first used rather than at entry (fewer values live, fewer spills).
+        let readonly = MemFlagsData::trusted().with_readonly().with_can_move();
         match op {
             Op::F32(x) => self.b.ins().f32const(*x),
             Op::I32(x) => self.b.ins().iconst(types::I32, i64::from(*x)),
@@ -649,8 +652,10 @@ impl<'a, 'b> Gen<'a, 'b> {
                 let c = ins.fcmp(FloatCC::LessThan, x, y);
                 self.b.ins().select(c, x, y)
             }
+            // `y < x` rather than `x > y` (the same answer, NaN included):
+            // the form Cranelift lowers to one `maxss`, as `fmin` to `minss`.
             BinOp::FMax => {
-                let c = ins.fcmp(FloatCC::GreaterThan, x, y);
+                let c = ins.fcmp(FloatCC::LessThan, y, x);
                 self.b.ins().select(c, x, y)
             }
             BinOp::IAdd => ins.iadd(x, y),

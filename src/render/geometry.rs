@@ -91,7 +91,15 @@ pub struct Geometry {
     /// With few primitives, testing them all beats traversing a tree:
     /// then this holds every primitive, bounded ones first, then the
     /// unbounded shapes.
-    linear: Option<Vec<Prim>>,
+    linear: Option<Vec<Linear>>,
+}
+
+/// A primitive of the linear list, a shape with a copy of itself: testing
+/// it then reads no block of objects and matches no kind of geometry
+/// (a tenth of a small scene's ray cost).
+struct Linear {
+    prim: Prim,
+    shape: Option<Shape>,
 }
 
 /// At most this many primitives are tested one by one, without the BVH.
@@ -116,8 +124,17 @@ impl Geometry {
                 ObjectGeometry::Mesh(m) => prims.extend((0..m.triangles.len() as u32).map(|tri| Prim { object, tri })),
             }
         }
-        let linear = (prims.len() <= LINEAR_MAX)
-            .then(|| prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 })).collect());
+        let linear = (prims.len() <= LINEAR_MAX).then(|| {
+            let all = prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 }));
+            all.map(|prim| Linear {
+                prim,
+                shape: match &objects[prim.object as usize] {
+                    ObjectGeometry::Shape(s) => Some(s.clone()),
+                    ObjectGeometry::Mesh(_) => None,
+                },
+            })
+            .collect()
+        });
         // The bounds go straight into the BVH builder, not through a list
         // of their own (24 bytes a primitive at the peak of a large scene).
         let bounds = prims.iter().map(|p| match &objects[p.object as usize] {
@@ -132,6 +149,15 @@ impl Geometry {
     /// Primitives in the BVH (shapes and triangles).
     pub fn primitive_count(&self) -> usize {
         self.prims.len()
+    }
+
+    /// [`Geometry::test`] of a primitive of the linear list.
+    #[inline(always)]
+    fn test_linear(&self, l: &Linear, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+        match &l.shape {
+            Some(s) => s.intersect(ray, t_min, t_max),
+            None => self.test(l.prim, ray, t_min, t_max),
+        }
     }
 
     fn test(&self, prim: Prim, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
@@ -149,9 +175,9 @@ impl Geometry {
         let Some(prims) = &self.linear else { return self.intersect_bvh(ray, t_min, t_max) };
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
-        for &prim in prims {
-            if let Some(t) = self.test(prim, ray, t_min, t_max) {
-                best = Some(Hit { object: prim.object, tri: prim.tri, t });
+        for l in prims {
+            if let Some(t) = self.test_linear(l, ray, t_min, t_max) {
+                best = Some(Hit { object: l.prim.object, tri: l.prim.tri, t });
                 t_max = t;
             }
         }
@@ -180,15 +206,18 @@ impl Geometry {
     /// `blocks` decides for each surface found (cutouts let rays through);
     /// it is called for surfaces in no particular order.
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, mut blocks: impl FnMut(Hit) -> bool) -> bool {
+        if let Some(prims) = &self.linear {
+            // Unbounded shapes first, as with the BVH below.
+            let (bounded, unbounded) = prims.split_at(self.prims.len());
+            return unbounded.iter().chain(bounded).any(|l| match self.test_linear(l, ray, t_min, t_max) {
+                Some(t) => blocks(Hit { object: l.prim.object, tri: l.prim.tri, t }),
+                None => false,
+            });
+        }
         let mut check = |prim: Prim, t_max: f32| match self.test(prim, ray, t_min, t_max) {
             Some(t) => blocks(Hit { object: prim.object, tri: prim.tri, t }),
             None => false,
         };
-        if let Some(prims) = &self.linear {
-            // Unbounded shapes first, as with the BVH below.
-            let (bounded, unbounded) = prims.split_at(self.prims.len());
-            return unbounded.iter().chain(bounded).any(|&prim| check(prim, t_max));
-        }
         if self.unbounded.iter().any(|&object| check(Prim { object, tri: 0 }, t_max)) {
             return true;
         }
