@@ -76,6 +76,25 @@ pub fn lower_hit_groups(
 
 impl<'p> Lowerer<'p> {
     fn hit_group(&mut self, name: &str, mat: Mat<'p>, methods: &[HitMethod]) -> HitGroup {
+        let diags = self.diags.len();
+        let mut choices = MixChoices { copies: HIT_MIX_COPIES, conds: Vec::new() };
+        let group = self.hit_group_with(name, mat.clone(), methods, &mut choices);
+        if choices.conds.is_empty() || costly_under(&group.combined.body, &choices.conds) {
+            return group;
+        }
+        // The chosen children compute no texture or noise: the cases would
+        // only add code (and a branch per call).
+        self.diags.truncate(diags);
+        self.hit_group_with(name, mat, methods, &mut MixChoices { copies: 0, conds: Vec::new() })
+    }
+
+    fn hit_group_with(
+        &mut self,
+        name: &str,
+        mat: Mat<'p>,
+        methods: &[HitMethod],
+        choices: &mut MixChoices,
+    ) -> HitGroup {
         let mut b = Builder::new(&format!("{name}.hit"));
         let inputs = self.method_args(&mut b, &hit_inputs());
         let (wo, eta) = (inputs[0].clone(), inputs[1].clone());
@@ -125,8 +144,7 @@ impl<'p> Lowerer<'p> {
         // weight of 0 or 1 (a checker of two materials): `sample` then
         // draws no lobe between the children, so `prepare` computes only
         // the chosen child's generators.
-        let mut copies = HIT_MIX_COPIES;
-        let results = self.under_choices(&mut b, &mat, &ctx, &mut copies, &mut |me, b| {
+        let results = self.under_choices(&mut b, &mat, &ctx, choices, &mut |me, b| {
             me.hit_methods(b, &mat, &lowered, &wo, &eta, &ctx)
         });
         let mut parts = Vec::new();
@@ -222,18 +240,19 @@ impl<'p> Lowerer<'p> {
     }
 
     /// The point-only choice at the root of `mat`, through names,
-    /// templates and `scale`: `select`'s index, or `mix`'s weight at 0 or 1.
-    fn root_choice(&mut self, b: &mut Builder, mat: &Mat<'p>, ctx: &Ctx) -> Option<RootChoice<'p>> {
+    /// templates and `scale`: `select`'s index, or (when `mix`) `mix`'s
+    /// weight at 0 or 1.
+    fn root_choice(&mut self, b: &mut Builder, mat: &Mat<'p>, ctx: &Ctx, mix: bool) -> Option<RootChoice<'p>> {
         match &mat.expr.kind {
             ExprKind::Name(n) => {
                 if let Some(Val::Material(m)) = mat.env.get(n.as_str()) {
                     let m = m.clone();
-                    return self.root_choice(b, &m, ctx);
+                    return self.root_choice(b, &m, ctx, mix);
                 }
                 let sym = self.symbol(mat.in_prelude, n)?;
                 let Item::MaterialTree(t) = self.item(sym) else { return None };
                 let m = Mat { expr: &t.body, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) };
-                self.root_choice(b, &m, ctx)
+                self.root_choice(b, &m, ctx, mix)
             }
             ExprKind::Call { callee, args: call_args } => {
                 if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
@@ -242,7 +261,7 @@ impl<'p> Lowerer<'p> {
                     let Item::MaterialTree(t) = self.item(sym) else { return None };
                     let env = self.template_env(b, t, call_args, mat, ctx);
                     let m = Mat { expr: &t.body, env, in_prelude: self.is_prelude(sym) };
-                    return self.root_choice(b, &m, ctx);
+                    return self.root_choice(b, &m, ctx, mix);
                 }
                 let node = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node())?;
                 let params: Vec<(&str, Ty)> = node.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
@@ -256,9 +275,9 @@ impl<'p> Lowerer<'p> {
                 };
                 match node {
                     TreeNode::Select => self.root_select(b, mat, call_args, ctx),
-                    TreeNode::Scale => self.root_choice(b, &child(1)?, ctx),
+                    TreeNode::Scale => self.root_choice(b, &child(1)?, ctx, mix),
                     // Not a partial blend (`only:`), which samples as `a`.
-                    TreeNode::Mix if bound.get(3).copied().flatten().is_none() => {
+                    TreeNode::Mix if mix && bound.get(3).copied().flatten().is_none() => {
                         let (a, c) = (child(1)?, child(2)?);
                         // As `tree_node` computes it: the same values, numbered once.
                         let t = self.node_float(b, mat, bound.first().copied().flatten()?, ctx);
@@ -309,17 +328,17 @@ impl<'p> Lowerer<'p> {
 
     /// `lower` under the root choice of `mat` and, inside each branch, the
     /// chosen child's own (each branch's outcome known inside it, so each
-    /// method's own branch on it folds). `copies` bounds how many more
+    /// method's own branch on it folds). `choices.copies` bounds how many more
     /// times a `mix`'s three cases may lower the methods again.
     fn under_choices(
         &mut self,
         b: &mut Builder,
         mat: &Mat<'p>,
         ctx: &Ctx,
-        copies: &mut usize,
+        choices: &mut MixChoices,
         lower: &mut LowerMethods<'_, 'p>,
     ) -> Vec<Value> {
-        match self.root_choice(b, mat, ctx) {
+        match self.root_choice(b, mat, ctx, choices.copies >= 2) {
             None => lower(self, b),
             Some(RootChoice::Select { hits, items }) => {
                 let cases: Vec<Case<'p>> = hits
@@ -327,16 +346,17 @@ impl<'p> Lowerer<'p> {
                     .zip(&items)
                     .map(|(h, m)| Case { cond: *h, facts: vec![(*h, true)], next: Some(m.clone()) })
                     .collect();
-                self.under_cases(b, &cases, items.last(), ctx, copies, lower)
+                self.under_cases(b, &cases, items.last(), ctx, choices, lower)
             }
-            Some(RootChoice::Mix { is_zero, is_one, a, c }) if *copies >= 2 => {
-                *copies -= 2;
+            Some(RootChoice::Mix { is_zero, is_one, a, c }) if choices.copies >= 2 => {
+                choices.copies -= 2;
+                choices.conds.extend([is_zero, is_one]);
                 let cases = [
                     Case { cond: is_zero, facts: vec![(is_zero, true), (is_one, false)], next: Some(a) },
                     Case { cond: is_one, facts: vec![(is_one, true)], next: Some(c) },
                 ];
                 // Between (or at a NaN), both children, as without the choice.
-                self.under_cases(b, &cases, None, ctx, copies, lower)
+                self.under_cases(b, &cases, None, ctx, choices, lower)
             }
             Some(RootChoice::Mix { .. }) => lower(self, b),
         }
@@ -351,20 +371,20 @@ impl<'p> Lowerer<'p> {
         cases: &[Case<'p>],
         last: Option<&Mat<'p>>,
         ctx: &Ctx,
-        copies: &mut usize,
+        choices: &mut MixChoices,
         lower: &mut LowerMethods<'_, 'p>,
     ) -> Vec<Value> {
-        let mut next = |me: &mut Self, b: &mut Builder, m: Option<&Mat<'p>>, copies: &mut usize| match m {
-            Some(m) => me.under_choices(b, m, ctx, copies, lower),
+        let mut next = |me: &mut Self, b: &mut Builder, m: Option<&Mat<'p>>, choices: &mut MixChoices| match m {
+            Some(m) => me.under_choices(b, m, ctx, choices, lower),
             None => lower(me, b),
         };
-        let Some((case, rest)) = cases.split_first() else { return next(self, b, last, copies) };
+        let Some((case, rest)) = cases.split_first() else { return next(self, b, last, choices) };
         let depth = b.facts.len();
         match b.konst(case.cond) {
-            Some(Const::B(false)) => return self.under_cases(b, rest, last, ctx, copies, lower),
+            Some(Const::B(false)) => return self.under_cases(b, rest, last, ctx, choices, lower),
             Some(Const::B(true)) => {
                 b.facts.extend(&case.facts);
-                let vals = next(self, b, case.next.as_ref(), copies);
+                let vals = next(self, b, case.next.as_ref(), choices);
                 b.facts.truncate(depth);
                 return vals;
             }
@@ -373,14 +393,14 @@ impl<'p> Lowerer<'p> {
         let mut then_vals = Vec::new();
         let mut then_body = b.nested_under(&[case.cond], |b| {
             b.facts.extend(&case.facts);
-            then_vals = next(self, b, case.next.as_ref(), copies);
+            then_vals = next(self, b, case.next.as_ref(), choices);
             b.facts.truncate(depth);
         });
         let vars: Vec<Var> = then_vals.iter().map(|v| b.var(b.ty(*v))).collect();
         then_body.extend(vars.iter().zip(&then_vals).map(|(var, v)| Inst::Set(*var, *v)));
         let else_body = b.nested_under(&[case.cond], |b| {
             b.facts.push((case.cond, false));
-            let vals = self.under_cases(b, rest, last, ctx, copies, lower);
+            let vals = self.under_cases(b, rest, last, ctx, choices, lower);
             b.facts.truncate(depth);
             for (var, v) in vars.iter().zip(&vals) {
                 b.push(Inst::Set(*var, *v));
@@ -389,6 +409,32 @@ impl<'p> Lowerer<'p> {
         b.push(Inst::If { cond: case.cond, then_body, else_body });
         vars.iter().map(|v| b.get(*v)).collect()
     }
+}
+
+/// The `mix` cases of a hit group: how many more lowerings they may take,
+/// and the conditions of those made (t == 0, t == 1).
+struct MixChoices {
+    copies: usize,
+    conds: Vec<Value>,
+}
+
+/// Whether a branch taken on one of `conds` looks up a texture or
+/// evaluates noise (what `api::prepared::worth_preparing` counts).
+fn costly_under(body: &[Inst], conds: &[Value]) -> bool {
+    body.iter().any(|inst| match inst {
+        Inst::If { cond, then_body, else_body } => {
+            let mut costly = false;
+            if conds.contains(cond) {
+                crate::ir::for_each_inst(then_body, &mut |i| {
+                    costly |= matches!(i, Inst::Texture { .. } | Inst::Def(_, Op::Table { .. }))
+                        || matches!(i, Inst::Def(_, Op::Call { native, .. }) if native.contains("noise"));
+                });
+            }
+            costly || costly_under(then_body, conds) || costly_under(else_body, conds)
+        }
+        Inst::Block { body, .. } | Inst::Loop { body, .. } => costly_under(body, conds),
+        _ => false,
+    })
 }
 
 /// Lowers every method of a hit group on its material.
