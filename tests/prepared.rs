@@ -265,6 +265,50 @@ fn per_direction_methods_of_a_bumped_texture_call_no_noise() {
     }
 }
 
+/// A checker of a plain and a textured material: `prepare` evaluates the
+/// texture's noise only where the checker picks the textured one (every
+/// method, `sample` included, lowered under the choice at t = 0 and 1),
+/// never unconditionally.
+#[test]
+fn a_checker_of_two_materials_prepares_only_the_chosen_ones_noise() {
+    let source = "
+        color grain() { return gray(noise(P * 3) * 0.5 + 0.5); }
+        material checks = mix(checker2(4), lambert, scale(grain(), phong));
+    ";
+    let (program, trees) = material_trees(source, "checks.tsl");
+    let checked = program.checked();
+    let k = trees.iter().position(|t| {
+        let s = &checked.symbols[t];
+        matches!(&checked.loaded.modules[s.module].ast.items[s.item], Item::MaterialTree(m) if matches!(&m.body.kind, tsl::syntax::ast::ExprKind::Name(n) if n == "checks"))
+    });
+    let name = &trees[k.expect("the probe of `checks`")];
+    let s = &checked.symbols[name];
+    let Item::MaterialTree(t) = &checked.loaded.modules[s.module].ast.items[s.item] else { unreachable!() };
+    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS);
+    // Noise operations run whatever the branches decide (`If` bodies left out).
+    fn unconditional(body: &[tsl::ir::Inst]) -> usize {
+        use tsl::ir::{Inst, Op};
+        body.iter()
+            .map(|inst| match inst {
+                Inst::Def(_, Op::Call { native, .. }) if native.contains("noise") => 1,
+                Inst::Def(_, Op::Table { .. }) => 1,
+                Inst::Block { body, .. } | Inst::Loop { body, .. } => unconditional(body),
+                _ => 0,
+            })
+            .sum()
+    }
+    let prepare = &groups[0].split.prepare;
+    let mut all = 0;
+    tsl::ir::for_each_op(&prepare.body, &mut |op| {
+        all += usize::from(
+            matches!(op, tsl::ir::Op::Call { native, .. } if native.contains("noise"))
+                || matches!(op, tsl::ir::Op::Table { .. }),
+        );
+    });
+    assert!(all > 0, "prepare evaluates the noise:\n{prepare}");
+    assert_eq!(unconditional(&prepare.body), 0, "the noise runs at every hit:\n{prepare}");
+}
+
 /// The embedding API's prepared hits agree between the JIT and the
 /// interpreter (both run the same split), and with the methods alone.
 #[test]

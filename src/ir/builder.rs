@@ -184,6 +184,19 @@ impl Builder {
         }
     }
 
+    /// What the boolean `op` is known to be here (a constant, or a fact
+    /// about the value computing it), without defining anything.
+    pub(crate) fn known(&self, op: &Op) -> Option<bool> {
+        let c = match self.fold(op) {
+            Some(c) => Some(c),
+            None => OpKey::of(op).and_then(|k| self.memo.get(&MemoKey::Op(k))).and_then(|v| self.konst(v[0])),
+        };
+        match c {
+            Some(Const::B(x)) => Some(x),
+            _ => None,
+        }
+    }
+
     /// Defines a value, folding constants and reusing an identical pure
     /// operation already computed in a dominating scope.
     pub(crate) fn def(&mut self, ty: Scalar, op: Op) -> Value {

@@ -16,6 +16,11 @@ use crate::ir::split::{self, Part, Split};
 /// operations of noise.
 pub const HIT_NOISE_INLINE_SITES: u32 = 64;
 
+/// How many more times a hit group may lower its methods for the cases of
+/// `mix` nodes at the root (two per node: t = 0 and t = 1): texture_tree's
+/// cube, a `select` over three such mixes, takes six.
+pub const HIT_MIX_COPIES: usize = 8;
+
 /// A method of a hit group. Every one reads the hit inputs `wo` and `eta`
 /// where the interface method takes them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -71,6 +76,25 @@ pub fn lower_hit_groups(
 
 impl<'p> Lowerer<'p> {
     fn hit_group(&mut self, name: &str, mat: Mat<'p>, methods: &[HitMethod]) -> HitGroup {
+        let diags = self.diags.len();
+        let mut choices = MixChoices { copies: HIT_MIX_COPIES, conds: Vec::new() };
+        let group = self.hit_group_with(name, mat.clone(), methods, &mut choices);
+        if choices.conds.is_empty() || costly_under(&group.combined.body, &choices.conds) {
+            return group;
+        }
+        // The chosen children compute no texture or noise: the cases would
+        // only add code (and a branch per call).
+        self.diags.truncate(diags);
+        self.hit_group_with(name, mat, methods, &mut MixChoices { copies: 0, conds: Vec::new() })
+    }
+
+    fn hit_group_with(
+        &mut self,
+        name: &str,
+        mat: Mat<'p>,
+        methods: &[HitMethod],
+        choices: &mut MixChoices,
+    ) -> HitGroup {
         let mut b = Builder::new(&format!("{name}.hit"));
         let inputs = self.method_args(&mut b, &hit_inputs());
         let (wo, eta) = (inputs[0].clone(), inputs[1].clone());
@@ -116,14 +140,13 @@ impl<'p> Lowerer<'p> {
         // A `select` at the root (a box with a material per face) lowers
         // every method under one branch per child: each method's own
         // choice folds there, so the child's generators are lowered once,
-        // not once per method in sibling branches.
-        let choice = self.root_select(&mut b, &mat, &ctx);
-        let results = match &choice {
-            Some(hits) => {
-                self.under_choice(&mut b, hits, &mut |me, b| me.hit_methods(b, &mat, &lowered, &wo, &eta, &ctx))
-            }
-            None => self.hit_methods(&mut b, &mat, &lowered, &wo, &eta, &ctx),
-        };
+        // not once per method in sibling branches. So does a `mix` at a
+        // weight of 0 or 1 (a checker of two materials): `sample` then
+        // draws no lobe between the children, so `prepare` computes only
+        // the chosen child's generators.
+        let results = self.under_choices(&mut b, &mat, &ctx, choices, &mut |me, b| {
+            me.hit_methods(b, &mat, &lowered, &wo, &eta, &ctx)
+        });
         let mut parts = Vec::new();
         let mut entries = Vec::new();
         let mut outputs: Vec<(Scalar, Value)> = Vec::new();
@@ -216,83 +239,221 @@ impl<'p> Lowerer<'p> {
         out
     }
 
-    /// The conditions of a `select` at the root of `mat` (named or not),
-    /// `hits[k]` true for child k; `None` for any other root.
-    fn root_select(&mut self, b: &mut Builder, mat: &Mat<'p>, ctx: &Ctx) -> Option<Vec<Value>> {
+    /// The point-only choice at the root of `mat`, through names,
+    /// templates and `scale`: `select`'s index, or (when `mix`) `mix`'s
+    /// weight at 0 or 1.
+    fn root_choice(&mut self, b: &mut Builder, mat: &Mat<'p>, ctx: &Ctx, mix: bool) -> Option<RootChoice<'p>> {
         match &mat.expr.kind {
             ExprKind::Name(n) => {
                 if let Some(Val::Material(m)) = mat.env.get(n.as_str()) {
                     let m = m.clone();
-                    return self.root_select(b, &m, ctx);
+                    return self.root_choice(b, &m, ctx, mix);
                 }
                 let sym = self.symbol(mat.in_prelude, n)?;
                 let Item::MaterialTree(t) = self.item(sym) else { return None };
                 let m = Mat { expr: &t.body, env: Rc::new(HashMap::default()), in_prelude: self.is_prelude(sym) };
-                self.root_select(b, &m, ctx)
+                self.root_choice(b, &m, ctx, mix)
             }
             ExprKind::Call { callee, args: call_args } => {
-                if self.program.resolutions.get(&callee.span).is_some() {
-                    return None;
+                if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
+                    // A template: its body with its parameters bound, as
+                    // `mat_method` binds them (the same values, numbered once).
+                    let Item::MaterialTree(t) = self.item(sym) else { return None };
+                    let env = self.template_env(b, t, call_args, mat, ctx);
+                    let m = Mat { expr: &t.body, env, in_prelude: self.is_prelude(sym) };
+                    return self.root_choice(b, &m, ctx, mix);
                 }
                 let node = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node())?;
-                if node != TreeNode::Select {
-                    return None;
+                let params: Vec<(&str, Ty)> = node.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
+                let bound = bind_args(&params, call_args);
+                let child = |k: usize| {
+                    bound.get(k).copied().flatten().map(|e| Mat {
+                        expr: e,
+                        env: mat.env.clone(),
+                        in_prelude: mat.in_prelude,
+                    })
+                };
+                match node {
+                    TreeNode::Select => self.root_select(b, mat, call_args, ctx),
+                    TreeNode::Scale => self.root_choice(b, &child(1)?, ctx, mix),
+                    // Not a partial blend (`only:`), which samples as `a`.
+                    TreeNode::Mix if mix && bound.get(3).copied().flatten().is_none() => {
+                        let (a, c) = (child(1)?, child(2)?);
+                        // As `tree_node` computes it: the same values, numbered once.
+                        let t = self.node_float(b, mat, bound.first().copied().flatten()?, ctx);
+                        if b.is_per_call(t) {
+                            return None;
+                        }
+                        let (zero, one) = (b.f(0.0), b.f(1.0));
+                        let (is_zero, is_one) = (b.feq(t, zero), b.feq(t, one));
+                        Some(RootChoice::Mix { is_zero, is_one, a, c })
+                    }
+                    _ => None,
                 }
-                let (index, items) = self.select_parts(mat, call_args);
-                let index = index?;
-                if items.len() < 2 {
-                    return None;
-                }
-                // As `tree_node` computes it: the same values, numbered once.
-                let i = self.node_scalar(b, mat, index, ctx);
-                let i = self.clamp_index(b, i, items.len() as i32);
-                // Each method's choice only when it is point-only (it is
-                // for every index a checked program can give, but a
-                // per-call one would not fold).
-                if b.is_per_call(i) {
-                    return None;
-                }
-                Some(
-                    (0..items.len() - 1)
-                        .map(|k| {
-                            let kv = b.i(k as i32);
-                            b.bin(BinOp::IEq, i, kv)
-                        })
-                        .collect(),
-                )
             }
             _ => None,
         }
     }
 
-    /// `lower` under the chain of branches `hits` (as `select_child`
-    /// makes), with each branch's outcome known inside it.
-    fn under_choice(
+    /// The choice of a `select` (`call_args`) at the root.
+    fn root_select(
         &mut self,
         b: &mut Builder,
-        hits: &[Value],
-        lower: &mut dyn FnMut(&mut Self, &mut Builder) -> Vec<Value>,
+        mat: &Mat<'p>,
+        call_args: &'p [ast::Arg],
+        ctx: &Ctx,
+    ) -> Option<RootChoice<'p>> {
+        let (index, items) = self.select_parts(mat, call_args);
+        let index = index?;
+        if items.len() < 2 {
+            return None;
+        }
+        // As `tree_node` computes it: the same values, numbered once.
+        let i = self.node_scalar(b, mat, index, ctx);
+        let i = self.clamp_index(b, i, items.len() as i32);
+        // Each method's choice only when it is point-only (it is for every
+        // index a checked program can give, but a per-call one would not
+        // fold).
+        if b.is_per_call(i) {
+            return None;
+        }
+        let hits = (0..items.len() - 1)
+            .map(|k| {
+                let kv = b.i(k as i32);
+                b.bin(BinOp::IEq, i, kv)
+            })
+            .collect();
+        Some(RootChoice::Select { hits, items })
+    }
+
+    /// `lower` under the root choice of `mat` and, inside each branch, the
+    /// chosen child's own (each branch's outcome known inside it, so each
+    /// method's own branch on it folds). `choices.copies` bounds how many more
+    /// times a `mix`'s three cases may lower the methods again.
+    fn under_choices(
+        &mut self,
+        b: &mut Builder,
+        mat: &Mat<'p>,
+        ctx: &Ctx,
+        choices: &mut MixChoices,
+        lower: &mut LowerMethods<'_, 'p>,
     ) -> Vec<Value> {
-        let Some((&hit, rest)) = hits.split_first() else { return lower(self, b) };
+        match self.root_choice(b, mat, ctx, choices.copies >= 2) {
+            None => lower(self, b),
+            Some(RootChoice::Select { hits, items }) => {
+                let cases: Vec<Case<'p>> = hits
+                    .iter()
+                    .zip(&items)
+                    .map(|(h, m)| Case { cond: *h, facts: vec![(*h, true)], next: Some(m.clone()) })
+                    .collect();
+                self.under_cases(b, &cases, items.last(), ctx, choices, lower)
+            }
+            Some(RootChoice::Mix { is_zero, is_one, a, c }) if choices.copies >= 2 => {
+                choices.copies -= 2;
+                choices.conds.extend([is_zero, is_one]);
+                let cases = [
+                    Case { cond: is_zero, facts: vec![(is_zero, true), (is_one, false)], next: Some(a) },
+                    Case { cond: is_one, facts: vec![(is_one, true)], next: Some(c) },
+                ];
+                // Between (or at a NaN), both children, as without the choice.
+                self.under_cases(b, &cases, None, ctx, choices, lower)
+            }
+            Some(RootChoice::Mix { .. }) => lower(self, b),
+        }
+    }
+
+    /// `if cases[0].cond { next } else if cases[1].cond { ... } else { last }`,
+    /// where `next` and `last` are lowered under their own choices (`None`:
+    /// `lower` directly).
+    fn under_cases(
+        &mut self,
+        b: &mut Builder,
+        cases: &[Case<'p>],
+        last: Option<&Mat<'p>>,
+        ctx: &Ctx,
+        choices: &mut MixChoices,
+        lower: &mut LowerMethods<'_, 'p>,
+    ) -> Vec<Value> {
+        let mut next = |me: &mut Self, b: &mut Builder, m: Option<&Mat<'p>>, choices: &mut MixChoices| match m {
+            Some(m) => me.under_choices(b, m, ctx, choices, lower),
+            None => lower(me, b),
+        };
+        let Some((case, rest)) = cases.split_first() else { return next(self, b, last, choices) };
+        let depth = b.facts.len();
+        match b.konst(case.cond) {
+            Some(Const::B(false)) => return self.under_cases(b, rest, last, ctx, choices, lower),
+            Some(Const::B(true)) => {
+                b.facts.extend(&case.facts);
+                let vals = next(self, b, case.next.as_ref(), choices);
+                b.facts.truncate(depth);
+                return vals;
+            }
+            _ => {}
+        }
         let mut then_vals = Vec::new();
-        let mut then_body = b.nested_under(&[hit], |b| {
-            b.facts.push((hit, true));
-            then_vals = lower(self, b);
-            b.facts.pop();
+        let mut then_body = b.nested_under(&[case.cond], |b| {
+            b.facts.extend(&case.facts);
+            then_vals = next(self, b, case.next.as_ref(), choices);
+            b.facts.truncate(depth);
         });
         let vars: Vec<Var> = then_vals.iter().map(|v| b.var(b.ty(*v))).collect();
         then_body.extend(vars.iter().zip(&then_vals).map(|(var, v)| Inst::Set(*var, *v)));
-        let else_body = b.nested_under(&[hit], |b| {
-            b.facts.push((hit, false));
-            let vals = self.under_choice(b, rest, lower);
-            b.facts.pop();
+        let else_body = b.nested_under(&[case.cond], |b| {
+            b.facts.push((case.cond, false));
+            let vals = self.under_cases(b, rest, last, ctx, choices, lower);
+            b.facts.truncate(depth);
             for (var, v) in vars.iter().zip(&vals) {
                 b.push(Inst::Set(*var, *v));
             }
         });
-        b.push(Inst::If { cond: hit, then_body, else_body });
+        b.push(Inst::If { cond: case.cond, then_body, else_body });
         vars.iter().map(|v| b.get(*v)).collect()
     }
+}
+
+/// The `mix` cases of a hit group: how many more lowerings they may take,
+/// and the conditions of those made (t == 0, t == 1).
+struct MixChoices {
+    copies: usize,
+    conds: Vec<Value>,
+}
+
+/// Whether a branch taken on one of `conds` looks up a texture or
+/// evaluates noise (what `api::prepared::worth_preparing` counts).
+fn costly_under(body: &[Inst], conds: &[Value]) -> bool {
+    body.iter().any(|inst| match inst {
+        Inst::If { cond, then_body, else_body } => {
+            let mut costly = false;
+            if conds.contains(cond) {
+                crate::ir::for_each_inst(then_body, &mut |i| {
+                    costly |= matches!(i, Inst::Texture { .. } | Inst::Def(_, Op::Table { .. }))
+                        || matches!(i, Inst::Def(_, Op::Call { native, .. }) if native.contains("noise"));
+                });
+            }
+            costly || costly_under(then_body, conds) || costly_under(else_body, conds)
+        }
+        Inst::Block { body, .. } | Inst::Loop { body, .. } => costly_under(body, conds),
+        _ => false,
+    })
+}
+
+/// Lowers every method of a hit group on its material.
+type LowerMethods<'a, 'p> = dyn FnMut(&mut Lowerer<'p>, &mut Builder) -> Vec<Value> + 'a;
+
+/// A point-only choice at the root of a material (see `under_choices`).
+enum RootChoice<'p> {
+    /// `select`: `hits[k]` is true for child k, the last child otherwise.
+    Select { hits: Vec<Value>, items: Vec<Mat<'p>> },
+    /// `mix` at t = 0 (only `a`) and t = 1 (only `c`).
+    Mix { is_zero: Value, is_one: Value, a: Mat<'p>, c: Mat<'p> },
+}
+
+/// A branch of a root choice: its condition, what is known inside it, and
+/// the child chosen (`None`: no single one).
+struct Case<'p> {
+    cond: Value,
+    facts: Vec<(Value, bool)>,
+    next: Option<Mat<'p>>,
 }
 
 /// A method of a group with its own parameters, read once.

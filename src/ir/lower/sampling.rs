@@ -395,11 +395,14 @@ impl<'p> Lowerer<'p> {
     }
 
     /// `pdf` of a weighted node (`mix`, `blend`): the mixture of the
-    /// children's pdfs by their selection probabilities.
+    /// children's pdfs by their selection probabilities. `unused[k]`: child
+    /// k's weight is known to be 0 here (a hit group lowers its methods
+    /// under `mix`'s t = 0 and t = 1, `lower::hit`), so it is not computed.
     pub(super) fn pdf_mixture(
         &mut self,
         b: &mut Builder,
         weights: &[Value],
+        unused: &[bool],
         items: &[Mat<'p>],
         args: &[Vec<Value>],
         ctx: &Ctx,
@@ -407,9 +410,14 @@ impl<'p> Lowerer<'p> {
         let sel = self.selection(b, weights);
         let zero = b.f(0.0);
         let mut pdf = zero;
-        for (item, p) in items.iter().zip(&sel) {
-            let used = b.flt(zero, *p);
-            let child = b.guarded(self, used, vec![zero], |b, me| me.mat_method(b, item, method("pdf"), args, ctx));
+        for (k, (item, p)) in items.iter().zip(&sel).enumerate() {
+            // What the guard below gives at a weight of 0.
+            let child = if unused.get(k).copied().unwrap_or(false) {
+                vec![zero]
+            } else {
+                let used = b.flt(zero, *p);
+                b.guarded(self, used, vec![zero], |b, me| me.mat_method(b, item, method("pdf"), args, ctx))
+            };
             let term = b.fmul(*p, child[0]);
             pdf = b.fadd(pdf, term);
         }
@@ -421,12 +429,17 @@ impl<'p> Lowerer<'p> {
     /// node's own weight and pdf at the direction it gave. Inside another
     /// mixture only the choice is made: the outermost mixture evaluates the
     /// whole tree once at the final direction, so a chain of n mixtures
-    /// costs O(n), not O(n²).
+    /// costs O(n), not O(n²). When all children but one are `unused`
+    /// (weight known to be 0, see [`Self::pdf_mixture`]), that one is
+    /// sampled without the choice, which would pick it with the same
+    /// lobe number: the same bits, and no other child's code.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn sample_mixture(
         &mut self,
         b: &mut Builder,
         node: &Mat<'p>,
         weights: &[Value],
+        unused: &[bool],
         items: &[Mat<'p>],
         args: &[Vec<Value>],
         ctx: &Ctx,
@@ -441,8 +454,10 @@ impl<'p> Lowerer<'p> {
             starts.push(acc);
             acc = b.fadd(acc, *p);
         }
+        let live: Vec<usize> = (0..items.len()).filter(|k| !unused.get(*k).copied().unwrap_or(false)).collect();
+        let only = (live.len() == 1).then(|| live[0]);
         let outermost = !std::mem::replace(&mut self.direction_only, true);
-        let chosen = self.sample_child(b, 0, weights, &sel, &starts, items, args, ctx);
+        let chosen = self.sample_child(b, 0, only, weights, &sel, &starts, items, args, ctx);
         self.direction_only = !outermost;
         let lanes = self.lanes;
         let s = Sample::split(&chosen, lanes);
@@ -480,12 +495,14 @@ impl<'p> Lowerer<'p> {
     }
 
     /// Samples child `k` when the lobe number falls in its share, else a
-    /// later one; returns the child's sample words and `w_k / p_k`.
+    /// later one (child `only`, when given, without the test); returns the
+    /// child's sample words and `w_k / p_k`.
     #[allow(clippy::too_many_arguments)]
     fn sample_child(
         &mut self,
         b: &mut Builder,
         k: usize,
+        only: Option<usize>,
         weights: &[Value],
         sel: &[Value],
         starts: &[Value],
@@ -504,14 +521,19 @@ impl<'p> Lowerer<'p> {
             s.push(b.safe_div(weights[k], sel[k]));
             s
         };
-        if k + 1 == items.len() {
+        if k + 1 == items.len() || only == Some(k) {
             return here(b, self);
+        }
+        if only.is_some() {
+            return self.sample_child(b, k + 1, only, weights, sel, starts, items, args, ctx);
         }
         let end = b.fadd(starts[k], sel[k]);
         let inside = b.flt(uc, end);
         let mut tys = self.words(&Ty::BsdfSample);
         tys.push(Scalar::F32);
-        b.branch(self, inside, &tys, here, |b, me| me.sample_child(b, k + 1, weights, sel, starts, items, args, ctx))
+        b.branch(self, inside, &tys, here, |b, me| {
+            me.sample_child(b, k + 1, None, weights, sel, starts, items, args, ctx)
+        })
     }
 
     /// `sample` of `mix(t, a, b, only: ...)`: the node samples as `a` does,

@@ -70,15 +70,27 @@ impl<'p> Lowerer<'p> {
                         return self.mat_method(b, &a, im, args, ctx);
                     }
                 }
-                let t = scalar(self, b, 0, ctx);
+                let t = match bound.first().copied().flatten() {
+                    Some(e) => self.node_float(b, mat, e, ctx),
+                    None => scalar(self, b, 0, ctx),
+                };
                 if matches!(im.name, "sample" | "pdf") {
                     let one = b.f(1.0);
                     let weights = [b.fsub(one, t), t];
+                    // Under a hit group's choice at t = 0 or 1 (`lower::hit`);
+                    // elsewhere nothing is known (and nothing is defined).
+                    let mut unused = [false; 2];
+                    if !b.facts.is_empty() {
+                        let zero = b.f(0.0);
+                        for (k, w) in [one, zero].into_iter().enumerate() {
+                            unused[k] = b.known(&Op::Binary(BinOp::FEq, t, w)) == Some(true);
+                        }
+                    }
                     let items = [a, c];
                     return if im.name == "sample" {
-                        self.sample_mixture(b, mat, &weights, &items, args, ctx)
+                        self.sample_mixture(b, mat, &weights, &unused, &items, args, ctx)
                     } else {
-                        self.pdf_mixture(b, &weights, &items, args, ctx)
+                        self.pdf_mixture(b, &weights, &unused, &items, args, ctx)
                     };
                 }
                 self.mix_children(b, t, &a, &c, im, args, ctx)
@@ -92,8 +104,8 @@ impl<'p> Lowerer<'p> {
                 let items = self.material_items(bound.get(1).copied().flatten(), mat);
                 let w = blend_weights(b, t, spline, items.len());
                 match im.name {
-                    "sample" => self.sample_mixture(b, mat, &w, &items, args, ctx),
-                    "pdf" => self.pdf_mixture(b, &w, &items, args, ctx),
+                    "sample" => self.sample_mixture(b, mat, &w, &[], &items, args, ctx),
+                    "pdf" => self.pdf_mixture(b, &w, &[], &items, args, ctx),
                     _ => self.weighted_children(b, &w, &items, im, args, ctx),
                 }
             }
@@ -176,6 +188,14 @@ impl<'p> Lowerer<'p> {
     pub(super) fn node_scalar(&mut self, b: &mut Builder, mat: &Mat<'p>, e: &'p Expr, ctx: &Ctx) -> Value {
         let mut fr = self.env_frame(&mat.env, mat.in_prelude);
         let v = self.expr(b, &mut fr, ctx, e);
+        self.scalar(b, v)
+    }
+
+    /// `mix`'s weight `e`, as a float, evaluated where the node is written
+    /// (the hit groups' root choice computes it as [`Self::tree_node`] does).
+    pub(super) fn node_float(&mut self, b: &mut Builder, mat: &Mat<'p>, e: &'p Expr, ctx: &Ctx) -> Value {
+        let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+        let v = self.expr_as(b, &mut fr, ctx, e, &Ty::Float);
         self.scalar(b, v)
     }
 
