@@ -7,7 +7,9 @@
 
 use std::path::Path;
 use tsl::check::{SymbolKind, Ty};
-use tsl::ir::lower::{HitEntry, HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups};
+use tsl::ir::lower::{
+    HitEntry, HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups, lower_hit_groups_with,
+};
 use tsl::syntax::ast::Item;
 use tsl::{ColorModel, Compiler, Program};
 
@@ -307,6 +309,11 @@ fn a_checker_of_two_materials_prepares_only_the_chosen_ones_noise() {
     });
     assert!(all > 0, "prepare evaluates the noise:\n{prepare}");
     assert_eq!(unconditional(&prepare.body), 0, "the noise runs at every hit:\n{prepare}");
+    // Without the cases (a preview's scene build), the noise runs at every
+    // hit, as before them: the choice is what keeps it conditional.
+    let (plain, _) = lower_hit_groups_with(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS, false);
+    let plain = &plain[0].split.prepare;
+    assert!(unconditional(&plain.body) > 0, "without the cases:\n{plain}");
 }
 
 /// The embedding API's prepared hits agree between the JIT and the

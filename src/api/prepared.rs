@@ -12,7 +12,7 @@ use super::{Backend, BsdfSample, Color, Entry, Error, Function, Program, SAMPLE_
 use crate::check::{MaterialRef, Ty};
 use crate::globals::ShadingGlobals;
 use crate::ir::Module as IrModule;
-use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups};
+use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with};
 use crate::syntax::ast::{Expr, ExprKind};
 
 /// What a path tracer calls at a hit after `prepare`: the hit group the
@@ -80,7 +80,8 @@ impl Program {
     /// Only materials whose `prepare` saves work are compiled
     /// ([`worth_preparing`]); the others get `None`. `optimize_large`
     /// gives large functions the optimising tier whatever the program's
-    /// own setting ([`crate::Compiler::optimize_large`]).
+    /// own setting ([`crate::Compiler::optimize_large`]), and lowers root
+    /// `mix` nodes' cases ([`lower_hit_groups_with`]).
     pub(crate) fn compile_hit_group_refs(
         &self,
         materials: &[(String, MaterialRef)],
@@ -88,7 +89,10 @@ impl Program {
         optimize_large: bool,
     ) -> Result<Vec<Option<HitMaterial>>, Error> {
         let exprs = self.material_exprs(materials)?;
-        let (groups, diags) = lower_hit_groups(&self.inner.program, self.inner.model, &exprs, methods);
+        // Long renders (the optimising tier's) also choose between a root
+        // `mix`'s children per hit.
+        let (groups, diags) =
+            lower_hit_groups_with(&self.inner.program, self.inner.model, &exprs, methods, optimize_large);
         self.lowering_errors(diags)?;
         let worth: Vec<bool> = groups.iter().map(|g| worth_preparing(&g.split.prepare)).collect();
         let chosen: Vec<HitGroup> = groups.into_iter().zip(&worth).filter(|(_, w)| **w).map(|(g, _)| g).collect();

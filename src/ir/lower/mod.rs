@@ -37,7 +37,7 @@ use expr::{bind_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
 
-pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, method_name};
+pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with, method_name};
 pub use spectral::curve_table_name;
 
 use super::builder::{Builder, Const, MemoKey};
