@@ -10,7 +10,7 @@ use tsl::check::{SymbolKind, Ty};
 use tsl::ir::lower::{
     HitEntry, HitGroup, HitMethod, lower_entries, lower_eval_pdf, lower_hit_groups, lower_hit_groups_with,
 };
-use tsl::syntax::ast::Item;
+use tsl::syntax::ast::{Expr, Item};
 use tsl::{ColorModel, Compiler, Program};
 
 mod common;
@@ -231,6 +231,31 @@ fn prepared_methods_agree_with_methods_alone_on_examples_and_fixtures() {
     assert!(groups > 50, "{groups} materials");
 }
 
+/// The probe tree [`material_trees`] made for the material `material`:
+/// its name and body.
+fn probe_of<'c>(checked: &'c tsl::check::Program, trees: &[String], material: &str) -> (String, &'c Expr) {
+    let body = |t: &String| {
+        let s = &checked.symbols[t];
+        match &checked.loaded.modules[s.module].ast.items[s.item] {
+            Item::MaterialTree(m) => Some(&m.body),
+            _ => None,
+        }
+    };
+    trees
+        .iter()
+        .find_map(|t| {
+            let b = body(t)?;
+            matches!(&b.kind, tsl::syntax::ast::ExprKind::Name(n) if n == material).then(|| (t.clone(), b))
+        })
+        .unwrap_or_else(|| panic!("the probe of `{material}`"))
+}
+
+/// A noise evaluation or a noise table lookup.
+fn is_noise(op: &tsl::ir::Op) -> bool {
+    matches!(op, tsl::ir::Op::Call { native, .. } if native.contains("noise"))
+        || matches!(op, tsl::ir::Op::Table { .. })
+}
+
 /// What the split is for: in a bumped, noise-textured material, the
 /// per-direction methods call no generator; `prepare` does, once.
 #[test]
@@ -241,23 +266,11 @@ fn per_direction_methods_of_a_bumped_texture_call_no_noise() {
     ";
     let (program, trees) = material_trees(source, "bumpy.tsl");
     let checked = program.checked();
-    let k = trees.iter().position(|t| {
-        let s = &checked.symbols[t];
-        matches!(&checked.loaded.modules[s.module].ast.items[s.item], Item::MaterialTree(m) if matches!(&m.body.kind, tsl::syntax::ast::ExprKind::Name(n) if n == "bumpy"))
-    });
-    let name = &trees[k.expect("the probe of `bumpy`")];
-    let s = &checked.symbols[name];
-    let Item::MaterialTree(t) = &checked.loaded.modules[s.module].ast.items[s.item] else { unreachable!() };
-    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS);
+    let (name, body) = probe_of(checked, &trees, "bumpy");
+    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), body)], &METHODS);
     let noise_calls = |f: &tsl::ir::Function| {
         let mut n = 0;
-        tsl::ir::for_each_op(&f.body, &mut |op| {
-            if matches!(op, tsl::ir::Op::Call { native, .. } if native.contains("noise"))
-                || matches!(op, tsl::ir::Op::Table { .. })
-            {
-                n += 1;
-            }
-        });
+        tsl::ir::for_each_op(&f.body, &mut |op| n += usize::from(is_noise(op)));
         n
     };
     let split = &groups[0].split;
@@ -279,21 +292,14 @@ fn a_checker_of_two_materials_prepares_only_the_chosen_ones_noise() {
     ";
     let (program, trees) = material_trees(source, "checks.tsl");
     let checked = program.checked();
-    let k = trees.iter().position(|t| {
-        let s = &checked.symbols[t];
-        matches!(&checked.loaded.modules[s.module].ast.items[s.item], Item::MaterialTree(m) if matches!(&m.body.kind, tsl::syntax::ast::ExprKind::Name(n) if n == "checks"))
-    });
-    let name = &trees[k.expect("the probe of `checks`")];
-    let s = &checked.symbols[name];
-    let Item::MaterialTree(t) = &checked.loaded.modules[s.module].ast.items[s.item] else { unreachable!() };
-    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS);
+    let (name, body) = probe_of(checked, &trees, "checks");
+    let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), body)], &METHODS);
     // Noise operations run whatever the branches decide (`If` bodies left out).
     fn unconditional(body: &[tsl::ir::Inst]) -> usize {
         use tsl::ir::{Inst, Op};
         body.iter()
             .map(|inst| match inst {
-                Inst::Def(_, Op::Call { native, .. }) if native.contains("noise") => 1,
-                Inst::Def(_, Op::Table { .. }) => 1,
+                Inst::Def(_, op) if is_noise(op) => 1,
                 Inst::Block { body, .. } | Inst::Loop { body, .. } => unconditional(body),
                 _ => 0,
             })
@@ -301,17 +307,12 @@ fn a_checker_of_two_materials_prepares_only_the_chosen_ones_noise() {
     }
     let prepare = &groups[0].split.prepare;
     let mut all = 0;
-    tsl::ir::for_each_op(&prepare.body, &mut |op| {
-        all += usize::from(
-            matches!(op, tsl::ir::Op::Call { native, .. } if native.contains("noise"))
-                || matches!(op, tsl::ir::Op::Table { .. }),
-        );
-    });
+    tsl::ir::for_each_op(&prepare.body, &mut |op| all += usize::from(is_noise(op)));
     assert!(all > 0, "prepare evaluates the noise:\n{prepare}");
     assert_eq!(unconditional(&prepare.body), 0, "the noise runs at every hit:\n{prepare}");
     // Without the cases (a preview's scene build), the noise runs at every
     // hit, as before them: the choice is what keeps it conditional.
-    let (plain, _) = lower_hit_groups_with(checked, ColorModel::Rgb, &[(name.clone(), &t.body)], &METHODS, false);
+    let (plain, _) = lower_hit_groups_with(checked, ColorModel::Rgb, &[(name, body)], &METHODS, false);
     let plain = &plain[0].split.prepare;
     assert!(unconditional(&plain.body) > 0, "without the cases:\n{plain}");
 }
