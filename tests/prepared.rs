@@ -296,7 +296,7 @@ fn a_checker_of_two_materials_prepares_only_the_chosen_ones_noise() {
     let (groups, _) = lower_hit_groups(checked, ColorModel::Rgb, &[(name.clone(), body)], &METHODS);
     // Noise operations run whatever the branches decide (`If` bodies left out).
     fn unconditional(body: &[tsl::ir::Inst]) -> usize {
-        use tsl::ir::{Inst, Op};
+        use tsl::ir::Inst;
         body.iter()
             .map(|inst| match inst {
                 Inst::Def(_, op) if is_noise(op) => 1,
