@@ -406,16 +406,6 @@ const ARITIES: [(&str, usize); 20] = [
     ("tsl_tan", 1),
 ];
 
-fn call(f: NativeFn, a: &[f32]) -> f32 {
-    match f {
-        NativeFn::F1(g) => g(a[0]),
-        NativeFn::F2(g) => g(a[0], a[1]),
-        NativeFn::F3(g) => g(a[0], a[1], a[2]),
-        NativeFn::F4(g) => g(a[0], a[1], a[2], a[3]),
-        NativeFn::F6(g) => g(a[0], a[1], a[2], a[3], a[4], a[5]),
-    }
-}
-
 /// Calls through the raw pointer, as JIT-compiled code does.
 fn call_ptr(p: *const u8, arity: usize, a: &[f32]) -> f32 {
     // SAFETY: the table's pointers are `extern "C" fn`s of `arity` f32
@@ -464,7 +454,7 @@ fn table_is_complete_and_consistent() {
         for _ in 0..200 {
             let a: Vec<f32> = (0..6).map(|_| rng.range(-3.0, 3.0)).collect();
             let want = direct(&a).to_bits();
-            assert_eq!(call(n.f, &a).to_bits(), want, "{name}{a:?}");
+            assert_eq!(n.f.call(&a).to_bits(), want, "{name}{a:?}");
             assert_eq!(call_ptr(n.ptr, n.arity, &a).to_bits(), want, "{name}{a:?} by pointer");
         }
     }
