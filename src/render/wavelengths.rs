@@ -69,7 +69,7 @@ const CDF_CELLS: usize = 1024;
 
 /// The cells of one lane's quarter of sample space: lane `j` draws from
 /// `[j / n, (j + 1) / n)`, so the lanes of a sample share one position in
-/// their quarters and one row of [`Tables::cells`].
+/// their quarters and one row of [`cells`].
 const QUARTER_CELLS: usize = CDF_CELLS / HERO_LANES;
 const _: () = assert!(HERO_LANES == 4, "a draw computes the lanes as one Vec4");
 
@@ -94,39 +94,33 @@ struct Cell {
 }
 
 /// What drawing a sample reads, made once from [`sample_visible`] at
-/// `CDF_CELLS + 1` points and `rgb_matching` there.
-struct Tables {
-    cells: Box<[Cell; QUARTER_CELLS]>,
-}
-
-fn tables() -> &'static Tables {
-    static TABLES: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
-    TABLES.get_or_init(|| {
+/// `CDF_CELLS + 1` points and `rgb_matching` there: one [`Cell`] per
+/// position in a quarter.
+fn cells() -> &'static [Cell; QUARTER_CELLS] {
+    static CELLS: std::sync::OnceLock<Box<[Cell; QUARTER_CELLS]>> = std::sync::OnceLock::new();
+    CELLS.get_or_init(|| {
         let node = |k: usize| sample_visible(k as f32 / CDF_CELLS as f32);
         // `rgb_matching(λ) / (n p)` at `nm` for a cell of width `width` nm.
         let film = |nm: f32, width: f32| {
             let weight = f64::from(width) * (CDF_CELLS / HERO_LANES) as f64;
             color::rgb_matching(color::White::D65, f64::from(nm)).map(|m| (m * weight) as f32)
         };
-        let cells = (0..QUARTER_CELLS)
-            .map(|c| {
-                let mut cell = Cell::default();
-                for j in 0..HERO_LANES {
-                    let k = j * QUARTER_CELLS + c;
-                    let (a, b) = (node(k), node(k + 1));
-                    let (film_a, film_b) = (film(a, b - a), film(b, b - a));
-                    cell.wavelength[j] = a;
-                    cell.wavelength_step[j] = b - a;
-                    cell.pdf[j] = 1.0 / (CDF_CELLS as f32 * (b - a));
-                    for ch in 0..3 {
-                        cell.film[ch][j] = film_a[ch];
-                        cell.film_step[ch][j] = film_b[ch] - film_a[ch];
-                    }
+        Box::new(std::array::from_fn(|c| {
+            let mut cell = Cell::default();
+            for j in 0..HERO_LANES {
+                let k = j * QUARTER_CELLS + c;
+                let (a, b) = (node(k), node(k + 1));
+                let (film_a, film_b) = (film(a, b - a), film(b, b - a));
+                cell.wavelength[j] = a;
+                cell.wavelength_step[j] = b - a;
+                cell.pdf[j] = 1.0 / (CDF_CELLS as f32 * (b - a));
+                for ch in 0..3 {
+                    cell.film[ch][j] = film_a[ch];
+                    cell.film_step[ch][j] = film_b[ch] - film_a[ch];
                 }
-                cell
-            })
-            .collect::<Vec<_>>();
-        Tables { cells: cells.try_into().unwrap_or_else(|_| unreachable!("one cell per position")) }
+            }
+            cell
+        }))
     })
 }
 
@@ -147,11 +141,10 @@ impl HeroSample {
     /// they stratify the density. Lane `j` holds the one in the `j`th
     /// quarter of [0, 1), so the hero is lane [`Self::hero`], `⌊n u⌋`.
     pub fn draw(u: f32) -> HeroSample {
-        let t = tables();
         let x = u * CDF_CELLS as f32;
         let k = index(x, CDF_CELLS - 1);
         let f = Vec4::splat(x - k as u32 as f32);
-        let cell = &t.cells[k % QUARTER_CELLS];
+        let cell = &cells()[k % QUARTER_CELLS];
         let wavelength = cell.wavelength + f * cell.wavelength_step;
         let film: [Vec4; 3] = std::array::from_fn(|c| cell.film[c] + f * cell.film_step[c]);
         // Shaders' weights: the film's over their luminance, so that a flat
