@@ -76,9 +76,7 @@ impl<'p> Lowerer<'p> {
         use BuiltinFn::*;
         let ty = self.ty_of(e);
         let spec = f.builtin();
-        // Only the names matter to `bind_args`.
-        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
-        let bound = bind_args(&params, args);
+        let bound = bind_builtin_args(spec, args);
         if matches!(f, Texture | TextureFloat) {
             return self.texture(b, fr, ctx, spec, &bound, e);
         }

@@ -302,6 +302,13 @@ impl<'p> Lowerer<'p> {
     }
 }
 
+/// [`bind_args`] for a call of the builtin `spec`: its parameters' names
+/// are all that binding needs.
+pub(super) fn bind_builtin_args<'a>(spec: &crate::check::Builtin, args: &'a [ast::Arg]) -> Vec<Option<&'a Expr>> {
+    let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
+    bind_args(&params, args)
+}
+
 /// Matches call arguments to parameters by position and name.
 pub(super) fn bind_args<'a>(params: &[(&str, Ty)], args: &'a [ast::Arg]) -> Vec<Option<&'a Expr>> {
     let mut bound: Vec<Option<&Expr>> = vec![None; params.len()];

@@ -279,8 +279,7 @@ impl<'p> Lowerer<'p> {
                     return self.root_choice(b, &m, ctx, mix);
                 }
                 let node = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node())?;
-                let params: Vec<(&str, Ty)> = node.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
-                let bound = bind_args(&params, call_args);
+                let bound = bind_builtin_args(node.builtin(), call_args);
                 let child = |k: usize| {
                     bound.get(k).copied().flatten().map(|e| Mat {
                         expr: e,

@@ -33,7 +33,7 @@ mod texture;
 mod tree;
 
 use builtins::{blend_weights, identity};
-use expr::{bind_args, mat_inverse, transform_point};
+use expr::{bind_args, bind_builtin_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
 

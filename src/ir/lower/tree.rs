@@ -33,9 +33,7 @@ impl<'p> Lowerer<'p> {
                 return b.map2(BinOp::FMul, &args[0], &d);
             }
         }
-        // Only the names matter to `bind_args`.
-        let params: Vec<(&str, Ty)> = spec.params.iter().map(|p| (p.name, Ty::Error)).collect();
-        let bound = bind_args(&params, call_args);
+        let bound = bind_builtin_args(spec, call_args);
         let child = |k: usize| {
             bound.get(k).copied().flatten().map(|e| Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude })
         };
@@ -178,9 +176,7 @@ impl<'p> Lowerer<'p> {
     /// one) and its children, as [`Self::tree_node`] and the hit groups'
     /// root `select` (`lower::hit`) both read them.
     pub(super) fn select_parts(&self, mat: &Mat<'p>, call_args: &'p [ast::Arg]) -> (Option<&'p Expr>, Vec<Mat<'p>>) {
-        // Only the names matter to `bind_args`.
-        let params: Vec<(&str, Ty)> = TreeNode::Select.builtin().params.iter().map(|p| (p.name, Ty::Error)).collect();
-        let bound = bind_args(&params, call_args);
+        let bound = bind_builtin_args(TreeNode::Select.builtin(), call_args);
         (bound.first().copied().flatten(), self.material_items(bound.get(1).copied().flatten(), mat))
     }
 
