@@ -81,8 +81,8 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
             let lights = scene.lights.len();
             match &o.hit {
                 Some(h) => {
-                    let mut record = vec![0u32; h.record_words()];
-                    run_counting(h.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
+                    let mut record = vec![0u32; h.material.record_words()];
+                    run_counting(h.material.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
                     let own = |m| match m {
                         tsl::ir::lower::HitMethod::EvalPdf => (wi.clone(), lights),
                         tsl::ir::lower::HitMethod::DeltaLobes => (Vec::new(), usize::from(o.reflects || o.refracts)),
@@ -92,7 +92,7 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                         let (args, times) = own(*m);
                         let args = [&record[..], &args[..]].concat();
                         for _ in 0..times {
-                            if let Some(f) = h.method_function(*m) {
+                            if let Some(f) = h.material.method_function(*m) {
                                 run_counting(f.ir(), &globals, &args, &mut out, &mut c);
                             }
                         }

@@ -354,3 +354,36 @@ fn prepared_hits_agree_on_both_back_ends() {
         }
     }
 }
+
+#[test]
+fn a_method_looked_up_once_answers_as_by_name() {
+    let program = Compiler::new()
+        .source("m.tsl", "material m = mix(noise(P * 3) * 0.5 + 0.5, lambert, phong(ns: 20));")
+        .compile()
+        .unwrap();
+    let hit = &program.hit_materials(&["m"], tsl::PATH_METHODS).unwrap()[0];
+    assert_eq!(hit.method_index(HitMethod::Interface("reflection")), None, "not in the path group");
+    let index = hit.method_index(HitMethod::EvalPdf).expect("eval_pdf is in the path group");
+    let mut rng = Rng(5);
+    for _ in 0..20 {
+        let g = common::shading_point(&mut rng);
+        // Both directions above the surface, where the pdf is positive.
+        let above = |v: [f32; 3]| {
+            let s = if v.iter().zip(&g.n).map(|(a, b)| a * b).sum::<f32>() < 0.0 { -1.0 } else { 1.0 };
+            v.map(|x| x * s)
+        };
+        let inputs: Vec<u32> = above(rng.unit()).iter().chain(&[1.0; 3]).map(|x| x.to_bits()).collect();
+        let wi = above(rng.unit()).map(f32::to_bits);
+        let mut words = Vec::new();
+        hit.prepare_words(tsl::Backend::Jit, &g, &inputs, &mut words);
+        let (mut by_name, mut by_index) = ([0u32; 4], [0u32; 4]);
+        hit.call_words(tsl::Backend::Jit, HitMethod::EvalPdf, &g, &mut words, &wi, &mut by_name).unwrap();
+        // `call_words` left the record with `wi` after it: what `call_at` takes.
+        hit.call_at(tsl::Backend::Jit, index, &g, &words, &mut by_index).unwrap();
+        assert_eq!(by_name, by_index);
+        assert!(by_name[3] != 0, "a pdf was computed");
+    }
+    let words = vec![0u32; hit.record_words() + 3];
+    let err = hit.call_at(tsl::Backend::Jit, 99, &Default::default(), &words, &mut [0u32; 4]).unwrap_err();
+    assert!(err.contains("no method 99"), "{err}");
+}

@@ -28,7 +28,6 @@ use super::spectrum::Spectrum;
 use super::wavelengths::HeroSample;
 use super::{Ray, Vec3};
 use crate::ShadingGlobals;
-use crate::ir::lower::HitMethod;
 use crate::scene::Frame;
 use media::{Media, NO_MEDIA};
 
@@ -169,7 +168,6 @@ pub const BAILOUT: f32 = 1e-6;
 
 /// Renders call compiled code.
 const JIT: crate::Backend = crate::Backend::Jit;
-const REFLECTION: HitMethod = HitMethod::Interface("reflection");
 
 fn v3(v: Vec3) -> [f32; 3] {
     v.to_array()
@@ -271,9 +269,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     fn reflection(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
         if let Some(hit) = &sh.object.hit
-            && hit.method_function(REFLECTION).is_some()
+            && let Some(index) = hit.reflection
         {
-            return self.prepared_reflection(hit, sh.g, wi, light);
+            return self.prepared_reflection(&hit.material, index, sh.g, wi, light);
         }
         let mut out = Spectrum::ZERO;
         sh.object.material.reflection_into(sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
@@ -286,15 +284,17 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn prepared_reflection(
         &mut self,
         hit: &crate::HitMaterial,
+        index: usize,
         g: &ShadingGlobals,
         wi: Vec3,
         light: &Spectrum<N>,
     ) -> Spectrum<N> {
         let mut out = Spectrum::ZERO;
-        self.lobe_args.clear();
-        push_words(&mut self.lobe_args, &v3(wi));
-        push_words(&mut self.lobe_args, &light.0[..self.lanes]);
-        if self.call_prepared(hit, REFLECTION, g) {
+        let lanes = self.lanes;
+        let args = self.own_args(hit);
+        push_words(args, &v3(wi));
+        push_words(args, &light.0[..lanes]);
+        if self.call_prepared(hit, index, g) {
             for (o, w) in out.0.iter_mut().zip(&self.lobe_out[..self.lanes]) {
                 *o = f32::from_bits(*w);
             }
@@ -302,13 +302,21 @@ impl<'s, const N: usize> Tracer<'s, N> {
         out
     }
 
-    /// Calls `method` of a prepared hit with the own argument words in
-    /// `lobe_args`, into `lobe_out`. Out of line, as [`Self::prepare`]: the
-    /// integrator's hot functions stay as small as without prepared hits,
-    /// and so are inlined as before (5-9% of cornell's time otherwise).
+    /// The words of a call on the prepared hit, its record, to which the
+    /// caller pushes the method's own argument words.
+    fn own_args(&mut self, hit: &crate::HitMaterial) -> &mut Vec<u32> {
+        self.hit_words.truncate(hit.record_words());
+        &mut self.hit_words
+    }
+
+    /// Calls the method at `index` of a prepared hit with the words of
+    /// [`Self::own_args`], into `lobe_out`. Out of line, as
+    /// [`Self::prepare`]: the integrator's hot functions stay as small as
+    /// without prepared hits, and so are inlined as before (5-9% of
+    /// cornell's time otherwise).
     #[inline(never)]
-    fn call_prepared(&mut self, hit: &crate::HitMaterial, method: HitMethod, g: &ShadingGlobals) -> bool {
-        hit.call_words(JIT, method, g, &mut self.hit_words, &self.lobe_args, &mut self.lobe_out).is_ok()
+    fn call_prepared(&mut self, hit: &crate::HitMaterial, index: usize, g: &ShadingGlobals) -> bool {
+        hit.call_at(JIT, index, g, &self.hit_words, &mut self.lobe_out).is_ok()
     }
 
     /// Runs the per-hit stage of a prepared material: every call below,
@@ -316,7 +324,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// hits of most scenes have nothing to prepare.
     fn prepare(&mut self, sh: &Shading, eta: &Spectrum<N>) {
         if let Some(hit) = &sh.object.hit {
-            self.prepare_hit(hit, sh.g, sh.wo, eta);
+            self.prepare_hit(&hit.material, sh.g, sh.wo, eta);
         }
     }
 
@@ -363,8 +371,11 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn lobes(&mut self, sh: &Shading, eta: &Spectrum<N>, entering: bool) -> Lobes<N> {
         let mut lobes = Lobes { reflect: None, refract: None };
         if let Some(hit) = &sh.object.hit {
-            self.lobe_args.clear();
-            if !(sh.object.reflects || sh.object.refracts) || !self.call_prepared(hit, HitMethod::DeltaLobes, sh.g) {
+            let Some(index) = hit.delta_lobes.filter(|_| sh.object.reflects || sh.object.refracts) else {
+                return lobes;
+            };
+            self.own_args(&hit.material);
+            if !self.call_prepared(&hit.material, index, sh.g) {
                 return lobes;
             }
         } else {
@@ -394,9 +405,11 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn eval_pdf(&mut self, sh: &Shading, wi: Vec3, eta: &Spectrum<N>) -> (Spectrum<N>, f32) {
         let lanes = self.lanes;
         if let Some(hit) = &sh.object.hit {
-            self.lobe_args.clear();
-            push_words(&mut self.lobe_args, &v3(wi));
-            if !self.call_prepared(hit, HitMethod::EvalPdf, sh.g) {
+            let called = hit.eval_pdf.is_some_and(|index| {
+                push_words(self.own_args(&hit.material), &v3(wi));
+                self.call_prepared(&hit.material, index, sh.g)
+            });
+            if !called {
                 return (Spectrum::ZERO, 0.0);
             }
             let out = &self.lobe_out;
@@ -427,9 +440,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn sample(&mut self, sh: &Shading, eta: &Spectrum<N>, u1: f32, u2: [f32; 2]) -> Option<Drawn<N>> {
         let lanes = self.lanes;
         if let Some(hit) = &sh.object.hit {
-            self.lobe_args.clear();
-            push_words(&mut self.lobe_args, &[u1, u2[0], u2[1]]);
-            if !self.call_prepared(hit, HitMethod::Interface("sample"), sh.g) {
+            let index = hit.sample?;
+            push_words(self.own_args(&hit.material), &[u1, u2[0], u2[1]]);
+            if !self.call_prepared(&hit.material, index, sh.g) {
                 return None;
             }
         } else {

@@ -134,6 +134,31 @@ fn takes_reflection_sum(o: &Object) -> bool {
 /// Scenes with more delta lights than this shade them one call each.
 pub const MAX_SUMMED_LIGHTS: usize = 8;
 
+/// An object's material compiled for prepared hits, with the methods the
+/// integrators call looked up once ([`crate::HitMaterial::method_index`]).
+#[derive(Debug, Clone)]
+pub struct PreparedMaterial {
+    pub material: crate::HitMaterial,
+    pub sample: Option<usize>,
+    pub eval_pdf: Option<usize>,
+    pub delta_lobes: Option<usize>,
+    pub reflection: Option<usize>,
+}
+
+impl PreparedMaterial {
+    fn new(material: crate::HitMaterial) -> PreparedMaterial {
+        use crate::ir::lower::HitMethod;
+        let at = |m| material.method_index(m);
+        PreparedMaterial {
+            sample: at(HitMethod::Interface("sample")),
+            eval_pdf: at(HitMethod::EvalPdf),
+            delta_lobes: at(HitMethod::DeltaLobes),
+            reflection: at(HitMethod::Interface("reflection")),
+            material,
+        }
+    }
+}
+
 /// An object's surface: its material and what its code shows, shared by
 /// the objects that name one material.
 pub struct Object {
@@ -163,7 +188,7 @@ pub struct Object {
     /// `eval_pdf`, the delta lobes) split into a per-hit stage and
     /// per-direction calls, used instead of `sample`, `eval_pdf` and
     /// `delta_lobes`.
-    pub hit: Option<crate::HitMaterial>,
+    pub hit: Option<PreparedMaterial>,
     /// `reflection_dir` / `refraction_dir` are not the default zero.
     pub reflects: bool,
     pub refracts: bool,
@@ -660,7 +685,7 @@ impl<'a> Builder<'a> {
             })
             .collect();
         for (k, h) in per_material(&wanted, |items| self.program.compile_hit_group_refs(items, methods, optimize))? {
-            objects[k].hit = h;
+            objects[k].hit = h.map(PreparedMaterial::new);
         }
         Ok(())
     }
