@@ -112,6 +112,9 @@ fn result_offset(entries: &[HitEntry], method: &HitMethod, model: ColorModel) ->
     entries.iter().take_while(|e| e.method != *method).map(|e| words(&e.ret)).sum()
 }
 
+/// A NaN with a payload: what a record slot holds before `prepare` writes it.
+const UNWRITTEN: u32 = 0x7fc0_dead;
+
 fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u64, points: usize) -> usize {
     let checked = program.checked();
     let bodies: Vec<(String, &tsl::syntax::ast::Expr)> = trees
@@ -137,7 +140,9 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
             let g = common::shading_point(&mut rng).words();
             let wo = args(&mut rng, &[("wo".into(), Ty::Vector)], model);
             let eta = args(&mut rng, &[("eta".into(), Ty::Color)], model);
-            let mut record = vec![0u32; split.record_words()];
+            // Not zeroed: renderers reuse one buffer, so a method must read
+            // only the slots `prepare` wrote at this hit.
+            let mut record = vec![UNWRITTEN; split.record_words()];
             tsl::interp::run(&split.prepare, &g, &[wo.clone(), eta.clone()].concat(), &mut record);
             for (HitEntry { method, params, .. }, f) in entries.iter().zip(&split.methods) {
                 let own = args(&mut rng, params, model);

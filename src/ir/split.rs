@@ -26,7 +26,9 @@
 //!
 //! A method's arguments are `[record | own arguments]`, so a host keeps one
 //! buffer per hit: `prepare` writes its front, each call its own words
-//! after it. A record is at most [`MAX_RECORD_WORDS`] words; a group that
+//! after it. A slot written under a point-only branch is read only under
+//! the same branch, so the buffer need not be cleared between hits (the
+//! tests fill it with NaNs before `prepare`). A record is at most [`MAX_RECORD_WORDS`] words; a group that
 //! would need more passes only its hit inputs through the record.
 
 use super::adce::eliminate_dead_code_aggressive;
