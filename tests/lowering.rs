@@ -276,6 +276,9 @@ fn inlined_noise_is_the_native_noise() {
         let g = ShadingGlobals { p: [0.5, bad, 0.25], ..Default::default() };
         assert_eq!(float_at(&p, "n3", &g), 0.0);
         assert_eq!(float_at(&p, "n2", &g), 0.0);
+        let g = ShadingGlobals { p: [bad, 0.5, 0.25], ..Default::default() };
+        assert_eq!(float_at(&p, "n1", &g), 0.0);
+        assert_eq!(float_at(&p, "n3", &g), 0.0);
     }
 }
 

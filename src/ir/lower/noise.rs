@@ -152,13 +152,9 @@ pub(super) fn noise(b: &mut Builder, p: &[Value]) -> Value {
     let (lo, hi) = (b.f(-1.0), b.f(1.0));
     let clamped = b.fmax(scaled, lo);
     let clamped = b.fmin(clamped, hi);
-    // x - x is 0 exactly when x is finite.
+    // A coordinate that is not finite makes its fraction `x - floor(x)`,
+    // and so `raw`, NaN; finite ones never do. One test, not one per axis.
     let zero = b.f(0.0);
-    let mut finite = b.b(true);
-    for x in p {
-        let d = b.fsub(*x, *x);
-        let ok = b.feq(d, zero);
-        finite = b.and(finite, ok);
-    }
+    let finite = b.feq(raw, raw);
     b.select(finite, clamped, zero)
 }
