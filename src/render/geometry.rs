@@ -221,10 +221,17 @@ impl Geometry {
             // Unbounded shapes first, as with the BVH below.
             let (bounded, unbounded) = prims.split_at(self.prims.len());
             let inv_dir = ray.dir.recip();
-            return unbounded.iter().chain(bounded).any(|l| match self.test_linear(l, ray, inv_dir, t_min, t_max) {
-                Some(t) => blocks(Hit { object: l.prim.object, tri: l.prim.tri, t }),
-                None => false,
-            });
+            // Two plain loops: a chain of iterators costs more than the tests.
+            for part in [unbounded, bounded] {
+                for l in part {
+                    if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max)
+                        && blocks(Hit { object: l.prim.object, tri: l.prim.tri, t })
+                    {
+                        return true;
+                    }
+                }
+            }
+            return false;
         }
         let mut check = |prim: Prim, t_max: f32| match self.test(prim, ray, t_min, t_max) {
             Some(t) => blocks(Hit { object: prim.object, tri: prim.tri, t }),

@@ -23,6 +23,7 @@
 use super::sampling::{self, Frame};
 use super::{Mat4, Ray, Vec3};
 use glam::Mat3A as Mat3;
+use glam::Vec3Swizzles;
 use std::f32::consts::{PI, TAU};
 
 /// A ray hit before shading, in world space unless noted.
@@ -99,11 +100,11 @@ impl Cull {
         let b = (self.hi + pad - ray.origin) * inv_dir;
         let near = a.min(b);
         let far = a.max(b);
-        // f32 min/max skip a NaN (0 * inf: origin on a slab, ray parallel);
-        // a NaN left compares false below and so never rejects.
-        let t0 = near.x.max(near.y).max(near.z);
-        let t1 = far.x.min(far.y).min(far.z);
-        t0 > t1 || t1 <= t_min || t0 >= t_max
+        // The slabs' entry max(near) is past their exit min(far) when some
+        // near exceeds some far: compared lane by lane, without the scalar
+        // chains of f32::max. A NaN compares false, so never rejects.
+        let apart = near.cmpgt(far.yzx()) | near.cmpgt(far.zxy());
+        (apart | far.cmple(Vec3::splat(t_min)) | near.cmpge(Vec3::splat(t_max))).any()
     }
 }
 
