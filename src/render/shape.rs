@@ -251,9 +251,9 @@ impl Shape {
     }
 
     /// A [`Cull`] for a shape worth one: transformed and bounded, or a
-    /// cylinder.
+    /// cylinder, disk or quad (a division and more before their miss).
     pub fn cull(&self) -> Option<Cull> {
-        if self.identity && !matches!(self.kind, ShapeKind::Cylinder { .. }) {
+        if self.identity && matches!(self.kind, ShapeKind::Sphere { .. } | ShapeKind::Box { .. }) {
             return None;
         }
         let (lo, hi) = self.bounds()?;
@@ -842,7 +842,10 @@ mod tests {
                 let s = Shape::new(kind, transform).unwrap();
                 let test = s.tester();
                 let cull = s.cull();
-                assert_eq!(cull.is_some(), s.is_bounded() && (transform != Mat4::IDENTITY || kind_number(&kind) == 5));
+                assert_eq!(
+                    cull.is_some(),
+                    s.is_bounded() && (transform != Mat4::IDENTITY || matches!(kind_number(&kind), 2 | 3 | 5))
+                );
                 let (mut hits, mut culled) = (0, 0);
                 for k in 0..20000 {
                     // A point on the surface, nudged by a hair or more.
