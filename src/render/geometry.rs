@@ -5,7 +5,7 @@
 
 use super::accel::Bvh;
 use super::mesh::Mesh;
-use super::shape::{Shape, SurfaceHit};
+use super::shape::{Cull, Shape, SurfaceHit, Tester};
 use super::{Ray, Vec3};
 
 /// A growable array kept in blocks of [`Blocks::BLOCK`] elements (72 KB of
@@ -100,6 +100,10 @@ pub struct Geometry {
 struct Linear {
     prim: Prim,
     shape: Option<Shape>,
+    /// The shape's test specialised to it.
+    test: Tester,
+    /// For shapes with a dear test: a box that rejects most rays cheaply.
+    cull: Option<Cull>,
 }
 
 /// At most this many primitives are tested one by one, without the BVH.
@@ -126,12 +130,14 @@ impl Geometry {
         }
         let linear = (prims.len() <= LINEAR_MAX).then(|| {
             let all = prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 }));
-            all.map(|prim| Linear {
-                prim,
-                shape: match &objects[prim.object as usize] {
+            all.map(|prim| {
+                let shape = match &objects[prim.object as usize] {
                     ObjectGeometry::Shape(s) => Some(s.clone()),
                     ObjectGeometry::Mesh(_) => None,
-                },
+                };
+                let cull = shape.as_ref().and_then(Shape::cull);
+                let test = shape.as_ref().map_or(Shape::intersect as Tester, Shape::tester);
+                Linear { prim, shape, test, cull }
             })
             .collect()
         });
@@ -151,11 +157,15 @@ impl Geometry {
         self.prims.len()
     }
 
-    /// [`Geometry::test`] of a primitive of the linear list.
+    /// [`Geometry::test`] of a primitive of the linear list; `inv_dir` is
+    /// `ray.dir.recip()`.
     #[inline(always)]
-    fn test_linear(&self, l: &Linear, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+    fn test_linear(&self, l: &Linear, ray: &Ray, inv_dir: Vec3, t_min: f32, t_max: f32) -> Option<f32> {
+        if l.cull.is_some_and(|c| c.misses(ray, inv_dir, t_min, t_max)) {
+            return None;
+        }
         match &l.shape {
-            Some(s) => s.intersect(ray, t_min, t_max),
+            Some(s) => (l.test)(s, ray, t_min, t_max),
             None => self.test(l.prim, ray, t_min, t_max),
         }
     }
@@ -175,8 +185,9 @@ impl Geometry {
         let Some(prims) = &self.linear else { return self.intersect_bvh(ray, t_min, t_max) };
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
+        let inv_dir = ray.dir.recip();
         for l in prims {
-            if let Some(t) = self.test_linear(l, ray, t_min, t_max) {
+            if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max) {
                 best = Some(Hit { object: l.prim.object, tri: l.prim.tri, t });
                 t_max = t;
             }
@@ -209,10 +220,18 @@ impl Geometry {
         if let Some(prims) = &self.linear {
             // Unbounded shapes first, as with the BVH below.
             let (bounded, unbounded) = prims.split_at(self.prims.len());
-            return unbounded.iter().chain(bounded).any(|l| match self.test_linear(l, ray, t_min, t_max) {
-                Some(t) => blocks(Hit { object: l.prim.object, tri: l.prim.tri, t }),
-                None => false,
-            });
+            let inv_dir = ray.dir.recip();
+            // Two plain loops: a chain of iterators costs more than the tests.
+            for part in [unbounded, bounded] {
+                for l in part {
+                    if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max)
+                        && blocks(Hit { object: l.prim.object, tri: l.prim.tri, t })
+                    {
+                        return true;
+                    }
+                }
+            }
+            return false;
         }
         let mut check = |prim: Prim, t_max: f32| match self.test(prim, ray, t_min, t_max) {
             Some(t) => blocks(Hit { object: prim.object, tri: prim.tri, t }),

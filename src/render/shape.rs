@@ -23,6 +23,7 @@
 use super::sampling::{self, Frame};
 use super::{Mat4, Ray, Vec3};
 use glam::Mat3A as Mat3;
+use glam::Vec3Swizzles;
 use std::f32::consts::{PI, TAU};
 
 /// A ray hit before shading, in world space unless noted.
@@ -61,6 +62,11 @@ pub struct Shape {
     /// Whether the transform equals the identity (as numbers: `-0` is
     /// `0`); rays and normals are then not transformed.
     identity: bool,
+    /// An untransformed plane whose normal and tangents come through
+    /// `surface_at`'s normalisation and degenerate check unchanged (a
+    /// floor's do): its record skips that work, the most hits of a small
+    /// scene.
+    plain_plane: bool,
     /// For quads: `edge1 x edge2` and one over its squared length.
     quad_n: Vec3,
     quad_inv_n2: f32,
@@ -73,6 +79,56 @@ struct Placement {
     to_object: Mat4,
     /// Transforms normals: the inverse transpose of the linear part.
     normal_matrix: Mat3,
+}
+
+/// A padded world box around a shape whose own test is dear (a transformed
+/// shape moves each ray into its frame first; a cylinder solves a
+/// quadratic and two caps): most rays of a small scene miss it, and
+/// [`Cull::misses`] rejects them before that work. The padding covers the
+/// rounding of the exact test, so no ray it hits is ever rejected.
+#[derive(Debug, Clone, Copy)]
+pub struct Cull {
+    lo: Vec3,
+    hi: Vec3,
+    /// Extra padding per unit of the ray origin's largest coordinate: the
+    /// exact test's transform of the origin rounds in proportion to it.
+    slack: f32,
+}
+
+impl Cull {
+    /// Whether the ray surely misses the shape within `(t_min, t_max)`;
+    /// `inv_dir` is `ray.dir.recip()`.
+    #[inline(always)]
+    pub fn misses(&self, ray: &Ray, inv_dir: Vec3, t_min: f32, t_max: f32) -> bool {
+        let pad = Vec3::splat(self.slack * ray.origin.abs().max_element());
+        let a = (self.lo - pad - ray.origin) * inv_dir;
+        let b = (self.hi + pad - ray.origin) * inv_dir;
+        let near = a.min(b);
+        let far = a.max(b);
+        // The slabs' entry max(near) is past their exit min(far) when some
+        // near exceeds some far: compared lane by lane, without the scalar
+        // chains of f32::max. A NaN compares false, so never rejects.
+        let apart = near.cmpgt(far.yzx()) | near.cmpgt(far.zxy());
+        (apart | far.cmple(Vec3::splat(t_min)) | near.cmpge(Vec3::splat(t_max))).any()
+    }
+}
+
+/// A shape's intersection test, [`Shape::tester`].
+pub type Tester = fn(&Shape, &Ray, f32, f32) -> Option<f32>;
+
+/// For [`Shape::intersect_in_frame`]: every kind.
+const ANY_KIND: u8 = u8::MAX;
+
+/// The kinds' numbers for [`Shape::intersect_in_frame`].
+fn kind_number(kind: &ShapeKind) -> u8 {
+    match kind {
+        ShapeKind::Sphere { .. } => 0,
+        ShapeKind::Plane { .. } => 1,
+        ShapeKind::Quad { .. } => 2,
+        ShapeKind::Disk { .. } => 3,
+        ShapeKind::Box { .. } => 4,
+        ShapeKind::Cylinder { .. } => 5,
+    }
 }
 
 /// The `to_world` of a shape without placement.
@@ -110,14 +166,16 @@ impl Shape {
             ShapeKind::Quad { edge1, edge2, .. } => edge1.cross(edge2),
             _ => Vec3::Z,
         };
-        Ok(Shape {
-            quad_n,
-            quad_inv_n2: 1.0 / quad_n.length_squared(),
-            kind,
-            placement,
-            frame,
-            identity: to_world == Mat4::IDENTITY,
-        })
+        let identity = to_world == Mat4::IDENTITY;
+        let plain_plane = match kind {
+            ShapeKind::Plane { normal, tile, .. } if identity => {
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                bits(normal.normalize_or(Vec3::Y)) == bits(normal)
+                    && !degenerate_tangents(frame.s * tile, frame.t * tile, normal)
+            }
+            _ => false,
+        };
+        Ok(Shape { quad_n, quad_inv_n2: 1.0 / quad_n.length_squared(), kind, placement, frame, identity, plain_plane })
     }
 
     pub fn kind(&self) -> &ShapeKind {
@@ -192,38 +250,108 @@ impl Shape {
         Some((wlo, whi))
     }
 
+    /// A [`Cull`] for a shape worth one: transformed and bounded, or a
+    /// cylinder, disk or quad (a division and more before their miss).
+    pub fn cull(&self) -> Option<Cull> {
+        if self.identity && matches!(self.kind, ShapeKind::Sphere { .. } | ShapeKind::Box { .. }) {
+            return None;
+        }
+        let (lo, hi) = self.bounds()?;
+        // The exact test's rounding grows with the transform's condition
+        // number (in the Frobenius norm, an upper bound), squared: once
+        // for the ray's transform, once for `to_object` being a rounded
+        // inverse. 1e-5 is about 170 float epsilons.
+        let m = self.world();
+        let linear = Mat3::from_mat4(*m);
+        let norm = |a: Mat3| (a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared()).sqrt();
+        let cond = norm(linear) * norm(linear.inverse());
+        let slack = 1e-5 * cond * cond;
+        let size = 1.0 + lo.abs().max(hi.abs()).max_element() + m.w_axis.abs().max_element();
+        let pad = Vec3::splat(slack * size);
+        let cull = Cull { lo: lo - pad, hi: hi + pad, slack };
+        (cull.lo.is_finite() && cull.hi.is_finite() && slack.is_finite()).then_some(cull)
+    }
+
     /// The nearest `t` in `(t_min, t_max)` where the ray meets the shape.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
         let mut slot = None;
         let r = self.in_frame(ray, &mut slot);
+        self.intersect_in_frame::<ANY_KIND>(r, t_min, t_max)
+    }
+
+    /// [`Shape::intersect`] for a ray already in the shape's frame. `K`
+    /// is [`ANY_KIND`] or the kind's number, which leaves only its arm.
+    #[inline(always)]
+    fn intersect_in_frame<const K: u8>(&self, r: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
         let ok = |t: f32| t > t_min && t < t_max;
+        let is = |kind: u8| K == ANY_KIND || K == kind;
+        debug_assert!(is(kind_number(&self.kind)));
         match self.kind {
-            ShapeKind::Sphere { center, radius } => {
+            ShapeKind::Sphere { center, radius } if is(0) => {
                 let (t0, t1) = sphere_roots(r, center, radius)?;
                 nearer(t0, t1, ok)
             }
-            ShapeKind::Plane { point, normal, .. } => plane_t(r, point, normal).filter(|t| ok(*t)),
-            ShapeKind::Quad { corner, edge1, edge2 } => {
+            ShapeKind::Plane { point, normal, .. } if is(1) => plane_t(r, point, normal).filter(|t| ok(*t)),
+            ShapeKind::Quad { corner, edge1, edge2 } if is(2) => {
                 let n = self.quad_n;
                 let t = plane_t(r, corner, n).filter(|t| ok(*t))?;
                 let (s, q) = quad_coords(r.at(t) - corner, edge1, edge2, n, self.quad_inv_n2);
                 ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&q)).then_some(t)
             }
-            ShapeKind::Disk { center, normal, radius } => {
+            ShapeKind::Disk { center, normal, radius } if is(3) => {
                 let t = plane_t(r, center, normal).filter(|t| ok(*t))?;
                 ((r.at(t) - center).length_squared() <= radius * radius).then_some(t)
             }
-            ShapeKind::Box { min, max } => {
+            ShapeKind::Box { min, max } if is(4) => {
                 let (t0, t1) = slabs(r, min, max)?;
                 nearer(t0, t1, ok)
             }
-            ShapeKind::Cylinder { base, radius, height, .. } => self
-                .cylinder_hits(r, base, radius, height)
-                .into_iter()
-                .flatten()
-                .filter(|(t, _)| ok(*t))
-                .map(|(t, _)| t)
-                .reduce(f32::min),
+            ShapeKind::Cylinder { base, radius, height, .. } if is(5) => {
+                self.cylinder_t(r, base, radius, height, t_min, t_max)
+            }
+            // Another kind than `K`: not reached (see `tester`).
+            _ => None,
+        }
+    }
+
+    /// The cylinder's arm of [`Shape::intersect`], out of line: long, and
+    /// rare in the specialised tests.
+    #[inline(never)]
+    fn cylinder_t(&self, r: &Ray, base: Vec3, radius: f32, height: f32, t_min: f32, t_max: f32) -> Option<f32> {
+        self.cylinder_hits(r, base, radius, height)
+            .into_iter()
+            .flatten()
+            .filter(|(t, _)| *t > t_min && *t < t_max)
+            .map(|(t, _)| t)
+            .reduce(f32::min)
+    }
+
+    /// [`Shape::intersect`] specialised to this shape's kind and whether it
+    /// is transformed: for a small scene's list of shapes, where matching
+    /// the kind and the placement again for every ray costs as much as a
+    /// sphere's test.
+    pub fn tester(&self) -> Tester {
+        fn test<const K: u8, const MOVED: bool>(s: &Shape, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {
+            if MOVED {
+                s.intersect_in_frame::<K>(&s.local_ray(ray), t_min, t_max)
+            } else {
+                s.intersect_in_frame::<K>(ray, t_min, t_max)
+            }
+        }
+        // `identity` is what `in_frame` tests.
+        match (kind_number(&self.kind), self.identity) {
+            (0, true) => test::<0, false>,
+            (0, false) => test::<0, true>,
+            (1, true) => test::<1, false>,
+            (1, false) => test::<1, true>,
+            (2, true) => test::<2, false>,
+            (2, false) => test::<2, true>,
+            (3, true) => test::<3, false>,
+            (3, false) => test::<3, true>,
+            (4, true) => test::<4, false>,
+            (4, false) => test::<4, true>,
+            (_, true) => test::<5, false>,
+            (_, false) => test::<5, true>,
         }
     }
 
@@ -299,7 +427,12 @@ impl Shape {
             ShapeKind::Plane { point, normal, tile } => {
                 let q = p - point;
                 let f = self.frame;
-                (q, normal, q.dot(f.s) / tile, q.dot(f.t) / tile, f.s * tile, f.t * tile, 0)
+                let (u, v, dpdu, dpdv) = (q.dot(f.s) / tile, q.dot(f.t) / tile, f.s * tile, f.t * tile);
+                if self.plain_plane {
+                    // What the general path below gives (`r` is `ray`).
+                    return SurfaceHit { t, p, pl: q, ng: normal, n: normal, u, v, dpdu, dpdv, face: 0 };
+                }
+                (q, normal, u, v, dpdu, dpdv, 0)
             }
             ShapeKind::Quad { corner, edge1, edge2 } => {
                 let q = p - corner;
@@ -354,7 +487,7 @@ impl Shape {
         };
         // Degenerate parametrisations (sphere poles, disk centres): any
         // tangent frame of the normal, so shaders never see a zero vector.
-        if uv && (dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0) {
+        if uv && degenerate_tangents(dpdu, dpdv, ng) {
             let f = Frame::new(ng);
             dpdu = f.s;
             dpdv = f.t;
@@ -472,6 +605,12 @@ fn sphere_roots(r: &Ray, center: Vec3, radius: f32) -> Option<(f32, f32)> {
     }
     let (t0, t1) = (c / q, q / a);
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+/// Whether tangents need replacing: a zero one, or not along `ng`.
+#[inline]
+fn degenerate_tangents(dpdu: Vec3, dpdv: Vec3, ng: Vec3) -> bool {
+    dpdu.length_squared() < 1e-20 || dpdv.length_squared() < 1e-20 || dpdu.cross(dpdv).dot(ng) <= 0.0
 }
 
 /// The first of the ordered roots `t0 <= t1` that `ok` accepts.
@@ -665,6 +804,114 @@ mod tests {
                 assert!(hits > 50, "{kind:?}: only {hits} hits");
             }
         }
+    }
+
+    /// `Shape::tester` gives `Shape::intersect`'s bits, and `Cull` never
+    /// rejects a ray that hits: for every kind, untransformed and under
+    /// rotations, a badly conditioned scale and a far translation, with
+    /// rays from far away, parallel to the axes, and grazing the shape.
+    #[test]
+    fn specialised_tests_and_culls_agree_with_intersect() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let transforms = [
+            Mat4::IDENTITY,
+            Mat4::from_rotation_y(30f32.to_radians()),
+            Mat4::from_translation(glam::Vec3::new(0.5, -0.2, 0.3))
+                * Mat4::from_rotation_y(0.7)
+                * Mat4::from_rotation_x(-0.4)
+                * Mat4::from_scale(glam::Vec3::new(1.5, 0.7, 1.2)),
+            Mat4::from_rotation_z(0.3) * Mat4::from_scale(glam::Vec3::new(1.0, 0.01, 1.0)),
+            Mat4::from_translation(glam::Vec3::new(1000.0, -300.0, 20.0)) * Mat4::from_rotation_x(1.1),
+        ];
+        let kinds = [
+            ShapeKind::Sphere { center: Vec3::new(0.1, 0.2, -0.3), radius: 0.8 },
+            ShapeKind::Quad { corner: Vec3::new(-1.0, 0.0, -1.0), edge1: Vec3::X * 2.0, edge2: Vec3::Z * 2.0 },
+            ShapeKind::Disk { center: Vec3::ZERO, normal: Vec3::new(0.3, 1.0, 0.2).normalize(), radius: 1.0 },
+            ShapeKind::Box { min: Vec3::new(-2.5, 0.0, -0.5), max: Vec3::new(-0.5, 2.0, 1.5) },
+            ShapeKind::Cylinder { base: Vec3::new(0.0, -0.5, 0.0), axis: Vec3::Y, radius: 0.6, height: 1.2 },
+            ShapeKind::Plane { point: Vec3::ZERO, normal: Vec3::Y, tile: 0.5 },
+        ];
+        for kind in kinds {
+            for transform in transforms {
+                let s = Shape::new(kind, transform).unwrap();
+                let test = s.tester();
+                let cull = s.cull();
+                assert_eq!(
+                    cull.is_some(),
+                    s.is_bounded() && (transform != Mat4::IDENTITY || matches!(kind_number(&kind), 2 | 3 | 5))
+                );
+                let (mut hits, mut culled) = (0, 0);
+                for k in 0..20000 {
+                    // A point on the surface, nudged by a hair or more.
+                    let nudge = [0.0, 1e-7, 1e-5, 1e-3, 0.1][k % 5];
+                    let on = s.sample_area([next(), next()]);
+                    let target =
+                        on + (Vec3::new(next(), next(), next()) - 0.5) * nudge * (1.0 + on.abs().max_element());
+                    let far = if k % 7 == 0 { 1000.0 } else { 1.0 };
+                    let mut o = on + (Vec3::new(next(), next(), next()) - 0.5) * 8.0 * far;
+                    // Now and then parallel to one or two axes.
+                    if k % 3 == 0 {
+                        o.x = target.x;
+                    }
+                    if k % 9 == 0 {
+                        o.z = target.z;
+                    }
+                    let r = Ray::new(o, target - o);
+                    let t_min = if k % 2 == 0 { 0.0 } else { 1e-4 };
+                    let t_max = if k % 4 < 2 { f32::INFINITY } else { 0.5 + next() };
+                    let exact = s.intersect(&r, t_min, t_max);
+                    assert_eq!(
+                        test(&s, &r, t_min, t_max).map(f32::to_bits),
+                        exact.map(f32::to_bits),
+                        "{kind:?} {transform:?} {r:?}"
+                    );
+                    hits += exact.is_some() as u32;
+                    if cull.is_some_and(|c| c.misses(&r, r.dir.recip(), t_min, t_max)) {
+                        culled += 1;
+                        assert_eq!(exact, None, "{kind:?} {transform:?} culled {r:?} {t_min} {t_max}");
+                    }
+                }
+                assert!(hits > 2000, "{kind:?}: {hits} hits");
+                assert!(cull.is_none() || culled > 200, "{kind:?}: {culled} culled");
+            }
+        }
+    }
+
+    /// A plain plane's short cut in `surface_at` gives the general path's
+    /// record, bit for bit.
+    #[test]
+    fn plain_planes_give_the_general_record() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let normals = [Vec3::Y, Vec3::NEG_Z, Vec3::X, Vec3::new(0.1, 1.0, -0.2).normalize(), Vec3::new(-0.0, 1.0, 0.0)];
+        let mut plain = 0;
+        for normal in normals {
+            for tile in [1.0, 0.37, 4.0] {
+                let s = shape(ShapeKind::Plane { point: Vec3::new(0.3, -0.2, 0.1), normal, tile });
+                plain += s.plain_plane as u32;
+                let general = Shape { plain_plane: false, ..s.clone() };
+                for k in 0..500 {
+                    let o = (Vec3::new(next(), next(), next()) - 0.5) * 20.0;
+                    let r = Ray::new(o, Vec3::new(next(), next(), next()) - 0.5);
+                    let Some(t) = s.intersect(&r, 1e-4, f32::INFINITY) else { continue };
+                    let uv = k % 2 == 0;
+                    let (a, b) = (s.surface_at(&r, t, uv), general.surface_at(&r, t, uv));
+                    assert_eq!(format!("{a:?}"), format!("{b:?}"));
+                }
+            }
+        }
+        assert!(plain >= 9, "{plain} plain planes");
     }
 
     #[test]
