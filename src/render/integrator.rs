@@ -374,7 +374,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             let Some(index) = hit.delta_lobes.filter(|_| sh.object.reflects || sh.object.refracts) else {
                 return lobes;
             };
-            self.own_args(&hit.material);
+            // `delta_lobes` takes no words of its own: the record is all.
             if !self.call_prepared(&hit.material, index, sh.g) {
                 return lobes;
             }
@@ -405,11 +405,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
     fn eval_pdf(&mut self, sh: &Shading, wi: Vec3, eta: &Spectrum<N>) -> (Spectrum<N>, f32) {
         let lanes = self.lanes;
         if let Some(hit) = &sh.object.hit {
-            let called = hit.eval_pdf.is_some_and(|index| {
-                push_words(self.own_args(&hit.material), &v3(wi));
-                self.call_prepared(&hit.material, index, sh.g)
-            });
-            if !called {
+            let Some(index) = hit.eval_pdf else { return (Spectrum::ZERO, 0.0) };
+            push_words(self.own_args(&hit.material), &v3(wi));
+            if !self.call_prepared(&hit.material, index, sh.g) {
                 return (Spectrum::ZERO, 0.0);
             }
             let out = &self.lobe_out;
