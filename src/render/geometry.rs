@@ -102,7 +102,7 @@ struct Linear {
     shape: Option<Shape>,
     /// The shape's test specialised to it.
     test: Tester,
-    /// For shapes with a dear test: a box that rejects most rays cheaply.
+    /// For shapes with a costly test: a box that rejects most rays cheaply.
     cull: Option<Cull>,
 }
 

@@ -81,7 +81,7 @@ struct Placement {
     normal_matrix: Mat3,
 }
 
-/// A padded world box around a shape whose own test is dear (a transformed
+/// A padded world box around a shape whose own test is costly (a transformed
 /// shape moves each ray into its frame first; a cylinder solves a
 /// quadratic and two caps): most rays of a small scene miss it, and
 /// [`Cull::misses`] rejects them before that work. The padding covers the
