@@ -1,5 +1,15 @@
 use super::*;
 
+/// Numbers in [0, 1) from a fixed seed (xorshift64).
+fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 fn shape(kind: ShapeKind) -> Shape {
     Shape::new(kind, Mat4::IDENTITY).unwrap()
 }
@@ -47,13 +57,7 @@ fn sphere_from_outside_inside_tangent_and_missing() {
 
 #[test]
 fn random_rays_hit_the_surface_they_report() {
-    let mut state = 0x1234_5678_9abc_def0u64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut next = uniform(0x1234_5678_9abc_def0);
     let m = Mat4::from_translation(glam::Vec3::new(0.5, -0.2, 0.3))
         * Mat4::from_rotation_y(0.7)
         * Mat4::from_rotation_x(-0.4)
@@ -119,13 +123,7 @@ fn random_rays_hit_the_surface_they_report() {
 /// rays from far away, parallel to the axes, and grazing the shape.
 #[test]
 fn specialised_tests_and_culls_agree_with_intersect() {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut next = uniform(0x9e37_79b9_7f4a_7c15);
     let transforms = [
         Mat4::IDENTITY,
         Mat4::from_rotation_y(30f32.to_radians()),
