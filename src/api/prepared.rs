@@ -250,6 +250,28 @@ impl HitMaterial {
     /// `words`: the record of [`HitMaterial::prepare_words`] followed by
     /// the method's own argument words, which renderers push after
     /// [`HitMaterial::record_words`] words in place.
+    ///
+    /// ```
+    /// use tsl::{Backend, Compiler, ShadingGlobals, PATH_METHODS};
+    /// use tsl::ir::lower::HitMethod;
+    /// let program = Compiler::new()
+    ///     .source("m.tsl", "material m = mix(noise(P) * 0.5 + 0.5, lambert, phong);")
+    ///     .compile()
+    ///     .unwrap();
+    /// let m = &program.hit_materials(&["m"], PATH_METHODS).unwrap()[0];
+    /// // Once, before the hits.
+    /// let eval_pdf = m.method_index(HitMethod::EvalPdf).unwrap();
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+    /// let bits = |xs: &[f32]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+    /// let mut words = Vec::new();
+    /// // At each hit: `wo` and `eta`, then `wi` after the record.
+    /// m.prepare_words(Backend::Jit, &g, &bits(&[0.0, 0.0, 1.0, 1.0, 1.0, 1.0]), &mut words);
+    /// words.truncate(m.record_words());
+    /// words.extend(bits(&[0.0, 0.6, 0.8]));
+    /// let mut out = [0u32; 4]; // f · cos (three RGB lanes), then the pdf
+    /// m.call_at(Backend::Jit, eval_pdf, &g, &words, &mut out).unwrap();
+    /// assert!(f32::from_bits(out[3]) > 0.0);
+    /// ```
     #[inline]
     pub fn call_at(
         &self,
