@@ -171,13 +171,7 @@ impl Program {
 /// split`, `cornell` rendered 18% and `glossy` 5% slower split, as the
 /// extra call and the record cost more than the arithmetic they share.
 pub fn worth_preparing(prepare: &crate::ir::Function) -> bool {
-    let mut costly = 0;
-    crate::ir::for_each_inst(&prepare.body, &mut |inst| match inst {
-        crate::ir::Inst::Texture { .. } | crate::ir::Inst::Def(_, crate::ir::Op::Table { .. }) => costly += 1,
-        crate::ir::Inst::Def(_, crate::ir::Op::Call { native, .. }) if native.contains("noise") => costly += 1,
-        _ => {}
-    });
-    costly > 0
+    crate::ir::has_costly(&prepare.body)
 }
 
 impl HitMaterial {

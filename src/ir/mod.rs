@@ -437,6 +437,26 @@ pub(crate) fn lookup_arrays(f: &Function) -> Vec<bool> {
     lookup
 }
 
+impl Inst {
+    /// Whether the instruction looks up a texture or evaluates noise (a
+    /// table read of inline noise, or a native noise call): what a texture
+    /// tree spends its time on, so what makes a per-hit stage pay.
+    pub fn is_costly(&self) -> bool {
+        match self {
+            Inst::Texture { .. } | Inst::Def(_, Op::Table { .. }) => true,
+            Inst::Def(_, Op::Call { native, .. }) => native.contains("noise"),
+            _ => false,
+        }
+    }
+}
+
+/// Whether `body` holds an instruction that [`Inst::is_costly`].
+pub fn has_costly(body: &[Inst]) -> bool {
+    let mut costly = false;
+    for_each_inst(body, &mut |inst| costly |= inst.is_costly());
+    costly
+}
+
 /// The number of instructions in `body`, nested bodies included.
 pub fn count_insts(body: &[Inst]) -> usize {
     let mut n = 0;

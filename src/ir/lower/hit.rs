@@ -433,18 +433,13 @@ struct MixChoices {
 }
 
 /// Whether a branch taken on one of `conds` looks up a texture or
-/// evaluates noise (what `api::prepared::worth_preparing` counts).
+/// evaluates noise ([`Inst::is_costly`], as `api::prepared::worth_preparing`).
 fn costly_under(body: &[Inst], conds: &[Value]) -> bool {
     body.iter().any(|inst| match inst {
         Inst::If { cond, then_body, else_body } => {
-            let mut costly = false;
-            if conds.contains(cond) {
-                crate::ir::for_each_inst(then_body, &mut |i| {
-                    costly |= matches!(i, Inst::Texture { .. } | Inst::Def(_, Op::Table { .. }))
-                        || matches!(i, Inst::Def(_, Op::Call { native, .. }) if native.contains("noise"));
-                });
-            }
-            costly || costly_under(then_body, conds) || costly_under(else_body, conds)
+            (conds.contains(cond) && crate::ir::has_costly(then_body))
+                || costly_under(then_body, conds)
+                || costly_under(else_body, conds)
         }
         Inst::Block { body, .. } | Inst::Loop { body, .. } => costly_under(body, conds),
         _ => false,
