@@ -166,7 +166,7 @@ fn main() -> ExitCode {
     // Interrupted (SIGINT, SIGTERM): the image being written, if any, is
     // left as it was (writes are atomic) and its temporary is removed.
     let _ = ctrlc::set_handler(|| {
-        tsl::image_io::remove_temporaries();
+        tsl::files::remove_temporaries();
         std::process::exit(130);
     });
     // Checking recurses over the (depth-limited) syntax tree; a generous
@@ -450,8 +450,8 @@ fn fmt(args: FmtArgs) -> ExitCode {
                 failed = true;
             }
             Ok(out) => {
-                let written = tsl::image_io::atomic_write(&path, |tmp| {
-                    std::fs::write(tmp, &out).map_err(|e| format!("cannot write {name}: {e}"))
+                let written = tsl::files::atomic_write(&path, |file| {
+                    std::io::Write::write_all(file, out.as_bytes()).map_err(|e| e.to_string())
                 });
                 if let Err(e) = written {
                     eprintln!("error: {e}");

@@ -453,16 +453,14 @@ pub fn make_mesh(args: MakeMeshArgs) -> ExitCode {
         return fail(format!("cannot create {}: {e}", dir.display()));
     }
     // Written beside the target and renamed, like images.
-    let tmp = args.output.with_extension(format!("tmp-{}", std::process::id()));
-    let result = std::fs::File::create(&tmp).and_then(|f| {
-        let mut w = std::io::BufWriter::new(f);
-        render::heightfield::write_heavy_obj(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        w.get_ref().sync_all()
+    let written = tsl::files::atomic_write(&args.output, |file| {
+        let mut w = std::io::BufWriter::new(file);
+        render::heightfield::write_heavy_obj(&mut w)
+            .and_then(|()| std::io::Write::flush(&mut w))
+            .map_err(|e| e.to_string())
     });
-    if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, &args.output)) {
-        let _ = std::fs::remove_file(&tmp);
-        return fail(format!("cannot write {}: {e}", args.output.display()));
+    if let Err(e) = written {
+        return fail(e);
     }
     eprintln!("wrote {} in {:.1} s", args.output.display(), start.elapsed().as_secs_f64());
     ExitCode::SUCCESS
