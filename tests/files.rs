@@ -416,6 +416,11 @@ fn fmt_and_check_refuse_huge_and_special_files_at_once() {
         }
     }
     assert_eq!(std::fs::metadata(&huge).unwrap().len(), 257 << 20);
+    // Standard input stops at the same bound.
+    let mut command = Command::new("sh");
+    command.arg("-c").arg("head -c 269484032 /dev/zero | exec \"$0\" fmt -").arg(TSLC);
+    let o = run(command);
+    assert!(o.status.code() == Some(1) && stderr(&o).contains("larger than 256 MiB"), "{}", stderr(&o));
     // A walk takes regular files only: the FIFO and the link are not read.
     std::fs::remove_file(&huge).unwrap();
     std::fs::write(dir.join("ok.tsl"), UNFORMATTED).unwrap();
