@@ -13,9 +13,9 @@
 //! temporary created exclusively under an unpredictable name in the
 //! target's directory, synced, then renamed over the target), so a crash
 //! or Ctrl-C never leaves a truncated or clobbered image, and a link
-//! planted beside the output never redirects the write; an EXR keeps its window's
-//! place in the full frame (display window = the full image, data window =
-//! the pixels rendered), so `merge` can put tiles back together.
+//! planted beside the output never redirects the write; an EXR keeps its
+//! window's place in the full frame (display window = the full image, data
+//! window = the pixels rendered), so `merge` can put tiles back together.
 //!
 //! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
 //! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`

@@ -31,9 +31,10 @@ impl FileIdentity {
     /// target's), the ones that exist: writing over `path` replaces the
     /// entry, and a writer that follows links changes the target.
     pub fn all_of(path: &Path) -> Vec<FileIdentity> {
-        let mut ids: Vec<FileIdentity> = [Self::of_entry(path), Self::of(path)].into_iter().flatten().collect();
-        ids.dedup();
-        ids
+        // One call for the common cases (no such file, a plain file).
+        let Ok(entry) = std::fs::symlink_metadata(path) else { return Vec::new() };
+        let ids = [of_metadata(path, &entry), entry.file_type().is_symlink().then(|| Self::of(path)).flatten()];
+        ids.into_iter().flatten().collect()
     }
 
     /// The identity of an open file (unix only: elsewhere `None`).

@@ -104,6 +104,32 @@ fn temporaries_are_recognised_by_target_directory_and_shape() {
 }
 
 #[cfg(unix)]
+#[test]
+fn identity_sees_through_spellings_and_links() {
+    let dir = temp_dir("files-identity");
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    let file = dir.join("a.png");
+    std::fs::write(&file, "a").unwrap();
+    std::fs::write(dir.join("b.png"), "a").unwrap();
+    std::fs::hard_link(&file, dir.join("hard.png")).unwrap();
+    std::os::unix::fs::symlink(&file, dir.join("soft.png")).unwrap();
+    std::os::unix::fs::symlink(&dir, dir.join("sub/up")).unwrap();
+    let id = FileIdentity::of(&file).unwrap();
+    for same in ["hard.png", "soft.png", "sub/../a.png", "sub/up/a.png", "./sub/up/sub/up/hard.png"] {
+        assert_eq!(FileIdentity::of(&dir.join(same)).as_ref(), Some(&id), "{same}");
+        assert!(FileIdentity::all_of(&dir.join(same)).contains(&id), "{same}");
+    }
+    assert_ne!(FileIdentity::of(&dir.join("b.png")).unwrap(), id, "the same bytes, another file");
+    assert_eq!(FileIdentity::all_of(&file), std::slice::from_ref(&id));
+    let soft = FileIdentity::all_of(&dir.join("soft.png"));
+    assert_eq!((soft.len(), soft[1].clone()), (2, id), "the link's own and its target's");
+    assert!(
+        FileIdentity::all_of(&dir.join("none.png")).is_empty() && FileIdentity::of(&dir.join("none.png")).is_none()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(unix)]
 mod replacing {
     use super::*;
     use std::os::unix::fs::{MetadataExt, PermissionsExt};
