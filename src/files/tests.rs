@@ -9,6 +9,7 @@ fn names(dir: &Path) -> Vec<String> {
     names
 }
 
+#[cfg(unix)]
 #[test]
 fn a_temporary_is_a_new_regular_file_with_a_random_name_and_is_the_file_written() {
     let dir = temp_dir("files-random");
