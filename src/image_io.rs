@@ -7,13 +7,15 @@
 //!
 //! Architecture invariant: this is a leaf. It imports neither `texture`
 //! nor `render` (both import it), so image decoding has one home and no
-//! module cycle runs through it.
+//! module cycle runs through it; it writes through `files`, another leaf.
 //!
-//! Invariants: a write is atomic (a temporary file in the target's
-//! directory, synced, then renamed over the target), so a crash or Ctrl-C
-//! never leaves a truncated or clobbered image; an EXR keeps its window's
-//! place in the full frame (display window = the full image, data window =
-//! the pixels rendered), so `merge` can put tiles back together.
+//! Invariants: a write is atomic (`crate::files::atomic_write`: a
+//! temporary created exclusively under an unpredictable name in the
+//! target's directory, synced, then renamed over the target), so a crash
+//! or Ctrl-C never leaves a truncated or clobbered image, and a link
+//! planted beside the output never redirects the write; an EXR keeps its
+//! window's place in the full frame (display window = the full image, data
+//! window = the pixels rendered), so `merge` can put tiles back together.
 //!
 //! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
 //! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`
@@ -31,9 +33,9 @@ mod metadata;
 pub use merge::{array_spec, merge};
 pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning};
 
+use crate::files;
 use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How the stored values of an image become linear values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -210,22 +212,17 @@ fn format_of(path: &Path) -> Result<Format, String> {
 }
 
 /// Whether an image can be written to `path`, checked before rendering:
-/// a known extension, an existing directory, and permission to create a
-/// file in it (a probe file is made and removed). Errors name `path`.
+/// a known extension, an existing directory, not a directory itself, and
+/// permission to create a file beside it (a probe is created, exclusively
+/// under an unpredictable name, and removed: `files::check_writable`).
+/// Errors name `path`.
 pub fn check_output(path: &Path) -> Result<(), String> {
     format_of(path)?;
-    let dir = directory_of(path)?;
+    files::directory_of(path)?;
     if path.is_dir() {
         return Err(format!("cannot write {}: it is a directory", path.display()));
     }
-    let probe = dir.join(format!(".tslc-probe-{}", std::process::id()));
-    match std::fs::File::create(&probe) {
-        Ok(_) => {
-            let _ = std::fs::remove_file(&probe);
-            Ok(())
-        }
-        Err(e) => Err(format!("cannot write {}: {e}", path.display())),
-    }
+    files::check_writable(path)
 }
 
 /// Writes the image, choosing the format by extension (`.png` or `.exr`).
@@ -236,78 +233,22 @@ pub fn write_image(path: &Path, image: &RenderedImage) -> Result<(), String> {
 }
 
 /// [`write_image`], with `metadata` in an EXR's header (a PNG has none).
-/// The same image and metadata are the same bytes.
+/// The same image and metadata are the same bytes. The write is atomic
+/// (`files::atomic_write`).
 pub fn write_image_with(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
     let format = format_of(path)?;
     image.check().map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    atomic_write(path, |tmp| match format {
-        Format::Png => write_png(tmp, image),
-        Format::Exr => write_exr(tmp, image, metadata),
+    files::atomic_write(path, |file| match format {
+        Format::Png => write_png(file, image),
+        Format::Exr => write_exr(file, image, metadata),
     })
 }
 
-/// The directory `path` is written into; an error naming `path` when it
-/// does not exist.
-fn directory_of(path: &Path) -> Result<PathBuf, String> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        return Err(format!("cannot write {}: the directory {} does not exist", path.display(), dir.display()));
-    }
-    Ok(dir)
-}
-
-/// Temporaries being written by [`atomic_write`], for [`remove_temporaries`].
-static TEMPORARIES: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
-
-/// Removes the temporary file of every image being written: for a signal
-/// handler, just before the process exits (`tslc` installs one for SIGINT
-/// and SIGTERM), so an interrupted write leaves neither a truncated target
-/// (writes are atomic) nor litter.
-pub fn remove_temporaries() {
-    if let Ok(mut pending) = TEMPORARIES.lock() {
-        for tmp in pending.drain(..) {
-            let _ = std::fs::remove_file(&tmp);
-        }
-    }
-}
-
-/// Runs `write` on a temporary path beside `path`, then renames it over
-/// `path`; on failure the temporary is removed and `path` is untouched.
-pub fn atomic_write(path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let dir = directory_of(path)?;
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
-    // The temporary keeps the extension: the encoders look at it.
-    let tmp = dir.join(format!(".{name}.tmp-{}-{}.{ext}", std::process::id(), COUNTER.fetch_add(1, Ordering::Relaxed)));
-    if let Ok(mut pending) = TEMPORARIES.lock() {
-        pending.push(tmp.clone());
-    }
-    // The temporary is ours: errors name the user's path.
-    let user_path = |e: String| e.replace(&tmp.display().to_string(), &path.display().to_string());
-    let result = write(&tmp)
-        .map_err(user_path)
-        .and_then(|()| {
-            std::fs::File::open(&tmp)
-                .and_then(|f| f.sync_all())
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))
-        })
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| format!("cannot write {}: {e}", path.display())));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    if let Ok(mut pending) = TEMPORARIES.lock() {
-        pending.retain(|p| *p != tmp);
-    }
-    result
-}
-
-fn write_png(path: &Path, image: &RenderedImage) -> Result<(), String> {
+/// The image as a PNG into `file`; the error is the reason.
+fn write_png(file: &mut std::fs::File, image: &RenderedImage) -> Result<(), String> {
+    use std::io::Write;
     let bytes = encode_png(image)?;
-    std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    file.write_all(&bytes).map_err(|e| e.to_string())
 }
 
 /// The image's color as an 8-bit sRGB PNG file in memory (what
@@ -325,7 +266,8 @@ pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
     Ok(png)
 }
 
-fn write_exr(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
+/// The image as an EXR into `file`; the error is the reason.
+fn write_exr(file: &mut std::fs::File, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
     use exrp::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
     let plane = |k: usize, v: &[[f32; 3]]| v.iter().map(|p| p[k]).collect::<Vec<f32>>();
     let mut channels = vec![
@@ -365,9 +307,8 @@ fn write_exr(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<
     );
     let frame = exrp::IntegerBounds::from_dimensions((image.full_width as usize, image.full_height as usize));
     let out = Image::new(ImageAttributes::new(frame), layer);
-    let fail = |e: String| format!("cannot write {}: {e}", path.display());
-    out.write().to_file(path).map_err(|e| fail(e.to_string()))?;
-    metadata::sort_header_attributes_of(path).map_err(fail)
+    out.write().to_unbuffered(&mut *file).map_err(|e| e.to_string())?;
+    metadata::sort_header_attributes_of(file)
 }
 
 /// An EXR file's header: the frame, the window, the channels and the

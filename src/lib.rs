@@ -23,6 +23,7 @@ mod api;
 pub mod check;
 pub mod color;
 pub mod diag;
+pub mod files;
 pub mod format;
 pub mod globals;
 pub mod image_io;

@@ -3,8 +3,9 @@
 //!
 //! All file-system access of the front end happens here (the scene's
 //! meshes and environment images are read by `crate::scene`). Every failure (a
-//! missing or unreadable file, a directory, invalid UTF-8, an empty file, an
-//! import cycle) becomes a located diagnostic; loading itself never fails.
+//! missing or unreadable file, a directory, a FIFO or device, a file over
+//! [`MAX_SOURCE_BYTES`], invalid UTF-8, an empty file, an import cycle)
+//! becomes a located diagnostic; loading itself never fails.
 
 use crate::diag::{Diagnostic, FileId, SourceMap, Span};
 use crate::syntax::{self, ast};
@@ -137,16 +138,72 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>
 }
 
 /// The largest source file read (256 MiB; a scene of a million spheres
-/// written out is about 80 MB): `/dev/zero` or a runaway generator stops
-/// here instead of at the end of memory.
+/// written out is about 80 MB): a runaway generator's output stops here
+/// instead of at the end of memory (and `/dev/zero` or a FIFO is refused
+/// before a byte is read: [`open_regular`]). `tslc check`, `tslc fmt` and
+/// standard input share it.
 pub const MAX_SOURCE_BYTES: u64 = 256 << 20;
 
-/// At most one byte more than [`MAX_SOURCE_BYTES`] of `path`.
+/// Opens `path` for reading when it is a regular file (through any
+/// symbolic links), with its size. A FIFO, a device or a socket is refused
+/// with an `InvalidInput` error that says what it is, without blocking: it
+/// is opened non-blocking and its type read from the open descriptor, so
+/// nothing can swap the file between the check and the open.
+pub fn open_regular(path: &Path) -> std::io::Result<(std::fs::File, u64)> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        // A regular file ignores O_NONBLOCK; a FIFO opens without a writer.
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    let metadata = file.metadata()?;
+    if !metadata.is_file() {
+        let what = special_file_kind(&metadata.file_type());
+        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("it is {what}, not a regular file")));
+    }
+    Ok((file, metadata.len()))
+}
+
+/// What a file that is not a regular file is, in words.
+fn special_file_kind(file_type: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if file_type.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if file_type.is_char_device() || file_type.is_block_device() {
+            return "a device";
+        }
+        if file_type.is_socket() {
+            return "a socket";
+        }
+    }
+    if file_type.is_dir() { "a directory" } else { "a special file" }
+}
+
+/// At most one byte more than [`MAX_SOURCE_BYTES`] of the regular file
+/// `path`; a file whose size is already over the bound is refused
+/// (`FileTooLarge`) without reading it.
 fn read_capped(path: &Path) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
-    let mut bytes = Vec::new();
-    std::fs::File::open(path)?.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes)?;
+    let (file, len) = open_regular(path)?;
+    if len > MAX_SOURCE_BYTES {
+        return Err(std::io::ErrorKind::FileTooLarge.into());
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes)?;
     Ok(bytes)
+}
+
+/// Reads a source file exactly as `tslc check` reads one (a directory or
+/// a special file refused, at most [`MAX_SOURCE_BYTES`], UTF-8), for tools
+/// such as `tslc fmt`. The error says what is wrong, naming `path`.
+pub fn read_source_file(path: &Path) -> Result<String, String> {
+    read_source(path).map_err(|e| e.message)
 }
 
 struct ReadError {
@@ -159,13 +216,19 @@ fn read_source(path: &Path) -> Result<String, ReadError> {
     if path.is_dir() {
         return Err(plain(format!("`{}` is a directory, not a .tsl file", path.display())));
     }
-    let bytes = read_capped(path).map_err(|e| plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))))?;
-    if bytes.len() as u64 > MAX_SOURCE_BYTES {
-        return Err(plain(format!(
+    let too_large = || {
+        plain(format!(
             "`{}` is larger than {} MiB, the most a source file may be",
             path.display(),
             MAX_SOURCE_BYTES >> 20
-        )));
+        ))
+    };
+    let bytes = read_capped(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::FileTooLarge => too_large(),
+        _ => plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))),
+    })?;
+    if bytes.len() as u64 > MAX_SOURCE_BYTES {
+        return Err(too_large());
     }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();

@@ -180,13 +180,13 @@ impl Metadata {
 /// headers are well under a kilobyte.
 const MAX_HEADER_BYTES: u64 = 1 << 16;
 
-/// [`sort_header_attributes`] on the file at `path`, rewriting only its
-/// header.
-pub(super) fn sort_header_attributes_of(path: &std::path::Path) -> Result<(), String> {
+/// [`sort_header_attributes`] on the open file just written, rewriting
+/// only its header.
+pub(super) fn sort_header_attributes_of(file: &mut std::fs::File) -> Result<(), String> {
     use std::io::{Read, Seek, Write};
-    let mut file = std::fs::OpenOptions::new().read(true).write(true).open(path).map_err(|e| e.to_string())?;
+    file.rewind().map_err(|e| e.to_string())?;
     let mut head = Vec::new();
-    (&mut file).take(MAX_HEADER_BYTES).read_to_end(&mut head).map_err(|e| e.to_string())?;
+    (&mut *file).take(MAX_HEADER_BYTES).read_to_end(&mut head).map_err(|e| e.to_string())?;
     let end = sort_header_attributes(&mut head)?;
     file.seek(std::io::SeekFrom::Start(0)).map_err(|e| e.to_string())?;
     file.write_all(&head[..end]).map_err(|e| e.to_string())

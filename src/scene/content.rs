@@ -7,12 +7,89 @@
 //! digits): five times faster than SHA3 over float texels, which matters at
 //! the start of every render of a scene with large textures.
 
-use super::{EnvironmentSourceDesc, SceneDesc, ShapeDesc};
+use super::{EnvironmentImage, EnvironmentSourceDesc, MeshData, SceneDesc, ShapeDesc};
 use crate::check::Program;
+use crate::diag::Span;
+use crate::texture::MipMap;
+use std::path::Path;
 
-/// The content hash of `program` and its described scene, as hex digits.
-/// Every frame of an animation has the same hash (the frame is recorded
-/// apart).
+/// One file a program and its scene were made from, and what was read
+/// from it ([`input_files`]).
+#[derive(Debug, Clone, Copy)]
+pub struct InputFile<'a> {
+    /// The file as the program names it (the root source as given, an
+    /// import or image as found next to the file naming it); `None` for a
+    /// mesh made from arrays.
+    pub path: Option<&'a Path>,
+    /// Where the program names it: a `texture` call's file literal, a
+    /// mesh's `file` or the environment's image property; `None` for the
+    /// source files.
+    pub span: Option<Span>,
+    pub content: InputContent<'a>,
+}
+
+/// What was read from an [`InputFile`].
+#[derive(Debug, Clone, Copy)]
+pub enum InputContent<'a> {
+    /// The root source file's text.
+    Source(&'a str),
+    /// An imported file's text.
+    Import(&'a str),
+    Texture(&'a MipMap),
+    Mesh(&'a MeshData),
+    Environment(&'a EnvironmentImage),
+}
+
+impl InputContent<'_> {
+    /// What the file is to the scene, in words: "the source", "an
+    /// imported file", "a texture", "a mesh", "the environment image".
+    pub fn role(&self) -> &'static str {
+        match self {
+            InputContent::Source(_) => "the source",
+            InputContent::Import(_) => "an imported file",
+            InputContent::Texture(_) => "a texture",
+            InputContent::Mesh(_) => "a mesh",
+            InputContent::Environment(_) => "the environment image",
+        }
+    }
+}
+
+/// Every file `program` and its described scene were made from, in a fixed
+/// order: the root source, its imports in load order, the textures that
+/// loaded, the meshes, the environment image. The content hash covers
+/// exactly these, and `tslc render` refuses to write over any of them.
+pub fn input_files<'a>(program: &'a Program, scene: Option<&'a SceneDesc>) -> Vec<InputFile<'a>> {
+    let loaded = &program.loaded;
+    let mut inputs: Vec<InputFile<'a>> = Vec::new();
+    for (k, module) in loaded.modules.iter().filter(|m| !m.is_prelude).enumerate() {
+        let text = loaded.sources.text(module.file);
+        let content = if k == 0 { InputContent::Source(text) } else { InputContent::Import(text) };
+        inputs.push(InputFile { path: Some(Path::new(loaded.sources.name(module.file))), span: None, content });
+    }
+    for image in &program.images {
+        if let Some(texture) = &image.image {
+            let path = Some(Path::new(texture.name.as_str()));
+            inputs.push(InputFile { path, span: Some(image.span), content: InputContent::Texture(texture) });
+        }
+    }
+    let Some(scene) = scene else { return inputs };
+    for object in &scene.objects {
+        if let ShapeDesc::Mesh { file } = &object.shape {
+            let mesh = &*file.value;
+            let path = Some(mesh.path.as_path()).filter(|p| !p.as_os_str().is_empty());
+            inputs.push(InputFile { path, span: Some(file.span), content: InputContent::Mesh(mesh) });
+        }
+    }
+    if let Some(EnvironmentSourceDesc::Image(image)) = scene.environment.as_ref().map(|e| &e.source) {
+        let path = Some(image.value.path.as_path());
+        inputs.push(InputFile { path, span: Some(image.span), content: InputContent::Environment(&image.value) });
+    }
+    inputs
+}
+
+/// The content hash of `program` and its described scene, as hex digits:
+/// the contents of its [`input_files`]. Every frame of an animation has
+/// the same hash (the frame is recorded apart).
 ///
 /// ```
 /// let a = tsl::check_source("a.tsl", "float f() { return 1; }", &Default::default());
@@ -24,33 +101,29 @@ use crate::check::Program;
 pub fn content_hash(program: &Program, scene: Option<&SceneDesc>) -> String {
     let mut h = Pieces(blake3::Hasher::new());
     h.bytes("tsl-scene-content-2", &[]);
-    let loaded = &program.loaded;
-    for module in loaded.modules.iter().filter(|m| !m.is_prelude) {
-        h.bytes("source", loaded.sources.text(module.file).as_bytes());
-    }
-    for image in program.images.iter().filter_map(|i| i.image.as_ref()) {
-        let Some(level) = image.levels.first() else { continue };
-        h.bytes("texture", &[level.width.to_le_bytes(), level.height.to_le_bytes()].concat());
-        h.floats("texels", level.texels.as_flattened());
-    }
-    let Some(scene) = scene else { return h.0.finalize().to_hex().to_string() };
-    for object in &scene.objects {
-        if let ShapeDesc::Mesh { file } = &object.shape {
-            let mesh = &file.value;
-            let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
-            h.floats("mesh", &positions);
-            let normals: Vec<f32> = mesh.normals.iter().flatten().flat_map(|n| n.to_array()).collect();
-            h.floats("normals", &normals);
-            let uvs: Vec<f32> = mesh.uvs.iter().flatten().flatten().copied().collect();
-            h.floats("uvs", &uvs);
-            let indices: Vec<u8> = mesh.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
-            h.bytes("triangles", &indices);
+    for input in input_files(program, scene) {
+        match input.content {
+            InputContent::Source(text) | InputContent::Import(text) => h.bytes("source", text.as_bytes()),
+            InputContent::Texture(image) => {
+                let Some(level) = image.levels.first() else { continue };
+                h.bytes("texture", &[level.width.to_le_bytes(), level.height.to_le_bytes()].concat());
+                h.floats("texels", level.texels.as_flattened());
+            }
+            InputContent::Mesh(mesh) => {
+                let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
+                h.floats("mesh", &positions);
+                let normals: Vec<f32> = mesh.normals.iter().flatten().flat_map(|n| n.to_array()).collect();
+                h.floats("normals", &normals);
+                let uvs: Vec<f32> = mesh.uvs.iter().flatten().flatten().copied().collect();
+                h.floats("uvs", &uvs);
+                let indices: Vec<u8> = mesh.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+                h.bytes("triangles", &indices);
+            }
+            InputContent::Environment(image) => {
+                h.bytes("environment", &[image.width.to_le_bytes(), image.height.to_le_bytes()].concat());
+                h.floats("texels", image.rgb.as_flattened());
+            }
         }
-    }
-    if let Some(EnvironmentSourceDesc::Image(image)) = scene.environment.as_ref().map(|e| &e.source) {
-        let image = &image.value;
-        h.bytes("environment", &[image.width.to_le_bytes(), image.height.to_le_bytes()].concat());
-        h.floats("texels", image.rgb.as_flattened());
     }
     h.0.finalize().to_hex().to_string()
 }

@@ -25,7 +25,7 @@ mod mesh;
 mod shape;
 
 pub use crate::check::MaterialRef;
-pub use content::content_hash;
+pub use content::{InputContent, InputFile, content_hash, input_files};
 pub use describe::{describe, describe_frame, description_model};
 pub use lean::{drop_object_syntax, forgettable_spans};
 pub use mesh::MeshData;

@@ -166,7 +166,7 @@ fn main() -> ExitCode {
     // Interrupted (SIGINT, SIGTERM): the image being written, if any, is
     // left as it was (writes are atomic) and its temporary is removed.
     let _ = ctrlc::set_handler(|| {
-        tsl::image_io::remove_temporaries();
+        tsl::files::remove_temporaries();
         std::process::exit(130);
     });
     // Checking recurses over the (depth-limited) syntax tree; a generous
@@ -371,18 +371,53 @@ fn s(n: usize) -> &'static str {
     if n == 1 { "" } else { "s" }
 }
 
-fn tsl_files(path: &std::path::Path, out: &mut Vec<PathBuf>) {
-    if path.is_dir() {
-        let mut entries: Vec<PathBuf> =
-            std::fs::read_dir(path).into_iter().flatten().flatten().map(|e| e.path()).collect();
-        entries.sort();
-        for e in entries {
-            if e.is_dir() || e.extension().is_some_and(|x| x == "tsl") {
-                tsl_files(&e, out);
-            }
+/// The files `tslc fmt` formats for the paths it was given, each once
+/// (by identity, so a file named twice, or named and found in a walk, is
+/// formatted once), in order. A path named on the command line is
+/// followed through symbolic links: a directory is walked, anything else
+/// is formatted. A walk goes into real subdirectories only and takes the
+/// regular files ending in `.tsl`; it does not follow symbolic links, to
+/// directories or to files (as gofmt and rustfmt walk), so a loop of links
+/// cannot make it run forever. A directory that cannot be read is an error
+/// (in the second list), not a silent skip.
+fn tsl_files(paths: &[PathBuf]) -> (Vec<PathBuf>, Vec<String>) {
+    let mut found = Vec::new();
+    let mut errors = Vec::new();
+    for path in paths {
+        if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+            walk_tsl_files(path, &mut found, &mut errors);
+        } else {
+            found.push(path.clone());
         }
-    } else {
-        out.push(path.to_path_buf());
+    }
+    let mut seen = std::collections::HashSet::new();
+    found.retain(|p| tsl::files::FileIdentity::of(p).is_none_or(|id| seen.insert(id)));
+    (found, errors)
+}
+
+fn walk_tsl_files(dir: &std::path::Path, out: &mut Vec<PathBuf>, errors: &mut Vec<String>) {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) => {
+            errors.push(format!("cannot read the directory {}: {e}", dir.display()));
+            return;
+        }
+    };
+    let mut children = Vec::new();
+    for entry in entries {
+        match entry.and_then(|e| Ok((e.path(), e.file_type()?))) {
+            Ok(child) => children.push(child),
+            Err(e) => errors.push(format!("cannot read the directory {}: {e}", dir.display())),
+        }
+    }
+    children.sort_by(|a, b| a.0.cmp(&b.0));
+    // `file_type` is the entry's own (a link is a link, never its target).
+    for (path, kind) in children {
+        if kind.is_dir() {
+            walk_tsl_files(&path, out, errors);
+        } else if kind.is_file() && path.extension().is_some_and(|x| x == "tsl") {
+            out.push(path);
+        }
     }
 }
 
@@ -406,8 +441,13 @@ fn fmt(args: FmtArgs) -> ExitCode {
     if args.files.is_empty() || args.files.iter().any(|f| f.as_os_str() == "-") {
         let name = args.stdin_path.clone().unwrap_or_else(|| "<stdin>".into());
         let mut text = String::new();
-        if let Err(e) = std::io::stdin().read_to_string(&mut text) {
+        let max = tsl::load::MAX_SOURCE_BYTES;
+        if let Err(e) = std::io::stdin().take(max + 1).read_to_string(&mut text) {
             eprintln!("error: cannot read standard input: {e}");
+            return ExitCode::from(1);
+        }
+        if text.len() as u64 > max {
+            eprintln!("error: standard input is larger than {} MiB, the most a source file may be", max >> 20);
             return ExitCode::from(1);
         }
         return match tsl::format::format_source(&text) {
@@ -429,16 +469,18 @@ fn fmt(args: FmtArgs) -> ExitCode {
             }
         };
     }
-    let mut files = Vec::new();
-    for f in &args.files {
-        tsl_files(f, &mut files);
+    let (files, walk_errors) = tsl_files(&args.files);
+    for e in &walk_errors {
+        eprintln!("error: {e}");
+        failed = true;
     }
     for path in files {
         let name = path.display().to_string();
-        let text = match std::fs::read_to_string(&path) {
+        // As `tslc check` reads a source: bounded, special files refused.
+        let text = match tsl::load::read_source_file(&path) {
             Ok(t) => t,
             Err(e) => {
-                eprintln!("error: cannot read {name}: {e}");
+                eprintln!("error: {e}");
                 failed = true;
                 continue;
             }
@@ -450,10 +492,9 @@ fn fmt(args: FmtArgs) -> ExitCode {
                 failed = true;
             }
             Ok(out) => {
-                let written = tsl::image_io::atomic_write(&path, |tmp| {
-                    std::fs::write(tmp, &out).map_err(|e| format!("cannot write {name}: {e}"))
-                });
-                if let Err(e) = written {
+                // Through a link to its target, keeping mode, owner and
+                // group (`tsl::files::replace_source`, docs/fmt.md).
+                if let Err(e) = tsl::files::replace_source(&path, text.as_bytes(), out.as_bytes()) {
                     eprintln!("error: {e}");
                     failed = true;
                 }

@@ -256,6 +256,13 @@ pub fn render(args: RenderArgs) -> ExitCode {
             return ExitCode::from(1);
         }
     };
+    // Nothing the scene was made from may be written over (every frame's
+    // output; the files a scene reads are the same for every frame).
+    let outputs = frames.iter().map(|&f| image_io::frame_path(&args.output, f));
+    if let Err(e) = refuse_overwriting_inputs(outputs, program.checked(), program.scene(), crate::stderr_colors()) {
+        eprint!("{e}");
+        return ExitCode::from(1);
+    }
     // One frame, described once: the scene builder is given the
     // description, and frees its objects once placed.
     if lean && program.scene().is_some() {
@@ -430,9 +437,61 @@ fn render_frame(
     ExitCode::SUCCESS
 }
 
+/// Refuses, before any rendering, to write an output that is one of the
+/// files `program` and its `scene` were made from (`scene::input_files`:
+/// the source, its imports, textures, meshes, the environment image): the
+/// render would overwrite its own input. Files are compared by identity
+/// (device and inode, `tsl::files::FileIdentity`), so a hard link, a
+/// symbolic link or another spelling of an input's path counts. The error
+/// (rendered as a diagnostic, ready to print) names the output and the
+/// input, at the place the scene names it when it has one.
+pub(crate) fn refuse_overwriting_inputs(
+    outputs: impl IntoIterator<Item = PathBuf>,
+    program: &tsl::check::Program,
+    scene: Option<&tsl::scene::SceneDesc>,
+    colors: tsl::diag::Colors,
+) -> Result<(), String> {
+    use tsl::files::FileIdentity;
+    let inputs = tsl::scene::input_files(program, scene);
+    let mut by_identity = std::collections::HashMap::new();
+    for input in &inputs {
+        for id in input.path.map(FileIdentity::all_of).unwrap_or_default() {
+            by_identity.entry(id).or_insert(input);
+        }
+    }
+    for output in outputs {
+        let Some(input) = FileIdentity::all_of(&output).iter().find_map(|id| by_identity.get(id)) else { continue };
+        let name = input.path.map(|p| p.display().to_string()).unwrap_or_default();
+        let message = format!(
+            "cannot write {}: it is {} of this scene, `{name}`; rendering would overwrite it",
+            output.display(),
+            input.content.role()
+        );
+        let help = "write the image to another file";
+        return Err(match input.span {
+            Some(span) => {
+                let d = tsl::diag::Diagnostic::error(span, message).with_primary("read from here").with_help(help);
+                tsl::diag::render_text(&program.loaded.sources, &[d], colors)
+            }
+            None => format!("error: {message}\n  = help: {help}\n"),
+        });
+    }
+    Ok(())
+}
+
 pub fn merge(args: MergeArgs) -> ExitCode {
     if let Err(e) = image_io::check_output(&args.output) {
         return fail(e);
+    }
+    let output = tsl::files::FileIdentity::all_of(&args.output);
+    if let Some(tile) =
+        args.inputs.iter().find(|t| tsl::files::FileIdentity::all_of(t).iter().any(|id| output.contains(id)))
+    {
+        return fail(format!(
+            "cannot write {}: it is the input tile {}; merging would overwrite it",
+            args.output.display(),
+            tile.display()
+        ));
     }
     let (image, metadata) = match image_io::merge(&args.inputs) {
         Ok(i) => i,
@@ -453,16 +512,14 @@ pub fn make_mesh(args: MakeMeshArgs) -> ExitCode {
         return fail(format!("cannot create {}: {e}", dir.display()));
     }
     // Written beside the target and renamed, like images.
-    let tmp = args.output.with_extension(format!("tmp-{}", std::process::id()));
-    let result = std::fs::File::create(&tmp).and_then(|f| {
-        let mut w = std::io::BufWriter::new(f);
-        render::heightfield::write_heavy_obj(&mut w)?;
-        std::io::Write::flush(&mut w)?;
-        w.get_ref().sync_all()
+    let written = tsl::files::atomic_write(&args.output, |file| {
+        let mut w = std::io::BufWriter::new(file);
+        render::heightfield::write_heavy_obj(&mut w)
+            .and_then(|()| std::io::Write::flush(&mut w))
+            .map_err(|e| e.to_string())
     });
-    if let Err(e) = result.and_then(|_| std::fs::rename(&tmp, &args.output)) {
-        let _ = std::fs::remove_file(&tmp);
-        return fail(format!("cannot write {}: {e}", args.output.display()));
+    if let Err(e) = written {
+        return fail(e);
     }
     eprintln!("wrote {} in {:.1} s", args.output.display(), start.elapsed().as_secs_f64());
     ExitCode::SUCCESS

@@ -206,6 +206,11 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
         }
         None
     };
+    let (output, scene) = ([args.output.clone()], checked.scene.as_ref());
+    if let Err(e) = crate::render::refuse_overwriting_inputs(output, &checked.program, scene, tsl::diag::Colors::Never)
+    {
+        return (failed(e), inputs);
+    }
     let program = match tsl::Compiler::new().color_model(args.options.color).compile_checked(checked) {
         Ok(p) => p,
         Err(e) => return (failed(e.to_string()), inputs),
