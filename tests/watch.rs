@@ -2,9 +2,10 @@
 //! that breaks the scene prints diagnostics and keeps the image, a fix or an
 //! edit to an imported file or a texture renders again, an edit cancels the
 //! pass in progress, and `--serve` answers the page, its events and the image.
-//! Then as a careless or hostile neighbour meets it: clients of the page
-//! that lie about its address, dawdle, hoard connections or pipeline
-//! requests.
+//! Then as a careless or hostile neighbour meets it: folders deleted and
+//! created again (a `git checkout`), inputs named like the output, and
+//! clients of the page that lie about its address, dawdle, hoard
+//! connections or pipeline requests.
 //! Small images and few samples: each test takes a few seconds (those that
 //! wait out the server's 10 s request-head timeout, a little more).
 
@@ -253,6 +254,170 @@ fn serve_answers_the_page_the_events_and_the_image() {
     let text = broken["diagnostics"].as_str().unwrap();
     assert!(text.contains("scene.tsl:2:") && text.contains("could not check"), "{text}");
     assert_eq!(broken["image"], state["image"], "a broken build keeps the image");
+}
+
+// ---- Folders deleted and created again; inputs named like the output ----
+
+/// The paths a `watch: changed: ...` line names.
+fn changed_paths(line: &str) -> Vec<String> {
+    let list = line.split("changed: ").nth(1).unwrap_or("");
+    list.split(", ").map(str::to_string).collect()
+}
+
+/// Writes a 4x4 gray PNG of `value` at `path`, creating its folder.
+fn gray_png(path: &Path, value: u8) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    image::save_buffer(path, &[value; 4 * 4 * 3], 4, 4, image::ColorType::Rgb8).unwrap();
+}
+
+#[test]
+fn a_deleted_and_recreated_scene_folder_is_still_watched() {
+    let dir = scratch("scene-folder");
+    let scenes = dir.join("scenes");
+    let write_scenes = |kd: &str| {
+        std::fs::create_dir_all(&scenes).unwrap();
+        std::fs::write(scenes.join("lib.tsl"), lib(0.5)).unwrap();
+        std::fs::write(scenes.join("scene.tsl"), scene(kd)).unwrap();
+    };
+    write_scenes("gray(0.2)");
+    let out = dir.join("out.png");
+    let mut watch = Watch::start(&dir, &["scenes/scene.tsl", "-o", "out.png", "--threads", "1"]);
+    watch.wait_for("done");
+    let first = read(&out);
+
+    // Deleted: the build fails and keeps the image; created again: rendered.
+    std::fs::remove_dir_all(&scenes).unwrap();
+    watch.wait_for("keeping the last image");
+    write_scenes("gray(0.8)");
+    watch.wait_for("done");
+    let second = read(&out);
+    assert_ne!(second, first, "the re-created scene was not rendered");
+    // ... and an edit in the new folder is seen.
+    std::fs::write(scenes.join("scene.tsl"), scene("gray(0.3)")).unwrap();
+    let changed = watch.wait_for("changed:");
+    assert!(changed.contains("scene.tsl"), "{changed}");
+    watch.wait_for("done");
+
+    // Deleted and created again at once, as `git checkout` does (the
+    // watcher may see both in one batch, or only the folder's removal).
+    std::fs::remove_dir_all(&scenes).unwrap();
+    write_scenes("gray(0.6)");
+    watch.wait_for("done");
+    std::fs::write(scenes.join("scene.tsl"), scene("gray(0.4)")).unwrap();
+    let changed = watch.wait_for("changed:");
+    assert!(changed.contains("scene.tsl"), "{changed}");
+    watch.wait_for("done");
+}
+
+#[test]
+fn recreated_import_and_texture_folders_are_still_watched() {
+    let dir = scratch("input-folders");
+    std::fs::create_dir_all(dir.join("lib")).unwrap();
+    std::fs::write(dir.join("lib/lib.tsl"), lib(0.5)).unwrap();
+    gray_png(&dir.join("maps/2k/t.png"), 40);
+    let source = scene("texture(\"maps/2k/t.png\")").replace("import \"lib.tsl\"", "import \"lib/lib.tsl\"");
+    std::fs::write(dir.join("scene.tsl"), source).unwrap();
+    let out = dir.join("out.png");
+    let mut watch = Watch::start(&dir, &["scene.tsl", "-o", "out.png", "--threads", "1"]);
+    watch.wait_for("done");
+    let first = read(&out);
+
+    // The import's folder, deleted and written again at once.
+    std::fs::remove_dir_all(dir.join("lib")).unwrap();
+    std::fs::create_dir_all(dir.join("lib")).unwrap();
+    std::fs::write(dir.join("lib/lib.tsl"), lib(0.9)).unwrap();
+    watch.wait_for("done");
+    let second = read(&out);
+    assert_ne!(second, first, "the re-created import was not read");
+
+    // The texture's folder two levels up, deleted (the build fails), then
+    // created again level by level.
+    std::fs::remove_dir_all(dir.join("maps")).unwrap();
+    watch.wait_for("keeping the last image");
+    gray_png(&dir.join("maps/2k/t.png"), 220);
+    watch.wait_for("done");
+    assert_ne!(read(&out), second, "the re-created texture was not read");
+
+    // Edits in both new folders are seen.
+    std::fs::write(dir.join("lib/lib.tsl"), lib(0.1)).unwrap();
+    let changed = watch.wait_for("changed:");
+    assert!(changed.contains("lib.tsl"), "{changed}");
+    watch.wait_for("done");
+    gray_png(&dir.join("maps/2k/t.png"), 90);
+    let changed = watch.wait_for("changed:");
+    assert!(changed.contains("t.png"), "{changed}");
+    watch.wait_for("done");
+}
+
+#[test]
+fn inputs_named_like_the_output_trigger_and_the_output_never_does() {
+    let dir = scratch("output-name");
+    // One texture with the output's name in another folder, one named as
+    // the image writer's temporaries once were, next to the output.
+    let decoy = ".out.png.tmp-1-1.png";
+    gray_png(&dir.join("tex/out.png"), 40);
+    gray_png(&dir.join(decoy), 200);
+    std::fs::write(dir.join("lib.tsl"), lib(0.5)).unwrap();
+    std::fs::write(dir.join("scene.tsl"), scene(&format!("texture(\"tex/out.png\") * texture(\"{decoy}\")"))).unwrap();
+    let out = dir.join("out.png");
+    let mut watch = Watch::start(&dir, &["scene.tsl", "-o", "out.png", "--threads", "1"]);
+    watch.wait_for("done");
+    let first = read(&out);
+
+    gray_png(&dir.join("tex/out.png"), 220);
+    let changed = watch.wait_for("changed:");
+    // Only the texture: the passes written to out.png started no build.
+    assert!(changed_paths(&changed).iter().all(|p| p.ends_with("tex/out.png")), "{changed}");
+    watch.wait_for("done");
+    let second = read(&out);
+    assert_ne!(second, first, "the texture named out.png was not read again");
+
+    gray_png(&dir.join(decoy), 100);
+    let changed = watch.wait_for("changed:");
+    assert!(changed_paths(&changed).iter().all(|p| p.ends_with(decoy)), "{changed}");
+    watch.wait_for("done");
+    assert_ne!(read(&out), second, "the texture named like a temporary was not read again");
+    assert!(
+        !watch
+            .log
+            .iter()
+            .any(|l| l.contains("changed:") && changed_paths(l).iter().any(|p| *p == out.display().to_string()))
+    );
+}
+
+#[test]
+fn an_environment_image_named_like_the_output_triggers() {
+    let dir = scratch("output-name-env");
+    let sky = |value: f32| {
+        std::fs::create_dir_all(dir.join("env")).unwrap();
+        let image = tsl::image_io::RenderedImage {
+            full_width: 8,
+            full_height: 4,
+            x0: 0,
+            y0: 0,
+            width: 8,
+            height: 4,
+            color: vec![[value; 3]; 32],
+            albedo: None,
+            normal: None,
+            depth: None,
+            object: None,
+        };
+        tsl::image_io::write_image(&dir.join("env/out.exr"), &image).unwrap();
+    };
+    sky(0.5);
+    std::fs::write(dir.join("lib.tsl"), lib(0.5)).unwrap();
+    let source = scene("gray(0.5)").replace("scene {", "scene {\n    light environment { file \"env/out.exr\"; }");
+    std::fs::write(dir.join("scene.tsl"), source).unwrap();
+    let out = dir.join("out.exr");
+    let mut watch = Watch::start(&dir, &["scene.tsl", "-o", "out.exr", "--threads", "1"]);
+    watch.wait_for("done");
+    let first = read(&out);
+    sky(2.0);
+    let changed = watch.wait_for("changed:");
+    assert!(changed_paths(&changed).iter().all(|p| p.ends_with("env/out.exr")), "{changed}");
+    watch.wait_for("done");
+    assert_ne!(read(&out), first, "the environment image was not read again");
 }
 
 // ---- The page's server as other clients meet it ----
