@@ -3,18 +3,16 @@
 //! `/events` (server-sent events: one JSON message per change) and reloads
 //! `/image.png` when a new pass is written; nothing else is served.
 //!
-//! tiny_http parses requests on one thread; each event stream gets a thread
-//! of its own that writes to its socket directly, at most
-//! [`MAX_EVENT_STREAMS`] at once.
+//! The HTTP server (`http`) bounds what clients can hold (connections,
+//! threads, head sizes, time) and refuses requests that do not name the
+//! address served; this module only says what each route answers.
 
-use std::io::Write;
+mod http;
+
+use http::{Body, EventSink, Reply};
 use std::net::SocketAddr;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::Duration;
-
-/// The most pages listening at once (each holds a thread and a socket).
-pub const MAX_EVENT_STREAMS: usize = 16;
 
 /// How often an idle event stream sends a comment, so a closed page is
 /// noticed and its thread ends.
@@ -25,7 +23,6 @@ pub struct Live {
     state: Mutex<State>,
     changed: Condvar,
     address: SocketAddr,
-    streams: AtomicUsize,
 }
 
 #[derive(Default)]
@@ -43,28 +40,27 @@ struct State {
 }
 
 impl Live {
-    /// Binds `address` and serves the page from a thread of its own.
+    /// Binds `address` and serves the page from threads of its own.
     pub fn start(address: SocketAddr) -> Result<Arc<Live>, String> {
-        let server = tiny_http::Server::http(address).map_err(|e| format!("cannot serve on {address}: {e}"))?;
-        let address = server.server_addr().to_ip().unwrap_or(address);
-        let live = Arc::new(Live {
-            state: Mutex::new(State::default()),
-            changed: Condvar::new(),
-            address,
-            streams: AtomicUsize::new(0),
-        });
+        let server = http::Server::bind(address)?;
+        let bound = server.local_addr().unwrap_or(address);
+        let live = Arc::new(Live { state: Mutex::new(State::default()), changed: Condvar::new(), address: bound });
         let serving = live.clone();
-        std::thread::spawn(move || {
-            for request in server.incoming_requests() {
-                serving.answer(request);
-            }
-        });
+        server.serve(Arc::new(move |request: &http::Request| serving.answer(&request.path)))?;
         Ok(live)
     }
 
-    /// The address bound (with the port chosen, for port 0).
+    /// The address to open the page at: the one bound (with the port
+    /// chosen, for port 0), or loopback when bound to every address.
     pub fn address(&self) -> SocketAddr {
-        self.address
+        let mut address = self.address;
+        if address.ip().is_unspecified() {
+            address.set_ip(match address.ip() {
+                std::net::IpAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+                std::net::IpAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+            });
+        }
+        address
     }
 
     /// A new pass of the image, as PNG.
@@ -94,46 +90,31 @@ impl Live {
         }
     }
 
-    fn answer(self: &Arc<Self>, request: tiny_http::Request) {
-        let path = request.url().split('?').next().unwrap_or("");
-        let response = match (request.method(), path) {
-            (tiny_http::Method::Get, "/") => {
-                with_headers(tiny_http::Response::from_string(PAGE), &[("Content-Type", "text/html; charset=utf-8")])
-            }
-            (tiny_http::Method::Get, "/image.png") => {
-                let png = self.state.lock().ok().and_then(|s| s.png.clone());
-                match png {
-                    Some(png) => with_headers(
-                        tiny_http::Response::from_data(png.as_slice()),
-                        &[("Content-Type", "image/png"), ("Cache-Control", "no-store")],
-                    ),
-                    None => tiny_http::Response::from_string("no image yet").with_status_code(404),
+    fn answer(self: &Arc<Self>, path: &str) -> Reply {
+        match path {
+            "/" => Reply::Full {
+                status: 200,
+                content_type: "text/html; charset=utf-8",
+                body: Body::Static(PAGE.as_bytes()),
+                no_store: false,
+            },
+            "/image.png" => match self.state.lock().ok().and_then(|s| s.png.clone()) {
+                Some(png) => {
+                    Reply::Full { status: 200, content_type: "image/png", body: Body::Shared(png), no_store: true }
                 }
+                None => Reply::text(404, "no image yet\n"),
+            },
+            "/events" => {
+                let live = self.clone();
+                Reply::Events(Box::new(move |sink| live.stream(sink)))
             }
-            (tiny_http::Method::Get, "/events") => {
-                if self.streams.fetch_add(1, Ordering::Relaxed) >= MAX_EVENT_STREAMS {
-                    self.streams.fetch_sub(1, Ordering::Relaxed);
-                    tiny_http::Response::from_string("too many pages are listening").with_status_code(503)
-                } else {
-                    let live = self.clone();
-                    let writer = request.into_writer();
-                    std::thread::spawn(move || {
-                        live.stream(writer);
-                        live.streams.fetch_sub(1, Ordering::Relaxed);
-                    });
-                    return;
-                }
-            }
-            _ => tiny_http::Response::from_string("not found").with_status_code(404),
-        };
-        let _ = request.respond(response);
+            _ => Reply::text(404, "not found\n"),
+        }
     }
 
     /// Sends the state whenever it changes, until the page goes away.
-    fn stream(&self, mut out: Box<dyn Write + Send>) {
-        let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
-                    Connection: close\r\n\r\nretry: 1000\n\n";
-        if out.write_all(head.as_bytes()).and_then(|()| out.flush()).is_err() {
+    fn stream(&self, sink: &mut EventSink) {
+        if !sink.send("retry: 1000\n\n") {
             return;
         }
         let mut sent = None;
@@ -158,23 +139,11 @@ impl Live {
                     format!("data: {json}\n\n")
                 }
             };
-            if out.write_all(message.as_bytes()).and_then(|()| out.flush()).is_err() {
+            if !sink.send(&message) {
                 return;
             }
         }
     }
-}
-
-fn with_headers<R: std::io::Read>(
-    mut response: tiny_http::Response<R>,
-    headers: &[(&str, &str)],
-) -> tiny_http::Response<R> {
-    for (name, value) in headers {
-        if let Ok(h) = tiny_http::Header::from_bytes(name.as_bytes(), value.as_bytes()) {
-            response.add_header(h);
-        }
-    }
-    response
 }
 
 /// The page: the image, its samples so far, and the diagnostics.

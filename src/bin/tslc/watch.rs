@@ -10,34 +10,42 @@
 //!
 //! Files are watched through their directories (editors often save by
 //! writing a new file and renaming it over the old one, which a watch on the
-//! file itself would lose), and events are debounced.
+//! file itself would lose), and events are debounced. An event counts when
+//! its path is one of the files the build read (`inputs`), compared whole:
+//! never by file name, so the output and its temporaries are ignored and an
+//! input named like the output in another folder is not. A directory that
+//! is deleted and created again is watched again (`dirs`).
+
+mod dirs;
+mod inputs;
 
 use crate::render::{SceneOptions, fail, parse_spp};
 use crate::serve::Live;
-use notify_debouncer_full::notify::RecursiveMode;
+use dirs::{RECHECK, WatchedDirs, Watcher};
+use inputs::{Inputs, inputs_of};
 use notify_debouncer_full::notify::event::{AccessKind, AccessMode, EventKind};
 use notify_debouncer_full::{DebounceEventResult, new_debouncer};
-use std::collections::HashSet;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
+use tsl::LoadOptions;
 use tsl::image_io::{self, RenderedImage};
 use tsl::render::{self, Overrides, RenderOptions, Scene};
-use tsl::scene::{EnvironmentSourceDesc, ShapeDesc};
 use tsl::texture::TextureManager;
-use tsl::{Checked, LoadOptions};
 
 /// File events closer together than this are one change (an editor's save
 /// is often a write, a rename and a change of attributes).
 const DEBOUNCE: Duration = Duration::from_millis(100);
 
 /// The files a broken build may be waiting for besides its known inputs (a
-/// missing import, image or mesh): any with these extensions appearing or
-/// changing in a watched directory starts a new build.
+/// mesh or environment image of a scene that did not check): any with
+/// these extensions appearing or changing in an input's directory starts a
+/// new build, unless it is in the output's directory with the output's
+/// extension (what the image writer's temporaries look like).
 const SOURCE_EXTENSIONS: [&str; 7] = ["tsl", "obj", "png", "jpg", "jpeg", "hdr", "exr"];
 
 #[derive(clap::Args)]
@@ -54,67 +62,13 @@ pub struct WatchArgs {
     #[command(flatten)]
     options: SceneOptions,
     /// Also serve a page showing the image as it refines and the
-    /// diagnostics, e.g. `127.0.0.1:8000` (port 0 picks a free port).
+    /// diagnostics, e.g. `127.0.0.1:8000` (port 0 picks a free port). It
+    /// answers only requests addressed to it by IP address and port (or
+    /// `localhost:PORT` over loopback), never by another host name, so
+    /// other web pages cannot read it; bound to `0.0.0.0`, by whichever
+    /// address of this machine the browser connected to.
     #[arg(long, value_name = "ADDR:PORT")]
     serve: Option<SocketAddr>,
-}
-
-/// The files one build read: a change to any of them starts a new build.
-#[derive(Default)]
-struct Inputs {
-    /// Each file as its watched directory names it (and, for a symbolic
-    /// link, its target too).
-    files: HashSet<PathBuf>,
-    /// The directories watched, canonical.
-    dirs: HashSet<PathBuf>,
-}
-
-impl Inputs {
-    fn add(&mut self, path: &Path) {
-        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-        let (Some(dir), Some(name)) = (absolute.parent(), absolute.file_name()) else { return };
-        let Ok(dir) = dir.canonicalize() else { return };
-        self.files.insert(dir.join(name));
-        if let Ok(target) = absolute.canonicalize() {
-            if let Some(target_dir) = target.parent() {
-                self.dirs.insert(target_dir.to_path_buf());
-            }
-            self.files.insert(target);
-        }
-        self.dirs.insert(dir);
-    }
-}
-
-/// The scene, its imports, the images its `texture` calls read (or would
-/// read, when missing), its meshes and its environment image.
-fn inputs_of(scene: &Path, checked: &Checked) -> Inputs {
-    let mut inputs = Inputs::default();
-    inputs.add(scene);
-    let program = &checked.program;
-    let sources = &program.loaded.sources;
-    for module in program.loaded.modules.iter().filter(|m| !m.is_prelude) {
-        inputs.add(Path::new(sources.name(module.file)));
-    }
-    for image in &program.images {
-        match &image.image {
-            Some(loaded) => inputs.add(Path::new(&loaded.name)),
-            None => {
-                let base = Path::new(sources.name(image.span.file)).parent().unwrap_or(Path::new(""));
-                inputs.add(&base.join(&image.path));
-            }
-        }
-    }
-    if let Some(desc) = &checked.scene {
-        for object in &desc.objects {
-            if let ShapeDesc::Mesh { file } = &object.shape {
-                inputs.add(&file.value.path);
-            }
-        }
-        if let Some(EnvironmentSourceDesc::Image(image)) = desc.environment.as_ref().map(|e| &e.source) {
-            inputs.add(&image.value.path);
-        }
-    }
-    inputs
 }
 
 pub fn watch(args: WatchArgs) -> ExitCode {
@@ -128,22 +82,18 @@ pub fn watch(args: WatchArgs) -> ExitCode {
     if let Some(live) = &live {
         eprintln!("watch: serving http://{}/", live.address());
     }
-    let (events, changes) = std::sync::mpsc::channel::<DebounceEventResult>();
-    let mut debouncer = match new_debouncer(DEBOUNCE, None, events) {
-        Ok(d) => d,
-        Err(e) => return fail(format!("cannot watch files: {e}")),
+    let mut watching = match Watching::start(&args.output) {
+        Ok(w) => w,
+        Err(e) => return fail(e),
     };
-    let mut watched: HashSet<PathBuf> = HashSet::new();
     loop {
         let started = Instant::now();
         let (scene, inputs) = build(&args, live.as_deref());
-        for dir in inputs.dirs.difference(&watched.clone()) {
-            match debouncer.watch(dir, RecursiveMode::NonRecursive) {
-                Ok(()) => {
-                    watched.insert(dir.clone());
-                }
-                Err(e) => eprintln!("warning: cannot watch {}: {e}", dir.display()),
-            }
+        // A folder created again while the build read it: read it again.
+        let renewed = watching.arm(&inputs);
+        if !renewed.is_empty() {
+            report_change(&renewed);
+            continue;
         }
         let broken = scene.is_none();
         let changed = match scene {
@@ -159,7 +109,7 @@ pub fn watch(args: WatchArgs) -> ExitCode {
                 let cancel = AtomicBool::new(false);
                 std::thread::scope(|s| {
                     let refining = s.spawn(|| refine(&scene, &args, &cancel, live.as_deref()));
-                    let changed = next_change(&changes, &inputs, broken, &args.output);
+                    let changed = watching.next_change(&inputs, broken);
                     let stopping = Instant::now();
                     cancel.store(true, Ordering::Relaxed);
                     let finished = refining.is_finished();
@@ -172,15 +122,19 @@ pub fn watch(args: WatchArgs) -> ExitCode {
             }
             None => {
                 eprintln!("watch: keeping the last image; waiting for a change");
-                next_change(&changes, &inputs, broken, &args.output)
+                watching.next_change(&inputs, broken)
             }
         };
         let Some(changed) = changed else {
             return fail("the file watcher stopped");
         };
-        let names: Vec<String> = changed.iter().map(|p| p.display().to_string()).collect();
-        eprintln!("watch: changed: {}", names.join(", "));
+        report_change(&changed);
     }
+}
+
+fn report_change(paths: &[PathBuf]) {
+    let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+    eprintln!("watch: changed: {}", names.join(", "));
 }
 
 /// Checks and compiles the scene and builds it for rendering; `None` (after
@@ -191,7 +145,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     let textures = Arc::new(TextureManager::new());
     let options = LoadOptions { import_paths: args.options.include.clone(), textures, ..Default::default() };
     let checked = tsl::check_file(&args.scene, &options);
-    let inputs = inputs_of(&args.scene, &checked);
+    let inputs = inputs_of(&args.scene, &checked, &args.options.include);
     eprint!("{}", crate::human_report(&checked, crate::stderr_colors()));
     if let Some(live) = live {
         live.diagnostics(crate::human_report(&checked, tsl::diag::Colors::Never), !checked.is_ok());
@@ -229,48 +183,81 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     }
 }
 
-/// Waits for a change to one of `inputs` (while the build is `broken`,
-/// also to any file with one of [`SOURCE_EXTENSIONS`] in the watched
-/// directories), never to the output image itself. Reads are not changes:
-/// checking opens every input. `None` when the watcher has stopped.
-fn next_change(
-    changes: &Receiver<DebounceEventResult>,
-    inputs: &Inputs,
-    broken: bool,
-    output: &Path,
-) -> Option<Vec<PathBuf>> {
-    let out_name = output.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let temporary = format!(".{out_name}.tmp-");
-    let relevant = |p: &Path| {
-        let name = p.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
-        let ours = name == out_name.as_str() || name.starts_with(&temporary);
-        let candidate =
-            broken && p.extension().is_some_and(|e| SOURCE_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)));
-        !ours && (inputs.files.contains(p) || candidate)
-    };
-    loop {
-        match changes.recv().ok()? {
-            Ok(events) => {
-                let mut changed: Vec<PathBuf> = events
+/// The watcher's side of the loop: its events, and the directories watched.
+struct Watching<'a> {
+    changes: Receiver<DebounceEventResult>,
+    watcher: Watcher,
+    dirs: WatchedDirs,
+    output: &'a Path,
+}
+
+impl<'a> Watching<'a> {
+    fn start(output: &'a Path) -> Result<Watching<'a>, String> {
+        let (events, changes) = std::sync::mpsc::channel::<DebounceEventResult>();
+        let watcher = new_debouncer(DEBOUNCE, None, events).map_err(|e| format!("cannot watch files: {e}"))?;
+        Ok(Watching { changes, watcher, dirs: WatchedDirs::default(), output })
+    }
+
+    /// Watches the directories of `inputs`; returns those that appeared,
+    /// vanished or were replaced since the last look.
+    fn arm(&mut self, inputs: &Inputs) -> Vec<PathBuf> {
+        self.dirs.arm(&mut self.watcher, &inputs.dirs)
+    }
+
+    /// Waits for a change to one of `inputs` (while the build is `broken`,
+    /// also to a [`SOURCE_EXTENSIONS`] file in their directories), or for
+    /// one of their directories to appear, vanish or be replaced; never to
+    /// the output image or its temporaries. Reads are not changes: checking
+    /// opens every input. `None` when the watcher has stopped.
+    fn next_change(&mut self, inputs: &Inputs, broken: bool) -> Option<Vec<PathBuf>> {
+        let output = inputs::key(self.output);
+        let output_target = self.output.canonicalize().ok();
+        let output_dir = output.parent();
+        let output_extension = output.extension();
+        let relevant = |p: &Path| {
+            if *p == output || Some(p) == output_target.as_deref() {
+                return false;
+            }
+            if inputs.files.contains(p) {
+                return true;
+            }
+            let candidate = broken
+                && p.extension().is_some_and(|e| SOURCE_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
+                && p.parent().is_some_and(|dir| inputs.dirs.contains(dir));
+            let like_ours = p.parent() == output_dir && p.extension() == output_extension;
+            candidate && !like_ours
+        };
+        loop {
+            let mut changed: Vec<PathBuf> = match self.changes.recv_timeout(RECHECK) {
+                Ok(Ok(events)) => events
                     .into_iter()
                     .filter(|e| match e.event.kind {
                         EventKind::Access(AccessKind::Close(AccessMode::Write)) => true,
                         EventKind::Access(_) => false,
                         _ => true,
                     })
-                    .flat_map(|e| e.event.paths.clone())
+                    .flat_map(|e| {
+                        for path in &e.event.paths {
+                            self.dirs.note(&e.event.kind, path);
+                        }
+                        e.event.paths
+                    })
                     .filter(|p| relevant(p))
-                    .collect();
-                changed.sort();
-                changed.dedup();
-                if !changed.is_empty() {
-                    return Some(changed);
+                    .collect(),
+                Ok(Err(errors)) => {
+                    for e in errors {
+                        eprintln!("warning: watching files: {e}");
+                    }
+                    Vec::new()
                 }
-            }
-            Err(errors) => {
-                for e in errors {
-                    eprintln!("warning: watching files: {e}");
-                }
+                Err(RecvTimeoutError::Timeout) => Vec::new(),
+                Err(RecvTimeoutError::Disconnected) => return None,
+            };
+            changed.extend(self.arm(inputs));
+            changed.sort();
+            changed.dedup();
+            if !changed.is_empty() {
+                return Some(changed);
             }
         }
     }
