@@ -26,6 +26,7 @@ pub mod diag;
 pub mod format;
 pub mod globals;
 pub mod image_io;
+pub mod input_file;
 pub mod interp;
 pub mod ir;
 pub mod jit;

@@ -334,9 +334,11 @@ fn searched(base: Option<&Path>, search: &[PathBuf]) -> String {
 /// Loads the images a checked program's `texture` calls name, through the
 /// options' texture manager. A path is looked up relative to the file that
 /// names it, then in the import directories. Each failure is an error at
-/// the string literal.
+/// the string literal; an image with values that are not numbers (replaced
+/// by 0 when it was loaded) is a warning at the first literal naming it.
 pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -> Vec<Diagnostic> {
     let mut diags = Vec::new();
+    let mut warned: Vec<Arc<crate::texture::MipMap>> = Vec::new();
     for use_ in &mut program.images {
         let file = program.loaded.sources.name(use_.span.file);
         let base = Path::new(file).parent();
@@ -348,7 +350,15 @@ pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -
             continue;
         };
         match options.textures.load(&found, use_.encoding) {
-            Ok(image) => use_.image = Some(image),
+            Ok(image) => {
+                // Once per image, at the first literal naming it.
+                if let Some(replaced) = image.non_finite.filter(|_| !warned.iter().any(|w| Arc::ptr_eq(w, &image))) {
+                    let what = format!("the image `{}`", found.display());
+                    diags.push(Diagnostic::warning(use_.span, replaced.warning(&what)));
+                    warned.push(image.clone());
+                }
+                use_.image = Some(image)
+            }
             Err(e) => {
                 diags.push(Diagnostic::error(use_.span, format!("cannot read the image `{}`: {e}", found.display())))
             }
