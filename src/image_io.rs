@@ -25,6 +25,7 @@
 //! as float so any EXR reader takes it, for masks that compare images
 //! object by object.
 
+mod exr_planes;
 mod exr_read;
 mod merge;
 mod metadata;
@@ -39,6 +40,7 @@ pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, mea
 pub use non_finite::{NonFiniteTexels, replace_non_finite};
 
 use exr::prelude::{self as exrp, WritableImage};
+use exr_planes::Plane;
 use exr_read::{ExrBounds, ExrLayer};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -359,28 +361,25 @@ pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
 }
 
 fn write_exr(path: &Path, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
-    use exrp::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
-    let plane = |k: usize, v: &[[f32; 3]]| v.iter().map(|p| p[k]).collect::<Vec<f32>>();
-    let mut channels = vec![
-        AnyChannel::new("R", FlatSamples::F32(plane(0, &image.color))),
-        AnyChannel::new("G", FlatSamples::F32(plane(1, &image.color))),
-        AnyChannel::new("B", FlatSamples::F32(plane(2, &image.color))),
-    ];
+    use exrp::{AnyChannel, AnyChannels, Encoding, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
+    // Each channel read from the image in place: no copy of a layer.
+    let mut channels: Vec<AnyChannel<Plane<'_>>> =
+        ["R", "G", "B"].iter().enumerate().map(|(k, c)| AnyChannel::new(*c, Plane::Lane(&image.color, k))).collect();
     if let Some(a) = &image.albedo {
         for (k, c) in ["R", "G", "B"].iter().enumerate() {
-            channels.push(AnyChannel::new(format!("albedo.{c}").as_str(), FlatSamples::F32(plane(k, a))));
+            channels.push(AnyChannel::new(format!("albedo.{c}").as_str(), Plane::Lane(a, k)));
         }
     }
     if let Some(n) = &image.normal {
         for (k, c) in ["X", "Y", "Z"].iter().enumerate() {
-            channels.push(AnyChannel::new(format!("normal.{c}").as_str(), FlatSamples::F32(plane(k, n))));
+            channels.push(AnyChannel::new(format!("normal.{c}").as_str(), Plane::Lane(n, k)));
         }
     }
     if let Some(d) = &image.depth {
-        channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
+        channels.push(AnyChannel::new("Z", Plane::Floats(d)));
     }
     if let Some(o) = &image.object {
-        channels.push(AnyChannel::new("object", FlatSamples::F32(o.iter().map(|&k| k as f32).collect())));
+        channels.push(AnyChannel::new("object", Plane::Indices(o)));
     }
     let position = Vec2(image.x0 as i32, image.y0 as i32);
     let mut attributes = LayerAttributes::default().with_position(position);
