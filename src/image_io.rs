@@ -13,7 +13,10 @@
 //! directory, synced, then renamed over the target), so a crash or Ctrl-C
 //! never leaves a truncated or clobbered image; an EXR keeps its window's
 //! place in the full frame (display window = the full image, data window =
-//! the pixels rendered), so `merge` can put tiles back together.
+//! the pixels rendered), so `merge` can put tiles back together; a file
+//! read is opened as a regular file (`crate::input_file`) and an EXR's
+//! header claims are checked before anything is allocated by them
+//! (`exr_read`), so a small file cannot ask for gigabytes.
 //!
 //! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
 //! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`
