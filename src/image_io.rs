@@ -15,7 +15,10 @@
 //! or Ctrl-C never leaves a truncated or clobbered image, and a link
 //! planted beside the output never redirects the write; an EXR keeps its
 //! window's place in the full frame (display window = the full image, data
-//! window = the pixels rendered), so `merge` can put tiles back together.
+//! window = the pixels rendered), so `merge` can put tiles back together;
+//! a file read is opened as a regular file (`crate::input_file`) and an
+//! EXR's header claims are checked before anything is allocated by them
+//! (`exr_read`), so a small file cannot ask for gigabytes.
 //!
 //! EXR channels: `R`, `G`, `B` (linear radiance); with AOVs also
 //! `albedo.R`, `albedo.G`, `albedo.B`, `normal.X`, `normal.Y`, `normal.Z`
@@ -27,14 +30,24 @@
 //! as float so any EXR reader takes it, for masks that compare images
 //! object by object.
 
+mod exr_planes;
+mod exr_read;
 mod merge;
 mod metadata;
+mod non_finite;
 
+pub use exr_read::{
+    ExrHeader, MAX_EXR_BLOCK_BYTES, MAX_EXR_CHANNELS, MAX_EXR_HEADER_BYTES, MAX_EXR_PARTS, read_exr, read_exr_header,
+    read_exr_with_metadata,
+};
 pub use merge::{array_spec, merge};
-pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning};
+pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning, printable};
+pub use non_finite::{NonFiniteTexels, replace_non_finite};
 
 use crate::files;
-use exr::prelude::{self as exrp, ReadChannels, ReadLayers, WritableImage};
+use exr::prelude::{self as exrp, WritableImage};
+use exr_planes::Plane;
+use exr_read::{ExrBounds, ExrLayer};
 use std::path::{Path, PathBuf};
 
 /// How the stored values of an image become linear values.
@@ -59,8 +72,26 @@ pub struct Picture {
     pub has_alpha: bool,
 }
 
-/// The largest image edge accepted: bigger pictures would take gigabytes.
+/// The largest edge of a picture read (a texture or an environment
+/// image): bigger pictures would take gigabytes.
 pub const MAX_IMAGE_SIZE: u32 = 16384;
+
+/// The largest image side rendered, in pixels (`width`, `height`,
+/// `--res`), and of the frames `merge` joins and `info` reads.
+pub const MAX_IMAGE_SIDE: u32 = 65536;
+/// The most pixels an image may have: 2^27 (134 million, such as
+/// 16384 x 8192; the film alone then takes 1.6 GB).
+pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// The most memory the pixels of one image may take (4 GiB), checked
+/// before they are allocated: a render's film (`render::film_bytes`;
+/// beyond it, render in tiles and `merge` them) and the samples of an EXR
+/// part read.
+pub const FILM_BUDGET_BYTES: u64 = 4 << 30;
+
+/// The largest image file read (8 GiB: a 16384 x 16384 RGBA float EXR
+/// stored uncompressed is 4 GiB).
+pub const MAX_IMAGE_FILE_BYTES: u64 = 8 << 30;
 
 /// Reads an image file at full resolution: PNG, JPEG, Radiance HDR or
 /// OpenEXR, chosen by extension. The error says what is wrong in words.
@@ -88,8 +119,14 @@ fn check_size(width: u32, height: u32) -> Result<(), String> {
 /// `srgb`: decode the sRGB curve from the color channels (alpha stays
 /// linear).
 fn read_with_image_crate(path: &Path, srgb: bool) -> Result<Picture, String> {
-    let mut reader =
-        image::ImageReader::open(path).map_err(|e| e.to_string())?.with_guessed_format().map_err(|e| e.to_string())?;
+    let (file, _) = crate::input_file::open_bounded(path, MAX_IMAGE_FILE_BYTES, "an image file")?;
+    // As `ImageReader::open`: the format the extension names, unless the
+    // contents say otherwise.
+    let mut reader = image::ImageReader::new(std::io::BufReader::new(file));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
+    }
+    let mut reader = reader.with_guessed_format().map_err(|e| e.to_string())?;
     // Refuse oversized pictures before decoding them.
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIZE);
@@ -130,15 +167,16 @@ fn read_with_image_crate(path: &Path, srgb: bool) -> Result<Picture, String> {
 }
 
 fn read_exr_picture(path: &Path) -> Result<Picture, String> {
-    let layer = ExrLayer::read(path)?;
+    let layer = ExrLayer::read(path, ExrBounds::PICTURE)?;
     let (width, height) = (layer.width as u32, layer.height as u32);
     check_size(width, height)?;
-    let (r, g, b) = match (layer.channel("R"), layer.channel("G"), layer.channel("B"), layer.channel("Y")) {
+    let channels = ["R", "G", "B", "Y", "A"].map(|name| layer.channel(name));
+    let [r, g, b, y, a] = channels.each_ref().map(Option::as_deref);
+    let (r, g, b) = match (r, g, b, y) {
         (Some(r), Some(g), Some(b), _) => (r, g, b),
         (_, _, _, Some(y)) => (y, y, y),
         _ => return Err("it has neither R, G, B nor Y channels".into()),
     };
-    let a = layer.channel("A");
     let texels = (0..r.len()).map(|k| [r[k], g[k], b[k], a.map_or(1.0, |a| a[k])]).collect();
     Ok(Picture { width, height, texels, has_alpha: a.is_some() })
 }
@@ -268,28 +306,25 @@ pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
 
 /// The image as an EXR into `file`; the error is the reason.
 fn write_exr(file: &mut std::fs::File, image: &RenderedImage, metadata: &Metadata) -> Result<(), String> {
-    use exrp::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
-    let plane = |k: usize, v: &[[f32; 3]]| v.iter().map(|p| p[k]).collect::<Vec<f32>>();
-    let mut channels = vec![
-        AnyChannel::new("R", FlatSamples::F32(plane(0, &image.color))),
-        AnyChannel::new("G", FlatSamples::F32(plane(1, &image.color))),
-        AnyChannel::new("B", FlatSamples::F32(plane(2, &image.color))),
-    ];
+    use exrp::{AnyChannel, AnyChannels, Encoding, Image, ImageAttributes, Layer, LayerAttributes, Vec2};
+    // Each channel read from the image in place: no copy of a layer.
+    let mut channels: Vec<AnyChannel<Plane<'_>>> =
+        ["R", "G", "B"].iter().enumerate().map(|(k, c)| AnyChannel::new(*c, Plane::Lane(&image.color, k))).collect();
     if let Some(a) = &image.albedo {
         for (k, c) in ["R", "G", "B"].iter().enumerate() {
-            channels.push(AnyChannel::new(format!("albedo.{c}").as_str(), FlatSamples::F32(plane(k, a))));
+            channels.push(AnyChannel::new(format!("albedo.{c}").as_str(), Plane::Lane(a, k)));
         }
     }
     if let Some(n) = &image.normal {
         for (k, c) in ["X", "Y", "Z"].iter().enumerate() {
-            channels.push(AnyChannel::new(format!("normal.{c}").as_str(), FlatSamples::F32(plane(k, n))));
+            channels.push(AnyChannel::new(format!("normal.{c}").as_str(), Plane::Lane(n, k)));
         }
     }
     if let Some(d) = &image.depth {
-        channels.push(AnyChannel::new("Z", FlatSamples::F32(d.clone())));
+        channels.push(AnyChannel::new("Z", Plane::Floats(d)));
     }
     if let Some(o) = &image.object {
-        channels.push(AnyChannel::new("object", FlatSamples::F32(o.iter().map(|&k| k as f32).collect())));
+        channels.push(AnyChannel::new("object", Plane::Indices(o)));
     }
     let position = Vec2(image.x0 as i32, image.y0 as i32);
     let mut attributes = LayerAttributes::default().with_position(position);
@@ -311,133 +346,28 @@ fn write_exr(file: &mut std::fs::File, image: &RenderedImage, metadata: &Metadat
     metadata::sort_header_attributes_of(file)
 }
 
-/// An EXR file's header: the frame, the window, the channels and the
-/// metadata, read without the pixels (for `tslc info`).
+/// A lat-long environment image: `width` x `height` linear RGB texels,
+/// row by row, the first row at the top.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ExrHeader {
-    /// The display window's size: the full image.
-    pub full_width: u32,
-    pub full_height: u32,
-    /// The data window: the pixels the file holds, in the full image.
-    pub x0: i32,
-    pub y0: i32,
+pub struct LatLong {
     pub width: u32,
     pub height: u32,
-    pub channels: Vec<String>,
-    pub compression: String,
-    pub metadata: Metadata,
-}
-
-/// Reads the header of an EXR file (its first part).
-pub fn read_exr_header(path: &Path) -> Result<ExrHeader, String> {
-    let fail = |e: String| format!("cannot read {}: {e}", path.display());
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| fail(e.to_string()))?;
-    let header = meta.headers.first().ok_or_else(|| fail("it has no header".into()))?;
-    let frame = header.shared_attributes.display_window;
-    let pos = header.own_attributes.layer_position;
-    Ok(ExrHeader {
-        full_width: frame.size.0 as u32,
-        full_height: frame.size.1 as u32,
-        x0: pos.0 - frame.position.0,
-        y0: pos.1 - frame.position.1,
-        width: header.layer_size.0 as u32,
-        height: header.layer_size.1 as u32,
-        channels: header.channels.list.iter().map(|c| c.name.to_string()).collect(),
-        compression: format!("{:?}", header.compression),
-        metadata: Metadata::from_exr(&header.own_attributes, &header.shared_attributes),
-    })
-}
-
-/// The first layer of an EXR file: its channels by name, its size, and
-/// where it sits in the display window.
-struct ExrLayer {
-    pub width: usize,
-    pub height: usize,
-    pub display_size: (usize, usize),
-    /// The data window's position relative to the display window's.
-    pub offset: (i32, i32),
-    channels: Vec<(String, Vec<f32>)>,
-    metadata: Metadata,
-}
-
-impl ExrLayer {
-    fn read(path: &Path) -> Result<ExrLayer, String> {
-        let image = exrp::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .from_file(path)
-            .map_err(|e| e.to_string())?;
-        let layer = &image.layer_data;
-        let frame = image.attributes.display_window;
-        let pos = layer.attributes.layer_position;
-        let channels = layer
-            .channel_data
-            .list
-            .iter()
-            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
-            .collect();
-        Ok(ExrLayer {
-            width: layer.size.0,
-            height: layer.size.1,
-            display_size: (frame.size.0, frame.size.1),
-            offset: (pos.0 - frame.position.0, pos.1 - frame.position.1),
-            channels,
-            metadata: Metadata::from_exr(&layer.attributes, &image.attributes),
-        })
-    }
-
-    /// The samples of channel `name`, row by row.
-    fn channel(&self, name: &str) -> Option<&[f32]> {
-        self.channels.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_slice())
-    }
-}
-
-/// Reads an EXR written by [`write_image`] (or any EXR with R, G, B).
-pub fn read_exr(path: &Path) -> Result<RenderedImage, String> {
-    read_exr_with_metadata(path).map(|(image, _)| image)
-}
-
-/// [`read_exr`], and the metadata in the file's header.
-pub fn read_exr_with_metadata(path: &Path) -> Result<(RenderedImage, Metadata), String> {
-    let fail = |e: String| format!("cannot read {}: {e}", path.display());
-    let layer = ExrLayer::read(path).map_err(fail)?;
-    let triple = |names: [&str; 3]| -> Option<Vec<[f32; 3]>> {
-        let [a, b, c] = names.map(|n| layer.channel(n));
-        let (a, b, c) = (a?, b?, c?);
-        Some((0..a.len()).map(|k| [a[k], b[k], c[k]]).collect())
-    };
-    let color = triple(["R", "G", "B"]).ok_or_else(|| fail("it has no R, G and B channels".into()))?;
-    let (x0, y0) = layer.offset;
-    if x0 < 0 || y0 < 0 {
-        return Err(fail("its data window starts outside its display window".into()));
-    }
-    let out = RenderedImage {
-        full_width: layer.display_size.0 as u32,
-        full_height: layer.display_size.1 as u32,
-        x0: x0 as u32,
-        y0: y0 as u32,
-        width: layer.width as u32,
-        height: layer.height as u32,
-        color,
-        albedo: triple(["albedo.R", "albedo.G", "albedo.B"]),
-        normal: triple(["normal.X", "normal.Y", "normal.Z"]),
-        depth: layer.channel("Z").map(<[f32]>::to_vec),
-        object: layer.channel("object").map(|o| o.iter().map(|&k| k as i32).collect()),
-    };
-    out.check().map_err(fail)?;
-    Ok((out, layer.metadata))
+    /// Every value finite: what was not is 0 and reported in `non_finite`.
+    pub rgb: Vec<[f32; 3]>,
+    pub non_finite: Option<NonFiniteTexels>,
 }
 
 /// A lat-long environment image as linear RGB: EXR and Radiance HDR as
-/// stored, PNG and JPEG decoded from sRGB.
-pub fn load_environment(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>), String> {
+/// stored, PNG and JPEG decoded from sRGB. Values that are not numbers
+/// are replaced by 0 ([`replace_non_finite`]) and reported in the result.
+pub fn load_environment(path: &Path) -> Result<LatLong, String> {
     // The renderer filters the full-resolution image itself: no pyramid.
     let picture = read_picture(path, Encoding::Srgb)
         .map_err(|e| format!("cannot read the environment image {}: {e}", path.display()))?;
-    Ok((picture.width, picture.height, picture.texels.iter().map(|t| [t[0], t[1], t[2]]).collect()))
+    let mut rgb: Vec<[f32; 3]> = picture.texels.iter().map(|t| [t[0], t[1], t[2]]).collect();
+    drop(picture.texels);
+    let non_finite = replace_non_finite(&mut rgb, picture.width);
+    Ok(LatLong { width: picture.width, height: picture.height, rgb, non_finite })
 }
 
 /// The window of tile `index` of `count` (0-based): horizontal bands of
@@ -745,12 +675,12 @@ mod tests {
         let dir = temp_dir("env");
         let png = dir.join("sky.png");
         image::save_buffer(&png, &[188, 0, 255, 255, 255, 255], 2, 1, image::ColorType::Rgb8).unwrap();
-        let (w, h, t) = load_environment(&png).unwrap();
-        assert_eq!((w, h), (2, 1));
+        let LatLong { width: w, height: h, rgb: t, non_finite } = load_environment(&png).unwrap();
+        assert_eq!((w, h, non_finite), (2, 1, None));
         assert!((t[0][0] - 0.5).abs() < 0.003 && t[0][1] == 0.0 && t[1][2] == 1.0);
         let exr = dir.join("sky.exr");
         write_image(&exr, &image((3, 2), (0, 0, 3, 2), false, 0.0)).unwrap();
-        assert_eq!(load_environment(&exr).unwrap().2[1][0], 0.25);
+        assert_eq!(load_environment(&exr).unwrap().rgb[1][0], 0.25);
         std::fs::write(dir.join("bad.png"), b"not a png").unwrap();
         assert!(load_environment(&dir.join("bad.png")).unwrap_err().contains("bad.png"));
         assert!(load_environment(&dir.join("none.hdr")).is_err());

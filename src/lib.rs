@@ -27,6 +27,7 @@ pub mod files;
 pub mod format;
 pub mod globals;
 pub mod image_io;
+pub mod input_file;
 pub mod interp;
 pub mod ir;
 pub mod jit;

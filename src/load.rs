@@ -127,7 +127,7 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>
             // The diagnostic needs a file to point into: the readable prefix.
             let mut loaded = Loaded::default();
             let shown = match bad_utf8_at {
-                Some(_) => String::from_utf8_lossy(&read_capped(path).unwrap_or_default()).into_owned(),
+                Some(_) => read_capped(path).map(|b| String::from_utf8_lossy(&b).into_owned()).unwrap_or_default(),
                 None => String::new(),
             };
             let file = loaded.sources.add(path.display().to_string(), shown);
@@ -140,62 +140,29 @@ pub fn load_file(path: &Path, options: &LoadOptions) -> (Loaded, Vec<Diagnostic>
 /// The largest source file read (256 MiB; a scene of a million spheres
 /// written out is about 80 MB): a runaway generator's output stops here
 /// instead of at the end of memory (and `/dev/zero` or a FIFO is refused
-/// before a byte is read: [`open_regular`]). `tslc check`, `tslc fmt` and
+/// before a byte is read: [`crate::input_file::open_regular`]). `tslc check`, `tslc fmt` and
 /// standard input share it.
 pub const MAX_SOURCE_BYTES: u64 = 256 << 20;
 
-/// Opens `path` for reading when it is a regular file (through any
-/// symbolic links), with its size. A FIFO, a device or a socket is refused
-/// with an `InvalidInput` error that says what it is, without blocking: it
-/// is opened non-blocking and its type read from the open descriptor, so
-/// nothing can swap the file between the check and the open.
-pub fn open_regular(path: &Path) -> std::io::Result<(std::fs::File, u64)> {
-    let mut options = std::fs::OpenOptions::new();
-    options.read(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt;
-        // A regular file ignores O_NONBLOCK; a FIFO opens without a writer.
-        options.custom_flags(libc::O_NONBLOCK);
-    }
-    let file = options.open(path)?;
-    let metadata = file.metadata()?;
-    if !metadata.is_file() {
-        let what = special_file_kind(&metadata.file_type());
-        return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("it is {what}, not a regular file")));
-    }
-    Ok((file, metadata.len()))
-}
-
-/// What a file that is not a regular file is, in words.
-fn special_file_kind(file_type: &std::fs::FileType) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if file_type.is_fifo() {
-            return "a named pipe (FIFO)";
-        }
-        if file_type.is_char_device() || file_type.is_block_device() {
-            return "a device";
-        }
-        if file_type.is_socket() {
-            return "a socket";
-        }
-    }
-    if file_type.is_dir() { "a directory" } else { "a special file" }
+/// Why a source could not be read: too large (refused before reading),
+/// or the reason in words (not found, a FIFO, a device, ...).
+enum CappedError {
+    TooLarge,
+    Unreadable(String),
 }
 
 /// At most one byte more than [`MAX_SOURCE_BYTES`] of the regular file
-/// `path`; a file whose size is already over the bound is refused
-/// (`FileTooLarge`) without reading it.
-fn read_capped(path: &Path) -> std::io::Result<Vec<u8>> {
+/// `path` (opened by [`crate::input_file::open_regular`], so a FIFO or a
+/// device is refused without blocking); a file whose size is already over
+/// the bound is refused without reading it.
+fn read_capped(path: &Path) -> Result<Vec<u8>, CappedError> {
     use std::io::Read;
-    let (file, len) = open_regular(path)?;
+    let (file, len) = crate::input_file::open_regular(path).map_err(CappedError::Unreadable)?;
     if len > MAX_SOURCE_BYTES {
-        return Err(std::io::ErrorKind::FileTooLarge.into());
+        return Err(CappedError::TooLarge);
     }
     let mut bytes = Vec::with_capacity(len as usize);
-    file.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes)?;
+    file.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes).map_err(|e| CappedError::Unreadable(crate::input_file::reason(&e)))?;
     Ok(bytes)
 }
 
@@ -223,9 +190,9 @@ fn read_source(path: &Path) -> Result<String, ReadError> {
             MAX_SOURCE_BYTES >> 20
         ))
     };
-    let bytes = read_capped(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::FileTooLarge => too_large(),
-        _ => plain(format!("cannot read `{}`: {}", path.display(), io_reason(&e))),
+    let bytes = read_capped(path).map_err(|e| match e {
+        CappedError::TooLarge => too_large(),
+        CappedError::Unreadable(why) => plain(format!("cannot read `{}`: {why}", path.display())),
     })?;
     if bytes.len() as u64 > MAX_SOURCE_BYTES {
         return Err(too_large());
@@ -237,14 +204,6 @@ fn read_source(path: &Path) -> Result<String, ReadError> {
             bad_utf8_at: Some(at),
         }
     })
-}
-
-fn io_reason(e: &std::io::Error) -> String {
-    match e.kind() {
-        std::io::ErrorKind::NotFound => "no such file".into(),
-        std::io::ErrorKind::PermissionDenied => "permission denied".into(),
-        _ => e.to_string(),
-    }
 }
 
 struct Loader<'o> {
@@ -397,9 +356,11 @@ fn searched(base: Option<&Path>, search: &[PathBuf]) -> String {
 /// Loads the images a checked program's `texture` calls name, through the
 /// options' texture manager. A path is looked up relative to the file that
 /// names it, then in the import directories. Each failure is an error at
-/// the string literal.
+/// the string literal; an image with values that are not numbers (replaced
+/// by 0 when it was loaded) is a warning at the first literal naming it.
 pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -> Vec<Diagnostic> {
     let mut diags = Vec::new();
+    let mut warned: Vec<Arc<crate::texture::MipMap>> = Vec::new();
     for use_ in &mut program.images {
         let file = program.loaded.sources.name(use_.span.file);
         let base = Path::new(file).parent();
@@ -411,7 +372,15 @@ pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -
             continue;
         };
         match options.textures.load(&found, use_.encoding) {
-            Ok(image) => use_.image = Some(image),
+            Ok(image) => {
+                // Once per image, at the first literal naming it.
+                if let Some(replaced) = image.non_finite.filter(|_| !warned.iter().any(|w| Arc::ptr_eq(w, &image))) {
+                    let what = format!("the image `{}`", found.display());
+                    diags.push(Diagnostic::warning(use_.span, replaced.warning(&what)));
+                    warned.push(image.clone());
+                }
+                use_.image = Some(image)
+            }
             Err(e) => {
                 diags.push(Diagnostic::error(use_.span, format!("cannot read the image `{}`: {e}", found.display())))
             }

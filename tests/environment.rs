@@ -402,3 +402,83 @@ fn environment_lit_images_do_not_depend_on_the_thread_count() {
     assert_eq!(bits(1), bits(2));
     assert_eq!(scene.settings.light_sampling, LightSampling::Power);
 }
+
+// ------------------------------------------------------ non-finite texels
+
+/// A scene lit by the environment image `sky` alone: a lambert sphere on a
+/// plane, seen from above.
+fn lit_by(sky: &std::path::Path, size: u32, spp: u32) -> String {
+    format!(
+        r#"scene {{
+            light environment {{ file "{}"; }}
+            camera {{ from (0, 2, 5); to (0, 0.5, 0); fov 40; }}
+            render {{ width {size}; height {size}; spp {spp}; max_depth 3; }}
+            object sphere {{ center (0, 1, 0); radius 1; material lambert(kd: gray(0.7)); }}
+            object plane {{ point (0, 0, 0); normal (0, 1, 0); material lambert(kd: gray(0.5)); }}
+        }}"#,
+        sky.display()
+    )
+}
+
+/// A value that is not a number at one texel of an environment image is
+/// replaced by 0 when the image is read, with a warning at the file that
+/// names the texel: the scene renders exactly as with a 0 written there
+/// (an infinite texel made the environment's power infinite: "no light",
+/// a black image).
+#[test]
+fn a_non_finite_environment_texel_is_replaced_by_zero_and_warned_of() {
+    let dir = common::temp_dir("env-non-finite");
+    let sky = |i: u32, j: u32| [0.2 + 0.05 * i as f32, 0.4, 0.3 + 0.1 * j as f32];
+    let clean = dir.join("clean.exr");
+    write_sky(&clean, 16, 8, |i, j| if (i, j) == (3, 2) { [0.0, 0.4, 0.5] } else { sky(i, j) });
+    let clean_bits = {
+        let image = render_scene(&scene_of(&lit_by(&clean, 12, 4), ColorModel::Rgb)).0;
+        image.color.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+    };
+    for (name, value, words) in [
+        ("inf.exr", f32::INFINITY, "+inf in channel R of texel (3, 2)"),
+        ("neg.exr", f32::NEG_INFINITY, "-inf in channel R of texel (3, 2)"),
+        ("nan.exr", f32::NAN, "NaN in channel R of texel (3, 2)"),
+    ] {
+        let path = dir.join(name);
+        write_sky(&path, 16, 8, |i, j| if (i, j) == (3, 2) { [value, 0.4, 0.5] } else { sky(i, j) });
+        let src = lit_by(&path, 12, 4);
+        let checked = tsl::check_source("sky.tsl", &src, &tsl::LoadOptions::default());
+        let text = checked.render_diagnostics();
+        // At the file's literal.
+        let at = src.find(&format!("\"{}", path.display())).unwrap();
+        let line = src[..at].matches('\n').count() + 1;
+        let column = at - src[..at].rfind('\n').map_or(0, |k| k + 1) + 1;
+        assert!(checked.is_ok() && checked.diagnostics.len() == 1, "{name}: {text}");
+        let expected = format!("1 value that is not a number (NaN or infinite): it is {words}; it is replaced by 0");
+        assert!(text.contains("warning") && text.contains(name) && text.contains(&expected), "{name}: {text}");
+        assert!(text.contains(&format!("sky.tsl:{line}:{column}")), "{name}: {text}");
+        let scene = scene_of(&src, ColorModel::Rgb);
+        assert!(!scene.lights.is_empty(), "{name}: the environment is no light");
+        let image = render_scene(&scene).0;
+        let bits: Vec<_> = image.color.iter().map(|p| p.map(f32::to_bits)).collect();
+        assert!(bits == clean_bits, "{name}: not the image of the sky with 0 at the texel");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// One NaN among 4096 texels: before, it spread through the sampling
+/// distribution and dropped about half the samples, darkening the image
+/// by 65%. Now the image's mean is within a percent of the clean sky's
+/// (where that texel holds its neighbours' value).
+#[test]
+fn one_nan_among_4096_texels_leaves_the_image_as_bright_as_the_clean_sky() {
+    let dir = common::temp_dir("env-one-nan");
+    let sky = |i: u32, j: u32| [0.5 + 0.01 * i as f32, 0.6, 0.4 + 0.01 * j as f32];
+    let (clean, spoiled) = (dir.join("clean.exr"), dir.join("spoiled.exr"));
+    write_sky(&clean, 64, 64, sky);
+    for (k, at) in [(20, 10), (63, 63), (0, 32)].into_iter().enumerate() {
+        write_sky(&spoiled, 64, 64, |i, j| if (i, j) == at { [f32::NAN; 3] } else { sky(i, j) });
+        let render = |path: &std::path::Path| render_scene(&scene_of(&lit_by(path, 16, 8), ColorModel::Rgb));
+        let ((a, _), (b, stats)) = (render(&clean), render(&spoiled));
+        assert_eq!(stats.dropped_samples, 0, "{at:?}: NaN samples");
+        let (a, b) = (mean(&green(&a)), mean(&green(&b)));
+        assert!((a - b).abs() < 0.01 * a, "{k}: {at:?}: clean {a}, with one NaN {b}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -408,7 +408,7 @@ fn fmt_and_check_refuse_huge_and_special_files_at_once() {
     assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
     let zero = dir.join("zero.tsl");
     symlink("/dev/zero", &zero).unwrap();
-    for (file, why) in [(&huge, "larger than 256 MiB"), (&fifo, "named pipe"), (&zero, "a device")] {
+    for (file, why) in [(&huge, "larger than 256 MiB"), (&fifo, "named pipe"), (&zero, "character device")] {
         for command in ["fmt", "check"] {
             let o = tslc(&[command, &s(file)]);
             let err = stderr(&o);

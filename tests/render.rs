@@ -621,6 +621,53 @@ fn nan_samples_are_dropped_and_counted() {
     assert!(image.color.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
 
+/// AOV samples whose albedo or normal is NaN or infinite are dropped from
+/// those layers and counted, as radiance samples are, and `tslc render`
+/// says how many: the layers hold only numbers. (A material's normal that
+/// is not a number already falls back to the surface's.)
+#[test]
+fn nan_aov_samples_are_dropped_and_counted() {
+    let src = |albedo: &str, normal: &str| {
+        format!(
+            r#"
+            material broken() {{
+                color diffuse() {{ float zero = 0; return {albedo}; }}
+                normal normal() {{ float zero = 0; return {normal}; }}
+                color reflection(vector wi, color light, vector wo) {{ return light * 0.5; }}
+            }}
+            scene {{
+                camera {{ from (0, 0, 3); to (0, 0, 0); fov 30; }}
+                render {{ width 4; height 4; spp 2; integrator "path"; }}
+                light point {{ at (0, 2, 3); intensity gray(5); }}
+                object sphere {{ center (0, 0, 0); radius 1; material broken; }}
+            }}
+        "#
+        )
+    };
+    let with_aov = RenderOptions { aov: true, ..Default::default() };
+    for (albedo, normal) in
+        [("gray(zero / zero)", "N"), ("rgb(0.5, 1 / zero, 0.5)", "N"), ("gray(-1 / zero)", "N * (zero / zero)")]
+    {
+        let scene = scene_of(&src(albedo, normal), ColorModel::Rgb, &Overrides::default());
+        let (image, stats) = render::render(&scene, &with_aov).unwrap();
+        // The sphere fills the middle 2 x 2 pixels at least.
+        assert!(stats.dropped_aov_samples >= 8, "{albedo}, {normal}: {}", stats.dropped_aov_samples);
+        let finite = |layer: &Option<Vec<[f32; 3]>>| layer.as_ref().unwrap().iter().flatten().all(|x| x.is_finite());
+        assert!(finite(&image.albedo) && finite(&image.normal), "{albedo}, {normal}");
+    }
+    let scene = scene_of(&src("gray(0.5)", "N"), ColorModel::Rgb, &Overrides::default());
+    assert_eq!(render::render(&scene, &with_aov).unwrap().1.dropped_aov_samples, 0);
+    // The summary of `tslc render` reports them.
+    let dir = common::temp_dir("nan-aov");
+    let file = dir.join("broken.tsl");
+    std::fs::write(&file, src("gray(zero / zero)", "N")).unwrap();
+    let out = dir.join("out.exr");
+    let o = common::tslc(&["render", file.to_str().unwrap(), "-o", out.to_str().unwrap(), "--aov", "--threads", "1"]);
+    let err = common::stderr(&o);
+    assert!(o.status.success() && err.contains("AOV samples (albedo or normal) were NaN or infinite"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 // The texturing examples: one scene per technique of the two papers, and
 // the room that combines them, in RGB and spectrally.
 

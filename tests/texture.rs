@@ -288,3 +288,83 @@ fn bad_images_and_options_are_located_errors() {
     let text = check_errors(&dir, "float f() { return texture_float(\"ramp.png\", colorspace: \"srgb\"); }\n");
     assert!(text.contains("colorspace"), "{text}");
 }
+
+/// Writes an 8 x 4 EXR texture, texel (x, y) `f(x, y)` (RGB; alpha 1).
+fn write_exr_texture(path: &Path, f: impl Fn(u32, u32) -> [f32; 3]) {
+    let color = (0..4).flat_map(|y| (0..8).map(move |x| (x, y))).map(|(x, y)| f(x, y)).collect();
+    let image = tsl::image_io::RenderedImage {
+        full_width: 8,
+        full_height: 4,
+        x0: 0,
+        y0: 0,
+        width: 8,
+        height: 4,
+        color,
+        albedo: None,
+        normal: None,
+        depth: None,
+        object: None,
+    };
+    tsl::image_io::write_image(path, &image).unwrap();
+}
+
+/// Values that are not numbers in an image texture are replaced by 0 when
+/// it loads, before the mip-map levels are made (one NaN made every level
+/// above it NaN, and every filtered lookup that reached it), and checking
+/// warns once per image, at the first literal naming it, with the first
+/// texel and the count.
+#[test]
+fn non_finite_texels_are_replaced_before_the_pyramid_and_warned_once() {
+    let dir = temp_dir("non-finite-texels");
+    let texel = |x: u32, y: u32| [0.1 * x as f32, 0.2 * y as f32, 0.5];
+    let bad = [((5, 1), 1, f32::NAN), ((0, 3), 2, f32::INFINITY), ((7, 0), 0, f32::NEG_INFINITY)];
+    let spoiled = |x: u32, y: u32| {
+        let mut t = texel(x, y);
+        for &((bx, by), c, v) in &bad {
+            if (bx, by) == (x, y) {
+                t[c] = v;
+            }
+        }
+        t
+    };
+    let zeroed = |x: u32, y: u32| spoiled(x, y).map(|v| if v.is_finite() { v } else { 0.0 });
+    write_exr_texture(&dir.join("spoiled.exr"), spoiled);
+    write_exr_texture(&dir.join("zeroed.exr"), zeroed);
+    let textures = tsl::texture::TextureManager::new();
+    let load = |name: &str| textures.load(&dir.join(name), tsl::texture::Encoding::Raw).unwrap();
+    let (image, reference) = (load("spoiled.exr"), load("zeroed.exr"));
+    let replaced = image.non_finite.unwrap();
+    // The first in row order: -inf in R of (7, 0).
+    assert_eq!((replaced.count, replaced.x, replaced.y, replaced.channel), (3, 7, 0, 0));
+    assert_eq!(reference.non_finite, None);
+    assert!(image.levels.iter().all(|l| l.texels.iter().flatten().all(|v| v.is_finite())));
+    assert_eq!(image.levels, reference.levels, "not the pyramid of the image with 0 for each");
+    // Looked up from a shader: the zeroed image's values, at every level.
+    let src = r#"
+        color sharp() { return texture("spoiled.exr", filter: "nearest"); }
+        color blurred() { return texture("spoiled.exr", (u, v), dx: (0.5, 0), dy: (0, 0.5), filter: "trilinear"); }
+        color again() { return texture("zeroed.exr", (u, v), dx: (0.5, 0), dy: (0, 0.5), filter: "trilinear"); }
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    for (s, t) in [(0.7, 0.3), (0.05, 0.95), (0.95, 0.9), (0.5, 0.5)] {
+        let g = at(s, t);
+        assert!(both(&p, "sharp", &g).iter().all(|v| v.is_finite()), "({s}, {t})");
+        assert_eq!(both(&p, "blurred", &g), both(&p, "again", &g), "({s}, {t})");
+    }
+    // One warning for the image named twice, at the first literal.
+    let shader = dir.join("shader.tsl");
+    let checked = tsl::check_file(&shader, &tsl::LoadOptions::default());
+    let text = checked.render_diagnostics();
+    assert_eq!(checked.diagnostics.len(), 1, "{text}");
+    let column = src.lines().nth(1).unwrap().find("\"spoiled").unwrap() + 1;
+    for expected in [
+        "warning: the image `".to_string(),
+        "spoiled.exr` has 3 values that are not a number (NaN or infinite): the first is -inf in channel R of texel \
+         (7, 0); they are replaced by 0"
+            .to_string(),
+        format!("shader.tsl:2:{column}"),
+    ] {
+        assert!(text.contains(&expected), "{expected}: {text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -58,8 +58,14 @@ impl Environment {
     /// An environment of `source` times `scale`, turned by `rotate`
     /// (degrees about x, then y, then z, as an object's `rotate`; world =
     /// R · environment). A negative or non-finite scale counts as zero
-    /// (the scene builder refuses them before).
-    pub fn new(source: EnvironmentSource, scale: f32, rotate: Vec3) -> Environment {
+    /// (the scene builder refuses them before), and so does a texel lane
+    /// that is not a number (the scene loader replaced and reported those
+    /// of a file already; a host's own map is held to the same rule, so no
+    /// NaN reaches the sampling distribution).
+    pub fn new(mut source: EnvironmentSource, scale: f32, rotate: Vec3) -> Environment {
+        if let EnvironmentSource::Image(map) = &mut source {
+            map.texels.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+        }
         let scale = if scale.is_finite() && scale > 0.0 { scale } else { 0.0 };
         let rotation = (rotate != Vec3::ZERO).then(|| {
             let r = Mat3A::from_rotation_z(rotate.z.to_radians())
@@ -324,6 +330,31 @@ mod tests {
             texels[(j * w + i) * 3 + 1] = 3.0;
         }
         EnvironmentMap { width: w as u32, height: h as u32, lanes: 3, texels }
+    }
+
+    /// A host's map with texels that are not numbers samples as the map
+    /// with 0 there: no NaN or infinity reaches the distribution.
+    #[test]
+    fn texels_that_are_not_numbers_count_as_zero() {
+        let clean = Environment::new(EnvironmentSource::Image(sky()), 1.0, Vec3::ZERO);
+        for bad in [f32::INFINITY, f32::NAN, f32::NEG_INFINITY] {
+            let mut map = sky();
+            let mut zeroed = sky();
+            for k in [(2 * 16 + 11) * 3, 7 * 16 * 3 + 1] {
+                map.texels[k] = bad;
+                zeroed.texels[k] = 0.0;
+            }
+            let env = Environment::new(EnvironmentSource::Image(map), 1.0, Vec3::ZERO);
+            let reference = Environment::new(EnvironmentSource::Image(zeroed), 1.0, Vec3::ZERO);
+            assert!(!env.is_black() && env.integral.is_finite(), "{bad}");
+            assert_eq!(env.integral, reference.integral, "{bad}");
+            assert!(env.integral < clean.integral, "{bad}: the sun is gone");
+            for k in 0..64 {
+                let u = Sampler::new(5, k, 0, 0).next_2d();
+                let (a, b) = (env.sample(u), reference.sample(u));
+                assert_eq!(a.map(|(d, p)| (d.to_array(), p)), b.map(|(d, p)| (d.to_array(), p)), "{bad}");
+            }
+        }
     }
 
     fn environments() -> Vec<(&'static str, Environment)> {

@@ -73,9 +73,9 @@ impl Ray {
 /// The most worker threads a render may ask for.
 pub const MAX_THREADS: usize = 1024;
 
-/// The most memory a render's film may take (4 GiB), checked before it is
-/// allocated; beyond it, render in tiles.
-pub const FILM_BUDGET_BYTES: u64 = 4 << 30;
+// The most memory a render's film may take (4 GiB), checked before it is
+// allocated; beyond it, render in tiles. Merging and reading images share it.
+pub use crate::image_io::FILM_BUDGET_BYTES;
 
 /// What the film of a `width` x `height` window takes at its peak: the
 /// finished tiles and the image they are copied into, color (and AOVs).
@@ -121,6 +121,9 @@ pub struct RenderStats {
     pub rays: Counters,
     /// Samples whose radiance was NaN or infinite, dropped (counted as black).
     pub dropped_samples: u64,
+    /// With AOVs, samples whose albedo or normal was NaN or infinite,
+    /// dropped from those layers (counted as 0) as radiance samples are.
+    pub dropped_aov_samples: u64,
     pub threads: usize,
 }
 
@@ -199,6 +202,7 @@ struct TileOut {
     object: Vec<i32>,
     counters: Counters,
     dropped: u64,
+    dropped_aov: u64,
 }
 
 fn render_lanes<const N: usize>(
@@ -297,6 +301,7 @@ fn render_lanes<const N: usize>(
         stats.rays.secondary_rays += t.counters.secondary_rays;
         stats.rays.shadow_rays += t.counters.shadow_rays;
         stats.dropped_samples += t.dropped;
+        stats.dropped_aov_samples += t.dropped_aov;
     }
     stats.samples = total * u64::from(samples.end - samples.start);
     stats.seconds = start.elapsed().as_secs_f64();
@@ -321,7 +326,7 @@ fn render_tile<const N: usize>(
     let mut color = Vec::with_capacity((w * h) as usize);
     let mut aovs = Vec::with_capacity(if want_aov { (w * h) as usize } else { 0 });
     let mut objects = Vec::with_capacity(aovs.capacity());
-    let mut dropped = 0;
+    let (mut dropped, mut dropped_aov) = (0, 0);
     for py in y0..y0 + h {
         if cancelled() {
             return None;
@@ -375,9 +380,15 @@ fn render_tile<const N: usize>(
                     sum += l;
                 }
                 if want_aov {
-                    for c in 0..3 {
-                        aov_sum.albedo[c] += aov.albedo[c];
-                        aov_sum.normal[c] += aov.normal[c];
+                    // One NaN would make the pixel's mean NaN: dropped and
+                    // counted, as radiance is.
+                    if aov.albedo.iter().chain(&aov.normal).all(|x| x.is_finite()) {
+                        for c in 0..3 {
+                            aov_sum.albedo[c] += aov.albedo[c];
+                            aov_sum.normal[c] += aov.normal[c];
+                        }
+                    } else {
+                        dropped_aov += 1;
                     }
                     if aov.depth.is_finite() {
                         aov_sum.depth += aov.depth;
@@ -402,7 +413,7 @@ fn render_tile<const N: usize>(
             }
         }
     }
-    Some(TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped })
+    Some(TileOut { x0, y0, w, h, color, aov: aovs, object: objects, counters: tracer.counters, dropped, dropped_aov })
 }
 
 /// The index (in [`Scene::objects`], scene order) of the first surface the

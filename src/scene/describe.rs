@@ -523,7 +523,14 @@ impl<'a> Describer<'a> {
         let image = match reused {
             Some(image) => image,
             None => match crate::image_io::load_environment(&path.value) {
-                Ok((width, height, rgb)) => Arc::new(EnvironmentImage { path: path.value, width, height, rgb }),
+                Ok(image) => {
+                    if let Some(replaced) = image.non_finite {
+                        let what = format!("the environment image {}", path.value.display());
+                        self.diags.push(Diagnostic::warning(path.span, replaced.warning(&what)));
+                    }
+                    let (width, height, rgb) = (image.width, image.height, image.rgb);
+                    Arc::new(EnvironmentImage { path: path.value, width, height, rgb })
+                }
                 Err(m) => {
                     self.error(path.span, m);
                     return None;

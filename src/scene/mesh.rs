@@ -6,7 +6,16 @@
 //! places it in the world never meets NaN input.
 
 use super::Vec3;
+use crate::input_file::{self, BoundedText, TextLimit, size_in_words};
 use std::path::{Path, PathBuf};
+
+/// The largest mesh file read (1 GiB: a Wavefront OBJ of some ten million
+/// triangles with normals and texture coordinates; `tslc make-mesh
+/// heavy`'s million is 104 MB).
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+/// The longest line of a mesh file (1 MiB: a face of some 100,000
+/// vertices), so a file that never ends a line is refused at that length.
+pub const MAX_MESH_LINE_BYTES: u64 = 1 << 20;
 
 /// A mesh in its own frame. Triangles are counter-clockwise seen from
 /// their front.
@@ -38,12 +47,30 @@ impl MeshData {
     /// Loads an OBJ file (all its objects and groups together; polygons
     /// triangulated; materials in `.mtl` files are ignored: TSL materials
     /// come from the scene). The error names the file as `path` spells it.
+    ///
+    /// The file must be a regular file (a FIFO or device is refused, not
+    /// waited on or read without end) of at most [`MAX_MESH_BYTES`], with
+    /// no line longer than [`MAX_MESH_LINE_BYTES`].
     pub fn load_obj(path: &Path) -> Result<MeshData, String> {
-        let file = std::fs::File::open(path).map_err(|e| format!("cannot open the mesh {}: {e}", path.display()))?;
-        let mut reader = std::io::BufReader::new(file);
+        let (file, _) = input_file::open_bounded(path, MAX_MESH_BYTES, "a mesh")
+            .map_err(|e| format!("cannot open the mesh {}: {e}", path.display()))?;
+        let bounded = BoundedText::new(file, MAX_MESH_BYTES, MAX_MESH_LINE_BYTES);
+        let mut reader = std::io::BufReader::new(bounded);
         let options = tobj::LoadOptions { single_index: true, triangulate: true, ..tobj::LoadOptions::default() };
-        let (models, _) = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed))
-            .map_err(|e| format!("cannot read the mesh {}: {e}", path.display()))?;
+        let loaded = tobj::load_obj_buf(&mut reader, &options, |_| Err(tobj::LoadError::OpenFileFailed));
+        let (models, _) = loaded.map_err(|e| match reader.get_ref().limit() {
+            Some(TextLimit::Line(line)) => format!(
+                "the mesh {}: line {line} is longer than {}, the most a line of a mesh may be",
+                path.display(),
+                size_in_words(MAX_MESH_LINE_BYTES)
+            ),
+            Some(TextLimit::Size) => format!(
+                "the mesh {} is larger than {}, the most a mesh may be",
+                path.display(),
+                size_in_words(MAX_MESH_BYTES)
+            ),
+            None => format!("cannot read the mesh {}: {e}", path.display()),
+        })?;
         let mut positions = Vec::new();
         let mut normals = Vec::new();
         let mut uvs = Vec::new();

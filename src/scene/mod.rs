@@ -28,7 +28,7 @@ pub use crate::check::MaterialRef;
 pub use content::{InputContent, InputFile, content_hash, input_files};
 pub use describe::{describe, describe_frame, description_model};
 pub use lean::{drop_object_syntax, forgettable_spans};
-pub use mesh::MeshData;
+pub use mesh::{MAX_MESH_BYTES, MAX_MESH_LINE_BYTES, MeshData};
 pub use shape::{ShapeError, ShapeKind, Transform, affine_rows, compose, mesh_transform_error, shape_transform_error};
 
 use crate::color::ColorModel;
@@ -125,11 +125,8 @@ pub struct CameraDesc {
     pub focus: Option<Prop<f32>>,
 }
 
-/// The largest image side, in pixels (`width`, `height`, `--res`).
-pub const MAX_IMAGE_SIDE: u32 = 65536;
-/// The most pixels an image may have: 2^27 (134 million, such as
-/// 16384 x 8192; the film alone then takes 1.6 GB).
-pub const MAX_PIXELS: u64 = 1 << 27;
+// The image bounds are image_io's: merge and info check files against them.
+pub use crate::image_io::{MAX_IMAGE_SIDE, MAX_PIXELS};
 /// The most samples per pixel (`spp`, `--spp`).
 pub const MAX_SPP: u32 = 1 << 20;
 /// The longest path (`max_depth`, `--max-depth`).

@@ -1,7 +1,7 @@
 //! Images as RGBA float texels and their mip-map pyramids. Decoding files
 //! is `crate::image_io`'s.
 
-use crate::image_io::{self, Encoding};
+use crate::image_io::{self, Encoding, NonFiniteTexels};
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -47,14 +47,20 @@ pub struct MipMap {
     /// Whether the file had an alpha channel (alpha is 1 otherwise).
     pub has_alpha: bool,
     pub levels: Vec<Level>,
+    /// The base level's values that were not numbers (NaN or infinite),
+    /// replaced by 0 before the pyramid was made, so none reaches a
+    /// level above or a lookup.
+    pub non_finite: Option<NonFiniteTexels>,
     /// The Jakob–Hanika spectra of every level's texels, made on first use
     /// by a spectral model ([`MipMap::spectra`]).
     spectra: OnceLock<Vec<Vec<[f32; 4]>>>,
 }
 
 impl MipMap {
-    /// Builds the pyramid of a level-0 image.
-    pub fn new(name: impl Into<String>, base: Level, has_alpha: bool) -> MipMap {
+    /// Builds the pyramid of a level-0 image, its values that are not
+    /// numbers replaced by 0 first ([`MipMap::non_finite`] says which).
+    pub fn new(name: impl Into<String>, mut base: Level, has_alpha: bool) -> MipMap {
+        let non_finite = image_io::replace_non_finite(&mut base.texels, base.width);
         let mut levels = vec![base];
         while let Some(last) = levels.last() {
             if last.width == 1 && last.height == 1 {
@@ -63,7 +69,7 @@ impl MipMap {
             let next = downsample(last);
             levels.push(next);
         }
-        MipMap { name: name.into(), has_alpha, levels, spectra: OnceLock::new() }
+        MipMap { name: name.into(), has_alpha, levels, non_finite, spectra: OnceLock::new() }
     }
 
     pub fn width(&self) -> u32 {

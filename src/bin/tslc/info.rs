@@ -1,11 +1,16 @@
 //! `tslc info`: what an EXR written by `tslc render` or `tslc merge` says
 //! about itself (the frame and window, the channels, and the metadata of
 //! `image_io::Metadata`), for people or, with `--json`, for farm scripts.
+//!
+//! Invariant: no control character from a file reaches the terminal. The
+//! header's strings (and file names) are written with their control
+//! characters escaped (`image_io::printable`); JSON escapes C0 itself, and
+//! DEL and C1 (U+009B is CSI to some terminals) are escaped as `\u00XX`.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use tsl::image_io::{self, ExrHeader};
+use tsl::image_io::{self, ExrHeader, printable};
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
@@ -25,6 +30,7 @@ pub fn info(args: InfoArgs) -> ExitCode {
         let header = match image_io::read_exr_header(path) {
             Ok(h) => h,
             Err(e) => {
+                // Already escaped: the error quotes the file.
                 eprintln!("error: {e}");
                 failed = true;
                 continue;
@@ -33,7 +39,7 @@ pub fn info(args: InfoArgs) -> ExitCode {
         let name = path.display().to_string();
         // A closed stdout (piped into `head`) is not our error.
         let _ = if args.json {
-            writeln!(out, "{}", json(&name, &header))
+            writeln!(out, "{}", escape_json_controls(&json(&name, &header).to_string()))
         } else {
             write!(out, "{}", human(&name, &header))
         };
@@ -54,6 +60,21 @@ fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
     })
 }
 
+/// Compact JSON with DEL and C1 characters escaped too: serde_json
+/// escapes only C0. Outside strings JSON text is ASCII, so every such
+/// character is inside a string, where `\u00XX` is the same character.
+fn escape_json_controls(json: &str) -> String {
+    let mut out = String::with_capacity(json.len());
+    for c in json.chars() {
+        if c.is_control() {
+            out.push_str(&format!("\\u{:04x}", c as u32));
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 fn human(name: &str, h: &ExrHeader) -> String {
     let mut rows: Vec<(String, String)> = vec![
         ("resolution".into(), format!("{}x{}", h.full_width, h.full_height)),
@@ -70,18 +91,18 @@ fn human(name: &str, h: &ExrHeader) -> String {
                 if (h.x0, h.y0, h.width, h.height) == (0, 0, h.full_width, h.full_height) { ", all" } else { "" }
             ),
         ),
-        ("channels".into(), h.channels.join(", ")),
+        ("channels".into(), printable(&h.channels.join(", ")).into_owned()),
         ("compression".into(), h.compression.clone()),
     ];
     for (key, value) in h.metadata.ordered() {
         let meaning = image_io::meaning(key).map(|m| format!("  ({m})")).unwrap_or_default();
-        rows.push((key.to_string(), format!("{value}{meaning}")));
+        rows.push((printable(key).into_owned(), format!("{}{meaning}", printable(&value.to_string()))));
     }
     if !h.metadata.is_tsl() {
         rows.push(("".into(), "no tsl:* attributes: not written by tslc".into()));
     }
-    let width = rows.iter().map(|(k, _)| k.len()).max().unwrap_or(0);
-    let mut text = format!("{name}\n");
+    let width = rows.iter().map(|(k, _)| k.chars().count()).max().unwrap_or(0);
+    let mut text = format!("{}\n", printable(name));
     for (k, v) in rows {
         text.push_str(&format!("  {k:width$}  {v}\n"));
     }

@@ -432,6 +432,12 @@ fn render_frame(
         if stats.dropped_samples > 0 {
             eprintln!("warning: {} samples were NaN or infinite and were dropped", stats.dropped_samples);
         }
+        if stats.dropped_aov_samples > 0 {
+            eprintln!(
+                "warning: {} AOV samples (albedo or normal) were NaN or infinite and were dropped",
+                stats.dropped_aov_samples
+            );
+        }
         eprintln!("wrote {}", output.display());
     }
     ExitCode::SUCCESS
