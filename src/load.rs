@@ -162,7 +162,9 @@ fn read_capped(path: &Path) -> Result<Vec<u8>, CappedError> {
         return Err(CappedError::TooLarge);
     }
     let mut bytes = Vec::with_capacity(len as usize);
-    file.take(MAX_SOURCE_BYTES + 1).read_to_end(&mut bytes).map_err(|e| CappedError::Unreadable(crate::input_file::reason(&e)))?;
+    file.take(MAX_SOURCE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| CappedError::Unreadable(crate::input_file::reason(&e)))?;
     Ok(bytes)
 }
 

@@ -233,5 +233,9 @@ fn endless_input_stops_at_the_source_size_limit() {
     }
     let o = tslc(&["check", "/dev/zero"], None);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("cannot read `/dev/zero`: it is a character device, not a regular file"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot read `/dev/zero`: it is a character device, not a regular file"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -458,6 +458,18 @@ fn a_non_finite_environment_texel_is_replaced_by_zero_and_warned_of() {
         let image = render_scene(&scene).0;
         let bits: Vec<_> = image.color.iter().map(|p| p.map(f32::to_bits)).collect();
         assert!(bits == clean_bits, "{name}: not the image of the sky with 0 at the texel");
+        // `tslc render` shows the warning as `tslc check` does.
+        let scene_file = dir.join("sky.tsl");
+        std::fs::write(&scene_file, &src).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_tslc"))
+            .args(["render", "--res", "8x4", "--spp", "1", "--quiet", "-o"])
+            .arg(dir.join("out.png"))
+            .arg(&scene_file)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {stderr}");
+        assert!(stderr.contains("warning") && stderr.contains(&expected), "{name}: tslc render said {stderr}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -245,11 +245,24 @@ pub fn render(args: RenderArgs) -> ExitCode {
     }
     // One frame described once: the scene's syntax can go once described.
     let lean = args.frame.is_none() && args.frames.is_none() && args.fps.is_none();
-    let mut compiler = tsl::Compiler::new().color_model(args.options.color).file(&args.scene).lean(lean);
+    let options = tsl::LoadOptions {
+        import_paths: args.options.include.clone(),
+        color_model: args.options.color,
+        lean,
+        ..tsl::LoadOptions::default()
+    };
+    // Checked first so its warnings (a texel that is not a number, say)
+    // are shown as `tslc check` shows them, as cargo shows a build's.
+    let checked = tsl::check_file(&args.scene, &options);
+    let warnings: Vec<_> = checked.diagnostics.iter().filter(|d| !d.is_error()).cloned().collect();
+    if checked.is_ok() && !warnings.is_empty() {
+        eprint!("{}", tsl::diag::render_text(&checked.program.loaded.sources, &warnings, crate::stderr_colors()));
+    }
+    let mut compiler = tsl::Compiler::new().color_model(args.options.color).lean(lean);
     for dir in &args.options.include {
         compiler = compiler.import_path(dir);
     }
-    let mut program = match compiler.compile() {
+    let mut program = match compiler.compile_checked(checked) {
         Ok(p) => p,
         Err(e) => {
             eprint!("{e}");
