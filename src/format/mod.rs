@@ -21,6 +21,7 @@ mod same_tree;
 mod verify;
 
 use crate::diag::{Diagnostic, FileId};
+pub use same_tree::QUOTED_CHARS;
 
 /// The line width the printer aims for.
 pub const WIDTH: usize = 100;

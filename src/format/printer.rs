@@ -2,9 +2,11 @@
 //! every token from the source, in order, through a cursor over the lexed
 //! tokens; so literals keep their spelling and the parentheses the author
 //! wrote are kept. Each comment is flushed before the first token that
-//! follows it, except that a comment before a separator (`,` or `;`) is
-//! printed after it: the style drops, adds or moves trailing commas, and a
-//! comment must not go with them.
+//! follows it, with two exceptions at separators (`,` and `;`): a line
+//! comment before one is printed after it (it ends its line, so the
+//! separator would else start the next one), and the comments around a
+//! list's trailing comma, which the style drops or adds, are printed after
+//! the last element whether the comma is or not.
 //!
 //! The printer never panics on a tree and tokens that disagree (a bug): it
 //! prints what it has, and the verifier (`verify.rs`) refuses the output.

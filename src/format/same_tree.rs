@@ -456,13 +456,17 @@ fn same_arg(a: &Arg, b: &Arg) -> Same {
     same_expr(value, &b.value)
 }
 
-/// A quoted string for a message: control characters escaped, at most
-/// 40 characters.
-pub(super) fn quote(s: &str) -> String {
-    const MAX: usize = 40;
-    let mut out = String::from("\"");
+/// The most characters of the user's text a refusal quotes (a comment
+/// or a token); longer text is cut and ends with `…`.
+pub const QUOTED_CHARS: usize = 40;
+
+/// Text of the user's file for a message: control characters escaped (no
+/// terminal escape sequence from a file reaches the terminal), at most
+/// [`QUOTED_CHARS`] characters.
+pub(super) fn escaped(s: &str) -> String {
+    let mut out = String::new();
     for (i, c) in s.chars().enumerate() {
-        if i == MAX {
+        if i == QUOTED_CHARS {
             out.push('…');
             break;
         }
@@ -472,6 +476,10 @@ pub(super) fn quote(s: &str) -> String {
             out.push(c);
         }
     }
-    out.push('"');
     out
+}
+
+/// A string or comment for a message, in double quotes.
+pub(super) fn quote(s: &str) -> String {
+    format!("\"{}\"", escaped(s))
 }

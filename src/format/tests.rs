@@ -319,6 +319,20 @@ fn the_verifier_refuses_a_respelled_token_and_a_changed_comment() {
     assert!(super::verify::same_program(src, &lexed, &ast, "const int A = 1; /* a\n   b */ // c\n").is_ok());
 }
 
+/// What a refusal quotes from the file is escaped and cut: a comment
+/// cannot send escape sequences to the terminal or fill it.
+#[test]
+fn the_verifier_quotes_escaped_and_bounded_text() {
+    let d = refusal("const int A = 1; // \u{1b}[31mred", "const int A = 1; // \u{1b}[31mre\n");
+    assert!(d.message.ends_with("would become \"// \\u{1b}[31mre\""), "{}", d.message);
+    let long = format!("// {}", "x".repeat(100));
+    let d = refusal(&format!("const int A = 1; {long}"), &format!("const int A = 1; {long}y\n"));
+    let quoted = format!("\"{}…\"", &long[..super::QUOTED_CHARS]);
+    assert!(d.message.ends_with(&quoted), "{}", d.message);
+    let d = refusal("const string S = \"\u{1b}[2J\";", "const string S = \"\u{1b}[2K\";\n");
+    assert!(!d.message.contains('\u{1b}') && d.message.contains("\\u{1b}"), "{}", d.message);
+}
+
 #[test]
 fn the_verifier_refuses_output_that_does_not_parse() {
     let d = refusal("const float A = (1);\nconst float B = 2;", "const float A = (1;\nconst float B = 2;\n");

@@ -13,7 +13,7 @@
 //!   ends). This is what `docs/fmt.md` calls "the same comment".
 
 use super::lexed::{self, Comment, Lexed};
-use super::same_tree::{self, Difference, quote};
+use super::same_tree::{self, Difference, escaped, quote};
 use crate::diag::{Diagnostic, FileId, Span};
 use crate::syntax::ast::SourceFile;
 use crate::syntax::lexer::{Tok, tokenize};
@@ -85,10 +85,12 @@ fn same_spelling(src: &str, lexed: &Lexed, out: &str, out_lexed: &Lexed) -> Resu
     let mut theirs = kept(&out_lexed.tokens);
     for (s, e) in kept(&lexed.tokens) {
         let span = Span::new(FileId(0), s, e);
-        let subject = format!("`{}`", &src[s..e]);
+        let subject = format!("`{}`", escaped(&src[s..e]));
         match theirs.next() {
             Some((t, u)) if out[t..u] == src[s..e] => {}
-            Some((t, u)) => return Err(Difference { span, subject, change: format!("would become `{}`", &out[t..u]) }),
+            Some((t, u)) => {
+                return Err(Difference { span, subject, change: format!("would become `{}`", escaped(&out[t..u])) });
+            }
             None => return Err(Difference { span, subject, change: "would be lost".into() }),
         }
     }
@@ -98,7 +100,7 @@ fn same_spelling(src: &str, lexed: &Lexed, out: &str, out_lexed: &Lexed) -> Resu
             Err(Difference {
                 span,
                 subject: "the end of the file".into(),
-                change: format!("would gain `{}`", &out[t..u]),
+                change: format!("would gain `{}`", escaped(&out[t..u])),
             })
         }
         None => Ok(()),
