@@ -40,12 +40,22 @@ pub(super) fn same_file(a: &SourceFile, b: &SourceFile) -> Same {
         (Some(f), Some(l)) => item_span(f).to(item_span(l)),
         _ => Span::default(),
     };
-    same_list(items, &b.items, whole, "the file", "item", same_item)
+    same_list(items, &b.items, whole, || "the file".into(), "item", same_item)
 }
 
-fn same_list<T>(a: &[T], b: &[T], parent: Span, subject: &str, noun: &str, same: impl Fn(&T, &T) -> Same) -> Same {
+/// Equal lengths, then equal elements. The subject (of the parent, for a
+/// difference in length) is only written when there is a difference:
+/// formatting that verifies allocates no message.
+fn same_list<T>(
+    a: &[T],
+    b: &[T],
+    parent: Span,
+    subject: impl FnOnce() -> String,
+    noun: &str,
+    same: impl Fn(&T, &T) -> Same,
+) -> Same {
     if a.len() != b.len() {
-        return differ(parent, subject, format!("would have {} instead of {}", count(b.len(), noun), a.len()));
+        return differ(parent, subject(), format!("would have {} instead of {}", count(b.len(), noun), a.len()));
     }
     a.iter().zip(b).try_for_each(|(x, y)| same(x, y))
 }
@@ -123,10 +133,10 @@ fn same_item(a: &Item, b: &Item) -> Same {
         Item::Material(m) => {
             let Item::Material(n) = b else { return other() };
             let MaterialDef { name, params, methods, span } = m;
-            let subject = item_noun(a);
+            let subject = || item_noun(a);
             same_ident(name, &n.name)?;
-            same_list(params, &n.params, *span, &subject, "parameter", same_param)?;
-            same_list(methods, &n.methods, *span, &subject, "method", same_function)
+            same_list(params, &n.params, *span, subject, "parameter", same_param)?;
+            same_list(methods, &n.methods, *span, subject, "method", same_function)
         }
         Item::MaterialTree(m) => {
             let Item::MaterialTree(n) = b else { return other() };
@@ -134,7 +144,7 @@ fn same_item(a: &Item, b: &Item) -> Same {
             same_ident(name, &n.name)?;
             let subject = || item_noun(a);
             same_option(params, &n.params, *span, subject, "parameter list", |x, y| {
-                same_list(x, y, *span, &subject(), "parameter", same_param)
+                same_list(x, y, *span, subject, "parameter", same_param)
             })?;
             same_expr(body, &n.body)
         }
@@ -148,7 +158,7 @@ fn same_item(a: &Item, b: &Item) -> Same {
         Item::Scene(s) => {
             let Item::Scene(t) = b else { return other() };
             let Scene { entries, span } = s;
-            same_list(entries, &t.entries, *span, "the scene", "entry", same_scene_entry)
+            same_list(entries, &t.entries, *span, || "the scene".into(), "entry", same_scene_entry)
         }
     }
 }
@@ -157,8 +167,8 @@ fn same_function(a: &Function, b: &Function) -> Same {
     let Function { ret, name, params, body, span } = a;
     same_type(ret, &b.ret)?;
     same_ident(name, &b.name)?;
-    let subject = format!("the function `{}`", name.name);
-    same_list(params, &b.params, *span, &subject, "parameter", same_param)?;
+    let subject = || format!("the function `{}`", name.name);
+    same_list(params, &b.params, *span, subject, "parameter", same_param)?;
     same_block(body, &b.body)
 }
 
@@ -188,7 +198,7 @@ fn same_scene_entry(a: &SceneEntry, b: &SceneEntry) -> Same {
             let subject = || format!("the scene block `{}`", keyword.name);
             same_ident(keyword, &y.keyword)?;
             same_option(kind, &y.kind, *span, subject, "kind", same_ident)?;
-            same_list(props, &y.props, *span, &subject(), "property", same_scene_prop)
+            same_list(props, &y.props, *span, subject, "property", same_scene_prop)
         }
         (SceneEntry::Prop(x), SceneEntry::Prop(y)) => same_scene_prop(x, y),
         (SceneEntry::Block(x), SceneEntry::Prop(y)) => differ(
@@ -216,7 +226,7 @@ fn same_scene_prop(a: &SceneProp, b: &SceneProp) -> Same {
 /// only expressions' depths (which count parentheses) are compared.
 fn same_block(a: &Block, b: &Block) -> Same {
     let Block { stmts, span, depth: _ } = a;
-    same_list(stmts, &b.stmts, *span, "the block", "statement", same_stmt)
+    same_list(stmts, &b.stmts, *span, || "the block".into(), "statement", same_stmt)
 }
 
 fn stmt_noun(s: &Stmt) -> String {
@@ -352,8 +362,8 @@ fn same_expr(a: &Expr, b: &Expr) -> Same {
 fn same_kind(kind: &ExprKind, a: &Expr, b: &Expr) -> Same {
     let span = a.span;
     let other = || became(span, expr_noun(a), expr_noun(b));
-    let args = |x: &[Arg], y: &[Arg]| same_list(x, y, span, &expr_noun(a), "argument", same_arg);
-    let exprs = |x: &[Expr], y: &[Expr]| same_list(x, y, span, &expr_noun(a), "element", same_expr);
+    let args = |x: &[Arg], y: &[Arg]| same_list(x, y, span, || expr_noun(a), "argument", same_arg);
+    let exprs = |x: &[Expr], y: &[Expr]| same_list(x, y, span, || expr_noun(a), "element", same_expr);
     match kind {
         ExprKind::Int(v) => {
             if matches!(b.kind, ExprKind::Int(w) if w == *v) {

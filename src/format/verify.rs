@@ -84,15 +84,13 @@ fn kept(tokens: &[(usize, Tok, usize)]) -> impl Iterator<Item = (usize, usize)> 
 fn same_spelling(src: &str, lexed: &Lexed, out: &str, out_lexed: &Lexed) -> Result<(), Difference> {
     let mut theirs = kept(&out_lexed.tokens);
     for (s, e) in kept(&lexed.tokens) {
+        let change = match theirs.next() {
+            Some((t, u)) if out[t..u] == src[s..e] => continue,
+            Some((t, u)) => format!("would become `{}`", escaped(&out[t..u])),
+            None => "would be lost".into(),
+        };
         let span = Span::new(FileId(0), s, e);
-        let subject = format!("`{}`", escaped(&src[s..e]));
-        match theirs.next() {
-            Some((t, u)) if out[t..u] == src[s..e] => {}
-            Some((t, u)) => {
-                return Err(Difference { span, subject, change: format!("would become `{}`", escaped(&out[t..u])) });
-            }
-            None => return Err(Difference { span, subject, change: "would be lost".into() }),
-        }
+        return Err(Difference { span, subject: format!("`{}`", escaped(&src[s..e])), change });
     }
     match theirs.next() {
         Some((t, u)) => {
@@ -107,15 +105,16 @@ fn same_spelling(src: &str, lexed: &Lexed, out: &str, out_lexed: &Lexed) -> Resu
     }
 }
 
-/// A comment's text with the white space at the end of each line removed.
-fn normal(text: &str) -> String {
-    text.split('\n').map(str::trim_end).collect::<Vec<_>>().join("\n")
+/// Whether two comments' texts are the same but for the white space at
+/// the end of each line.
+fn same_text(a: &str, b: &str) -> bool {
+    a.split('\n').map(str::trim_end).eq(b.split('\n').map(str::trim_end))
 }
 
 fn same_comments(src: &str, lexed: &Lexed, out: &str, out_lexed: &Lexed) -> Result<(), Difference> {
     let ours = &lexed.comments;
     let theirs = &out_lexed.comments;
-    let same = |a: &Comment, b: &Comment| a.line == b.line && normal(a.text(src)) == normal(b.text(out));
+    let same = |a: &Comment, b: &Comment| a.line == b.line && same_text(a.text(src), b.text(out));
     let Some(k) = (0..ours.len().max(theirs.len())).find(|&k| match (ours.get(k), theirs.get(k)) {
         (Some(a), Some(b)) => !same(a, b),
         _ => true,
