@@ -104,3 +104,239 @@ fn data_arrays_fill_their_lines_and_a_sole_array_argument_is_hugged() {
     assert!(lines.iter().all(|l| l.len() <= 100));
     assert_eq!(fmt("const float[2] D = [1,2];"), "const float[2] D = [1, 2];\n");
 }
+
+// ------------------------------------------------ a line comment ends its line
+
+/// The issue's case: a data array filled onto full lines put the elements
+/// after a `// comment` into the comment (5 elements became 2).
+#[test]
+fn a_line_comment_in_a_data_array_keeps_the_elements_after_it() {
+    let out = fmt("const float[5] W = [0.1, 0.2, // low\n    0.3, 0.4, 0.5];");
+    assert_eq!(out, "const float[5] W = [\n    0.1, 0.2, // low\n    0.3, 0.4, 0.5,\n];\n");
+    let out = fmt("material m = blend(noise(), [0.1, // a\n 0.2, 0.3, 0.4, 0.5]);");
+    assert!(out.contains("0.1, // a\n"), "{out}");
+    assert!(out.contains("0.2, 0.3, 0.4, 0.5,\n"), "{out}");
+}
+
+/// Every layout that puts something after a line comment on its line:
+/// filled rows, the hugged sole array argument, a flat chain, a flat
+/// conditional, a scene block that would fit on one line.
+#[test]
+fn whatever_the_layout_nothing_follows_a_line_comment_on_its_line() {
+    let cases = [
+        "const color S = spectrum([(400.0, 0.1), // blue\n (500.0, 0.5), (600.0, 0.9)]);",
+        "const float[3] A = [1, 2 // two\n , 3];",
+        "const float B = 1 + // one\n 2 + 3;",
+        "const float C = true ? 1 // then\n : 2;",
+        "scene { camera { from (0, 1, -4) // eye\n ; to (0, 1, 0); } }",
+        "const float D = f(1 // one\n);",
+        "const vector E = (1, /* x */ 2 // y\n, 3);",
+        "const float F = g(a: 1 // named\n, b: [2, 3 // three\n]);",
+    ];
+    for src in cases {
+        let out = fmt(src);
+        for line in out.lines() {
+            if let Some(i) = line.find("//") {
+                let rest = &line[i..];
+                assert!(!rest.contains(',') && !rest.contains(')') && !rest.contains(';'), "{src:?} gave\n{out}");
+            }
+        }
+    }
+}
+
+// ------------------------------------------------ comments before separators
+
+/// The issue's case: a comment between the last argument and a trailing
+/// comma went with the comma, which the style drops on one line.
+#[test]
+fn a_comment_before_a_trailing_comma_is_kept() {
+    let two = "float h() {\n    return g(\n        1,\n        2, /* two */\n    );\n}\n";
+    assert_eq!(fmt("float h() { return g(1, 2 /* two */ ,); }"), two);
+    assert_eq!(fmt("float h() { return g(1, 2 /* two */); }"), two);
+    assert_eq!(
+        fmt("float f(float a) { return g(a // last\n , ); }"),
+        "float f(float a) {\n    return g(\n        a, // last\n    );\n}\n"
+    );
+}
+
+/// Parameters, arrays (of data and not), tuples, the sole array argument
+/// and statements' semicolons: a comment before the separator survives,
+/// a line comment goes after it.
+#[test]
+fn comments_before_every_kind_of_separator_are_kept() {
+    let cases = [
+        ("float f(float a, float b /* bee */ ,) { return a; }", "float b, /* bee */\n) {"),
+        ("float f(float a // first\n , float b) { return a; }", "float a, // first\n"),
+        ("const float[2] A = [1, 2 // two\n ,];", "1, 2, // two\n"),
+        ("material m = blend(noise(), [mirror, glass /* g */ ,]);", "glass, /* g */\n"),
+        ("const vector V = (1, 2, 3 // z\n ,);", "3, // z\n"),
+        ("const float T = (1 /* one */ ,);", "1, /* one */\n"),
+        ("const color S = spectrum([(400.0, 0.1), (500.0, 0.5)] // data\n ,);", "] // data\n"),
+        ("float f() { return 1 // one\n ; }", "return 1; // one\n"),
+        ("float f() { return 1 /* one */ ; }", "return 1 /* one */;"),
+        ("scene { camera { fov 40 // wide\n ; } }", "fov 40; // wide\n"),
+    ];
+    for (src, expected) in cases {
+        let out = fmt(src);
+        assert!(out.contains(expected), "{src:?} gave\n{out}\nexpected to contain {expected:?}");
+    }
+}
+
+/// Comments in the other awkward places: before and after every kind of
+/// bracket, in types, after the last token without a line end, several in
+/// one gap, and a block comment holding what looks like an opening one.
+#[test]
+fn comments_in_awkward_places_are_kept() {
+    let cases = [
+        "const float /* a */ [ /* b */ 4 /* c */ ] /* d */ A = [1, 2, 3, 4];",
+        "import /* a */ \"x.tsl\" /* b */ ;",
+        "float f( /* a */ ) /* b */ { /* c */ }",
+        "float f() { return ( /* a */ 1 /* b */ ) ; }",
+        "const float A = 1; // the end, no line end",
+        "const float A = 1; /* the end, no line end */",
+        "const float A = 1; /* one */ /* two */ // three\n/* four /* not nested */",
+        "const float A = f(/* a */) + g( // b\n);",
+        "scene { /* a */ camera /* b */ { /* c */ } /* d */ }",
+        "/* only a comment */",
+        "// only a comment",
+        "const float A = 1; /* a\n   multi-line\n      comment */ const float B = 2;",
+    ];
+    for src in cases {
+        let out = fmt(src);
+        let count = |s: &str| s.matches("/*").count() + s.matches("//").count();
+        assert_eq!(count(&out), count(src), "{src:?} gave\n{out}");
+    }
+}
+
+// ------------------------------------------------ the verifier refuses
+
+/// The verifier's answer for `src` printed as `printed` (a printer bug
+/// simulated by hand).
+fn refusal(src: &str, printed: &str) -> crate::diag::Diagnostic {
+    let (ast, diags) = crate::syntax::parse(crate::diag::FileId(0), src);
+    assert!(diags.is_empty(), "{diags:?}");
+    let lexed = super::lexed::lex(src).unwrap();
+    let mut ds = super::verify::same_program(src, &lexed, &ast, printed).expect_err("the verifier accepted it");
+    assert_eq!(ds.len(), 1);
+    let d = ds.remove(0);
+    assert!(d.is_error());
+    assert!(d.help.as_deref().is_some_and(|h| h.contains("nothing was written")), "{d:?}");
+    d
+}
+
+#[track_caller]
+fn assert_refused(src: &str, printed: &str, message: &str, at: &str) {
+    let d = refusal(src, printed);
+    assert_eq!(d.message, message);
+    assert_eq!(&src[d.span.range()], at, "{d:?}");
+}
+
+#[test]
+fn the_verifier_refuses_a_different_tree_naming_the_node_at_the_input_location() {
+    // The two bugs of the issue, as the old printer printed them.
+    assert_refused(
+        "const float[5] W = [0.1, 0.2, // low\n    0.3, 0.4, 0.5];",
+        "const float[5] W = [\n    0.1, 0.2, // low 0.3, 0.4, 0.5,\n];\n",
+        "formatting refused because it would change the program: the array at 1:20 would have 2 elements instead of 5",
+        "[0.1, 0.2, // low\n    0.3, 0.4, 0.5]",
+    );
+    assert_refused(
+        "float h() { return g(1, 2 /* two */ ,); }",
+        "float h() {\n    return g(1, 2);\n}\n",
+        "formatting refused because it would lose or change a comment: the comment at 1:27 would be lost",
+        "/* two */",
+    );
+    assert_refused(
+        "const float A = (1 + 2) * 3;",
+        "const float A = 1 + 2 * 3;\n",
+        "formatting refused because it would change the program: the `*` operation at 1:17 would become the `+` operation",
+        "(1 + 2) * 3",
+    );
+    assert_refused(
+        "const float A = ((1));",
+        "const float A = (1);\n",
+        "formatting refused because it would change the program: the parentheses around the literal `1` at 1:19 would change",
+        "1",
+    );
+    assert_refused(
+        "const float T = (1,);",
+        "const float T = (1);\n",
+        "formatting refused because it would change the program: the tuple at 1:17 would become the literal `1`",
+        "(1,)",
+    );
+    assert_refused(
+        "const int A = 1;\nconst int B = 2;",
+        "const int A = 1;\nconst int C = 2;\n",
+        "formatting refused because it would change the program: the name `B` at 2:11 would become `C`",
+        "B",
+    );
+    assert_refused(
+        "float f(float x) { if x > 0 { return x; } return 0; }",
+        "float f(float x) {\n    if x > 0 {\n        return x;\n    }\n}\n",
+        "formatting refused because it would change the program: the block at 1:18 would have 1 statement instead of 2",
+        "{ if x > 0 { return x; } return 0; }",
+    );
+}
+
+#[test]
+fn the_verifier_refuses_a_respelled_token_and_a_changed_comment() {
+    assert_refused(
+        "const float A = 1.50;",
+        "const float A = 1.5;\n",
+        "formatting refused because it would change the program: `1.50` at 1:17 would become `1.5`",
+        "1.50",
+    );
+    assert_refused(
+        "const vec2 A = uv(1, 2);",
+        "const vec2 A = vec2(1, 2);\n",
+        "formatting refused because it would change the program: `uv` at 1:16 would become `vec2`",
+        "uv",
+    );
+    assert_refused(
+        "const int A = 1; // one\n/* two */",
+        "const int A = 1; // one /* two */\n",
+        "formatting refused because it would lose or change a comment: the comment at 1:18 would be lost",
+        "// one",
+    );
+    assert_refused(
+        "const int A = 1; // one",
+        "const int A = 1; // on\n",
+        "formatting refused because it would lose or change a comment: the comment at 1:18 would become \"// on\"",
+        "// one",
+    );
+    assert_refused(
+        "const int A = 1; /* one */",
+        "const int A = 1; // one\n",
+        "formatting refused because it would lose or change a comment: the comment at 1:18 would become \"// one\"",
+        "/* one */",
+    );
+    let d = refusal("const int A = 1;", "const int A = 1; // new\n");
+    assert!(d.message.ends_with("would gain the comment \"// new\""), "{}", d.message);
+    // Trailing white space inside a comment's lines is not part of it.
+    let src = "const int A = 1; /* a   \n   b */ // c  ";
+    let (ast, _) = crate::syntax::parse(crate::diag::FileId(0), src);
+    let lexed = super::lexed::lex(src).unwrap();
+    assert!(super::verify::same_program(src, &lexed, &ast, "const int A = 1; /* a\n   b */ // c\n").is_ok());
+}
+
+/// What a refusal quotes from the file is escaped and cut: a comment
+/// cannot send escape sequences to the terminal or fill it.
+#[test]
+fn the_verifier_quotes_escaped_and_bounded_text() {
+    let d = refusal("const int A = 1; // \u{1b}[31mred", "const int A = 1; // \u{1b}[31mre\n");
+    assert!(d.message.ends_with("would become \"// \\u{1b}[31mre\""), "{}", d.message);
+    let long = format!("// {}", "x".repeat(100));
+    let d = refusal(&format!("const int A = 1; {long}"), &format!("const int A = 1; {long}y\n"));
+    let quoted = format!("\"{}…\"", &long[..super::QUOTED_CHARS]);
+    assert!(d.message.ends_with(&quoted), "{}", d.message);
+    let d = refusal("const string S = \"\u{1b}[2J\";", "const string S = \"\u{1b}[2K\";\n");
+    assert!(!d.message.contains('\u{1b}') && d.message.contains("\\u{1b}"), "{}", d.message);
+}
+
+#[test]
+fn the_verifier_refuses_output_that_does_not_parse() {
+    let d = refusal("const float A = (1);\nconst float B = 2;", "const float A = (1;\nconst float B = 2;\n");
+    assert!(d.message.starts_with("formatting refused because its output would not parse ("), "{}", d.message);
+    let d = refusal("const float A = 1;", "const float A = 1; /* never closed\n");
+    assert!(d.message.starts_with("formatting refused because its output would not parse ("), "{}", d.message);
+}
