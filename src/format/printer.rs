@@ -366,6 +366,17 @@ impl Printer<'_> {
                 inner.extend(self.last_comma(always_comma));
             }
         }
+        self.comments_before_close(&mut inner);
+        let close = self.tok();
+        if n == 0 && inner.len() == 1 {
+            return Doc::Concat(vec![open, close]);
+        }
+        Doc::Group(vec![open, Doc::Indent(inner), Doc::SoftLine, close])
+    }
+
+    /// The comments between a list's last element and its closing
+    /// bracket, each on a line of its own (which breaks the list).
+    fn comments_before_close(&mut self, inner: &mut Vec<Doc>) {
         let next = self.next_start();
         if self.ci < self.comments.len() && self.comments[self.ci].start < next {
             inner.push(Doc::HardLine);
@@ -374,11 +385,6 @@ impl Printer<'_> {
             inner.extend(lead);
             inner.push(Doc::BreakParent);
         }
-        let close = self.tok();
-        if n == 0 && inner.len() == 1 {
-            return Doc::Concat(vec![open, close]);
-        }
-        Doc::Group(vec![open, Doc::Indent(inner), Doc::SoftLine, close])
     }
 
     /// `[a, b, c]` on one line when it fits, else as many elements a line
@@ -397,14 +403,7 @@ impl Printer<'_> {
                 inner.extend(self.last_comma(false));
             }
         }
-        let next = self.next_start();
-        if self.ci < self.comments.len() && self.comments[self.ci].start < next {
-            inner.push(Doc::HardLine);
-            let mut lead = self.leading();
-            lead.pop();
-            inner.extend(lead);
-            inner.push(Doc::BreakParent);
-        }
+        self.comments_before_close(&mut inner);
         let close = self.tok();
         Doc::Group(vec![open, Doc::Indent(inner), Doc::SoftLine, close])
     }
