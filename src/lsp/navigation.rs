@@ -2,7 +2,7 @@
 //! document's imports and into the prelude.
 
 use super::analysis::{Analysis, Node, node_at};
-use super::documents::{LineIndex, Workspace};
+use super::documents::Workspace;
 use crate::diag::Span;
 use lsp_types::{DocumentHighlight, DocumentHighlightKind, Location};
 use std::path::Path;
@@ -13,9 +13,7 @@ pub fn location(workspace: &Workspace, analysis: &Analysis, span: Span) -> Optio
     let module = analysis.module_of(span.file)?;
     let name = analysis.program.loaded.sources.name(span.file);
     let uri = workspace.uri_of(name, module.is_prelude)?;
-    let text = analysis.text(span.file);
-    let range = LineIndex::new(text).range(text, span.start as usize, span.end as usize);
-    Some(Location { uri, range })
+    Some(Location { uri, range: analysis.range(span) })
 }
 
 /// Where what is at `offset` is defined: the definition of a name, a
@@ -70,13 +68,8 @@ pub fn highlights(analysis: &Analysis, offset: usize) -> Vec<(Span, DocumentHigh
 
 /// [`highlights`] as LSP values.
 pub fn document_highlights(analysis: &Analysis, offset: usize) -> Vec<DocumentHighlight> {
-    let text = analysis.text(analysis.file());
-    let index = LineIndex::new(text);
     highlights(analysis, offset)
         .into_iter()
-        .map(|(s, kind)| DocumentHighlight {
-            range: index.range(text, s.start as usize, s.end as usize),
-            kind: Some(kind),
-        })
+        .map(|(s, kind)| DocumentHighlight { range: analysis.range(s), kind: Some(kind) })
         .collect()
 }
