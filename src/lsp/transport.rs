@@ -105,15 +105,17 @@ struct Line {
 }
 
 impl Line {
-    fn push(&mut self, chunk: &[u8]) {
+    fn push(&mut self, mut chunk: &[u8]) {
         if !self.long {
-            if self.head.len() + chunk.len() <= MAX_HEADER_LINE_BYTES {
+            let room = MAX_HEADER_LINE_BYTES - self.head.len();
+            if chunk.len() <= room {
                 self.head.extend_from_slice(chunk);
                 return;
             }
+            self.head.extend_from_slice(&chunk[..room]);
+            chunk = &chunk[room..];
             self.long = true;
-            self.tail = self.head[self.head.len().saturating_sub(HEADER_TAIL_BYTES)..].to_vec();
-            self.head.truncate(MAX_HEADER_LINE_BYTES);
+            self.tail = self.head[self.head.len() - HEADER_TAIL_BYTES..].to_vec();
         }
         self.tail.extend_from_slice(&chunk[chunk.len().saturating_sub(HEADER_TAIL_BYTES)..]);
         let cut = self.tail.len().saturating_sub(HEADER_TAIL_BYTES);
@@ -187,11 +189,13 @@ pub struct FrameReader<R> {
     /// A `Content-Length` found at the end of a skipped line: the next
     /// header block has begun.
     resumed: Option<u64>,
+    /// [`MAX_MESSAGE_BYTES`], smaller in tests.
+    max_body: u64,
 }
 
 impl<R: BufRead> FrameReader<R> {
     pub fn new(input: R) -> FrameReader<R> {
-        FrameReader { input, lost: false, resumed: None }
+        FrameReader { input, lost: false, resumed: None, max_body: MAX_MESSAGE_BYTES }
     }
 
     /// The next message, or the refusal of the next bad one.
@@ -230,11 +234,10 @@ impl<R: BufRead> FrameReader<R> {
             self.lost = true;
             return Ok(Frame::Refused(Refusal::parse_error("a message without a Content-Length header".into())));
         };
-        if length > MAX_MESSAGE_BYTES {
+        if length > self.max_body {
             // Not read, not allocated: skipped up to the next header.
             self.lost = true;
-            let message =
-                format!("a message of {length} bytes is longer than {MAX_MESSAGE_BYTES} bytes, the most read");
+            let message = format!("a message of {length} bytes is longer than {} bytes, the most read", self.max_body);
             return Ok(Frame::Refused(Refusal::invalid_request(Value::Null, message)));
         }
         // Read as the bytes come: a false length allocates what was sent.
@@ -442,6 +445,187 @@ pub fn write(mut output: impl Write, messages: &Receiver<Message>, mut refusals:
                 // The reader is done; the server may still answer.
                 Err(_) => refusals = crossbeam_channel::never(),
             },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn framed(body: &str) -> Vec<u8> {
+        format!("Content-Length: {}\r\n\r\n{body}", body.len()).into_bytes()
+    }
+
+    const VALID: &str = r#"{"jsonrpc":"2.0","id":1,"method":"textDocument/hover","params":{}}"#;
+
+    /// What the reader makes of a stream: `method` for a message, the
+    /// error code for a refusal.
+    fn frames(input: &[u8]) -> Vec<String> {
+        let mut reader = FrameReader::new(input);
+        let mut out = Vec::new();
+        loop {
+            match reader.next_frame().unwrap() {
+                Frame::Message(Message::Request(r)) => out.push(r.method),
+                Frame::Message(Message::Notification(n)) => out.push(n.method),
+                Frame::Message(Message::Response(r)) => out.push(format!("response {}", r.id)),
+                Frame::Refused(r) => out.push(r.code.to_string()),
+                Frame::End => return out,
+            }
+        }
+    }
+
+    /// `bad` then a valid request: the refusal, then the request.
+    fn then_valid(bad: &[u8]) -> Vec<String> {
+        frames(&[bad, &framed(VALID)].concat())
+    }
+
+    #[test]
+    fn bodies_that_are_not_json_or_utf8_are_parse_errors() {
+        for body in [
+            &b"{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":"[..],
+            b"",
+            b"hello",
+            b"{} {}",
+            b"{\"a\":\"\xff\"}",
+            b"\xc3",
+            b"\xed\xa0\x80", // a surrogate, encoded
+        ] {
+            let input = [format!("Content-Length: {}\r\n\r\n", body.len()).as_bytes(), body].concat();
+            assert_eq!(then_valid(&input), ["-32700", "textDocument/hover"], "{}", String::from_utf8_lossy(body));
+        }
+        let deep = "[".repeat(100_000);
+        assert_eq!(then_valid(&framed(&deep)), ["-32700", "textDocument/hover"], "serde's nesting limit");
+    }
+
+    #[test]
+    fn json_that_is_not_a_message_is_an_invalid_request() {
+        for body in ["[]", &format!("[{VALID}]"), "42", "\"text\"", "null", "true", r#"{"jsonrpc":"2.0"}"#] {
+            assert_eq!(then_valid(&framed(body)), ["-32600", "textDocument/hover"], "{body}");
+        }
+        for (body, id) in [
+            (r#"{"id":3}"#, json_id(3)),
+            (r#"{"id":"a","method":5}"#, Value::String("a".into())),
+            (r#"{"id":1.5,"method":"x"}"#, Value::Null),
+            (r#"{"id":2147483648,"method":"x"}"#, Value::Null),
+            (r#"{"id":null,"method":"x"}"#, Value::Null),
+            (r#"{"id":[1],"method":"x"}"#, Value::Null),
+        ] {
+            let refusal = decode(body.as_bytes()).unwrap_err();
+            assert_eq!((refusal.code, refusal.id), (ErrorCode::InvalidRequest as i32, id), "{body}");
+        }
+    }
+
+    fn json_id(id: i32) -> Value {
+        Value::from(id)
+    }
+
+    #[test]
+    fn messages_of_every_kind_are_read() {
+        let input = [
+            framed(VALID),
+            framed(r#"{"jsonrpc":"2.0","method":"initialized","params":{}}"#),
+            framed(r#"{"jsonrpc":"2.0","id":"x","result":null}"#),
+            framed(r#"{"jsonrpc":"2.0","id":4,"error":{"code":1,"message":"no"}}"#),
+            // Any case, no space, only line feeds, other headers.
+            format!("content-length:{}\nContent-Type: application/vscode-jsonrpc\n\n{VALID}", VALID.len()).into_bytes(),
+        ]
+        .concat();
+        let read = frames(&input);
+        assert_eq!(read, ["textDocument/hover", "initialized", "response \"x\"", "response 4", "textDocument/hover"]);
+    }
+
+    #[test]
+    fn lengths_over_the_bound_are_refused_without_reading_them() {
+        for header in [
+            "Content-Length: 100000000000000\r\n\r\n".to_string(),
+            format!("Content-Length: {}\r\n\r\n", MAX_MESSAGE_BYTES + 1),
+            "Content-Length: 18446744073709551615\r\n\r\n".into(),
+            "Content-Length: 99999999999999999999999999\r\n\r\n".into(),
+        ] {
+            // The claimed body never comes: the next message is read.
+            assert_eq!(then_valid(header.as_bytes()), ["-32600", "textDocument/hover"], "{header}");
+        }
+    }
+
+    #[test]
+    fn a_refused_body_is_skipped_exactly_whatever_it_holds() {
+        // Bodies over a small bound, true to their length: JSON cannot
+        // hold a line that ends in a Content-Length header, even when its
+        // strings mention one.
+        let bodies = [
+            r#"{"jsonrpc":"2.0","method":"x","params":{"text":"Content-Length: 12\r\n\r\n"}}"#.to_string(),
+            "{\n  \"jsonrpc\": \"2.0\",\n  \"method\": \"Content-Length: 5\",\n  \"params\": [\n    1\n  ]\n}".into(),
+            format!("{{\"method\":\"{}\"}}", "Content-Length: 5\\n".repeat(1000)),
+        ];
+        for body in bodies {
+            assert!(body.len() > 70 && VALID.len() <= 70);
+            let input = [framed(&body), framed(VALID)].concat();
+            let mut reader = FrameReader { max_body: 70, ..FrameReader::new(&input[..]) };
+            let first = reader.next_frame().unwrap();
+            assert!(matches!(first, Frame::Refused(Refusal { code: -32600, .. })), "{first:?}");
+            let second = reader.next_frame().unwrap();
+            assert!(matches!(second, Frame::Message(Message::Request(_))), "{body}: {second:?}");
+            assert!(matches!(reader.next_frame().unwrap(), Frame::End));
+        }
+    }
+
+    #[test]
+    fn bad_headers_are_parse_errors_and_the_reader_finds_the_next_message() {
+        for bad in [
+            "Content-Length: -5\r\n\r\n{}",
+            "Content-Length: twelve\r\n\r\n{}",
+            "Content-Length: 5 5\r\n\r\n{}",
+            "Content-Length: \r\n\r\n",
+            "Content-Length: +5\r\n\r\n{}",
+            "Content-Type: application/json\r\n\r\n{}",
+            "Content-Length: 2\r\nContent-Length: 3\r\n\r\n{}",
+            "hello\r\n\r\n",
+            ": no name\r\n\r\n",
+            "{\"jsonrpc\":\"2.0\",\"id\":1,\"method\":\"shutdown\"}",
+            "\r\n",
+        ] {
+            assert_eq!(then_valid(bad.as_bytes()), ["-32700", "textDocument/hover"], "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn header_lines_are_bounded() {
+        let long = |fill: u8| vec![fill; 1 << 20];
+        // A line of junk, a Content-Length of a megabyte of digits.
+        for bad in [
+            [long(b'x'), b"\r\n\r\n".to_vec()].concat(),
+            [b"Content-Length: ".to_vec(), long(b'7'), b"\r\n\r\n".to_vec()].concat(),
+            [long(b'x'), b"Content-Length: 1".to_vec()].concat(),
+        ] {
+            assert_eq!(then_valid(&bad), ["-32700", "textDocument/hover"]);
+        }
+        // An unknown header of a megabyte is skipped, its message read.
+        let padded = [b"X-Padding: ".to_vec(), long(b'p'), b"\r\n".to_vec(), framed(VALID)].concat();
+        assert_eq!(frames(&padded), ["textDocument/hover"]);
+        // What a line keeps is bounded, however long it is.
+        let mut line = Line::default();
+        for _ in 0..100 {
+            line.push(&long(b'y'));
+        }
+        assert!(line.long && line.head.len() <= MAX_HEADER_LINE_BYTES && line.tail.len() <= HEADER_TAIL_BYTES);
+    }
+
+    #[test]
+    fn too_many_json_values_are_refused_before_parsing() {
+        let many = format!("[{}0]", "0,".repeat(MAX_JSON_VALUES));
+        let refusal = decode(many.as_bytes()).unwrap_err();
+        assert_eq!(refusal.code, ErrorCode::InvalidRequest as i32, "{}", refusal.message);
+        // Strings count as one value, whatever they hold.
+        let text = format!(r#"{{"method":"x","params":"{}"}}"#, "[,:{".repeat(MAX_JSON_VALUES));
+        assert!(decode(text.as_bytes()).is_ok());
+        assert_eq!(json_values(r#"{"a":[1,2,{"b":"[,\":"}]}"#), 8);
+    }
+
+    #[test]
+    fn the_end_of_the_input_ends_the_reader() {
+        for input in [&b""[..], b"Content-Len", b"Content-Length: 10\r\n", b"Content-Length: 10\r\n\r\n{\"a\":"] {
+            assert!(frames(input).is_empty(), "{}", String::from_utf8_lossy(input));
         }
     }
 }
