@@ -20,7 +20,6 @@ pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<
     let Some(root) = modules.iter().find(|m| !m.is_prelude).map(|m| m.file) else {
         return Vec::new();
     };
-    let index = LineIndex::new(text);
     let imports: Vec<(&str, Span)> = modules
         .iter()
         .find(|m| m.file == root)
@@ -35,8 +34,8 @@ pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<
                 .collect()
         })
         .unwrap_or_default();
-    // Each file a label points into is indexed once.
-    let mut indexes: HashMap<FileId, LineIndex> = HashMap::new();
+    // The document and each file a label points into are indexed once.
+    let mut indexes: HashMap<FileId, LineIndex> = HashMap::from([(root, LineIndex::new(text))]);
     for d in &checked.diagnostics {
         for file in d.labels.iter().map(|l| l.span.file).chain([d.span.file]) {
             if (file.0 as usize) < sources.len() {
@@ -44,6 +43,7 @@ pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<
             }
         }
     }
+    let index = &indexes[&root];
     let located = |span: Span| -> Option<Location> {
         let is_prelude = modules.iter().any(|m| m.file == span.file && m.is_prelude);
         let uri = workspace.uri_of(sources.name(span.file), is_prelude)?;
