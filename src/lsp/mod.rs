@@ -36,7 +36,7 @@ mod scheduler;
 mod semantic;
 mod signature;
 mod symbols;
-pub mod transport;
+mod transport;
 
 use analysis::Analysis;
 use crossbeam_channel::{RecvTimeoutError, Sender};
@@ -56,6 +56,7 @@ use std::time::{Duration, Instant};
 
 pub use documents::MAX_DOCUMENT_BYTES;
 pub use scheduler::DIAGNOSTICS_WORKERS;
+pub use transport::{MAX_HEADER_LINE_BYTES, MAX_JSON_VALUES, MAX_MESSAGE_BYTES};
 
 /// How long after the last change diagnostics are computed.
 pub const DEBOUNCE: Duration = Duration::from_millis(150);
