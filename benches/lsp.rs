@@ -5,7 +5,13 @@
 //! typing) and again without one. Prints medians and maxima per request
 //! kind and the ratio of the worst to the 50 ms goal of issue 14.
 //!
-//! `cargo bench --bench lsp` (release build).
+//! Then two large documents, each request timed once: a 665 KB program
+//! on one line (semantic tokens, symbols, hover, highlights, diagnostics),
+//! and a function with 20,000 references (issue 29: positions counted
+//! from the line start per token, the file indexed again per reference).
+//!
+//! `cargo bench --bench lsp` (release build); `cargo bench --bench lsp --
+//! large` runs the large documents only.
 
 use lsp_server::{Connection, Message, Notification, Request, RequestId};
 use serde_json::{Value, json};
@@ -17,6 +23,8 @@ const GOAL_MS: f64 = 50.0;
 struct Client {
     conn: Connection,
     next: i32,
+    /// Notifications read while waiting for a response, with when they came.
+    backlog: Vec<(Instant, Notification)>,
 }
 
 impl Client {
@@ -26,7 +34,7 @@ impl Client {
         let start = Instant::now();
         self.conn.sender.send(Message::Request(Request::new(id.clone(), method.into(), params))).unwrap();
         loop {
-            match self.conn.receiver.recv_timeout(Duration::from_secs(60)).expect("an answer") {
+            match self.conn.receiver.recv_timeout(Duration::from_secs(900)).expect("an answer") {
                 Message::Response(r) if r.id == id => {
                     let ms = start.elapsed().as_secs_f64() * 1000.0;
                     match r.response_result {
@@ -34,6 +42,7 @@ impl Client {
                         Err(e) => panic!("{method}: {}", e.message),
                     }
                 }
+                Message::Notification(n) => self.backlog.push((Instant::now(), n)),
                 _ => {}
             }
         }
@@ -44,20 +53,27 @@ impl Client {
     }
 
     /// Time from a save to the diagnostics of `version`.
-    fn diagnostics_after_save(&self, uri: &str, version: i32) -> f64 {
+    fn diagnostics_after_save(&mut self, uri: &str, version: i32) -> f64 {
         let start = Instant::now();
         self.notify("textDocument/didSave", json!({ "textDocument": { "uri": uri } }));
         self.diagnostics(uri, version, start)
     }
 
     /// Time from `start` to the diagnostics of `version`.
-    fn diagnostics(&self, uri: &str, version: i32, start: Instant) -> f64 {
+    fn diagnostics(&mut self, uri: &str, version: i32, start: Instant) -> f64 {
+        let wanted = |n: &Notification| {
+            n.method == "textDocument/publishDiagnostics"
+                && n.params["uri"] == uri
+                && n.params["version"] == json!(version)
+        };
+        if let Some(k) = self.backlog.iter().position(|(_, n)| wanted(n)) {
+            let (at, _) = self.backlog.swap_remove(k);
+            return at.duration_since(start).as_secs_f64() * 1000.0;
+        }
         loop {
             if let Message::Notification(n) =
                 self.conn.receiver.recv_timeout(Duration::from_secs(120)).expect("diagnostics")
-                && n.method == "textDocument/publishDiagnostics"
-                && n.params["uri"] == uri
-                && n.params["version"] == json!(version)
+                && wanted(&n)
             {
                 return start.elapsed().as_secs_f64() * 1000.0;
             }
@@ -118,12 +134,78 @@ fn median(v: &mut [f64]) -> f64 {
     v[v.len() / 2]
 }
 
+/// A program of `functions` small functions, all on one line.
+fn one_line_program(functions: usize) -> String {
+    let mut text = String::from("float f0(float x) { return x; } ");
+    for k in 1..functions {
+        text.push_str(&format!("float f{k}(float x) {{ float y = f{}(x) * 0.5; return y + x; }} ", k - 1));
+    }
+    text
+}
+
+/// A program in which `f` is called `calls` times, one function a line.
+fn many_references(calls: usize) -> String {
+    let mut text = String::from("float f(float x) {\n    return x;\n}\n");
+    for k in 0..calls {
+        text.push_str(&format!("float g{k}(float x) {{ return f(x); }}\n"));
+    }
+    text
+}
+
+/// Times each request on the large documents once.
+fn large_documents(c: &mut Client, repo: &Path) {
+    println!("large documents (release, in process, one request each):");
+    let time = |c: &mut Client, what: &str, method: &str, params: Value| {
+        let (result, ms) = c.request(method, params);
+        let size = result.as_array().map(Vec::len).or_else(|| result["data"].as_array().map(|d| d.len() / 5));
+        println!("  {what:<44} {ms:>9.1} ms  ({} items)", size.unwrap_or(1));
+    };
+    let text = one_line_program(10_300);
+    let uri = format!("file://{}", repo.join("large_one_line.tsl").display());
+    let opened = Instant::now();
+    c.notify(
+        "textDocument/didOpen",
+        json!({ "textDocument": { "uri": uri, "languageId": "tsl", "version": 1, "text": text } }),
+    );
+    let doc = json!({ "uri": uri });
+    let end = position(&text, text.rfind("f10298").unwrap() + 2);
+    let label = format!("one line, {} KB: first hover (analysis)", text.len() / 1000);
+    time(c, &label, "textDocument/hover", json!({ "textDocument": doc, "position": end }));
+    time(c, "  hover at the end", "textDocument/hover", json!({ "textDocument": doc, "position": end }));
+    time(c, "  semantic tokens", "textDocument/semanticTokens/full", json!({ "textDocument": doc }));
+    time(c, "  document symbols", "textDocument/documentSymbol", json!({ "textDocument": doc }));
+    time(c, "  highlights", "textDocument/documentHighlight", json!({ "textDocument": doc, "position": end }));
+    let refs = json!({ "textDocument": doc, "position": end, "context": { "includeDeclaration": true } });
+    time(c, "  references", "textDocument/references", refs);
+    println!("  {:<44} {:>9.1} ms", "  diagnostics after opening", c.diagnostics(&uri, 1, opened));
+    c.notify("textDocument/didClose", json!({ "textDocument": doc }));
+
+    let text = many_references(20_000);
+    let uri = format!("file://{}", repo.join("large_references.tsl").display());
+    let opened = Instant::now();
+    c.notify(
+        "textDocument/didOpen",
+        json!({ "textDocument": { "uri": uri, "languageId": "tsl", "version": 1, "text": text } }),
+    );
+    let doc = json!({ "uri": uri });
+    let f = position(&text, 7);
+    let label = format!("20,000 calls, {} KB: first hover (analysis)", text.len() / 1000);
+    time(c, &label, "textDocument/hover", json!({ "textDocument": doc, "position": f }));
+    let refs = json!({ "textDocument": doc, "position": f, "context": { "includeDeclaration": true } });
+    time(c, "  references", "textDocument/references", refs);
+    time(c, "  highlights", "textDocument/documentHighlight", json!({ "textDocument": doc, "position": f }));
+    time(c, "  semantic tokens", "textDocument/semanticTokens/full", json!({ "textDocument": doc }));
+    println!("  {:<44} {:>9.1} ms", "  diagnostics after opening", c.diagnostics(&uri, 1, opened));
+    c.notify("textDocument/didClose", json!({ "textDocument": doc }));
+}
+
 fn main() {
     let repo = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let only_large = std::env::args().any(|a| a == "large");
     let (server, client) = Connection::memory();
     let thread =
         std::thread::Builder::new().stack_size(64 << 20).spawn(move || tsl::lsp::run(server, Vec::new())).unwrap();
-    let mut c = Client { conn: client, next: 0 };
+    let mut c = Client { conn: client, next: 0, backlog: Vec::new() };
     c.request(
         "initialize",
         json!({ "processId": null, "rootUri": format!("file://{}", repo.display()), "capabilities": {} }),
@@ -143,7 +225,8 @@ fn main() {
     let mut warm: Vec<(String, f64, String)> = Vec::new();
     let mut diagnostics: Vec<(f64, String)> = Vec::new();
     let mut on_open: Vec<(f64, String)> = Vec::new();
-    for path in examples(&repo.join("examples")) {
+    let all = if only_large { Vec::new() } else { examples(&repo.join("examples")) };
+    for path in all {
         let text = std::fs::read_to_string(&path).unwrap();
         let uri = format!("file://{}", path.display());
         let name = path.strip_prefix(&repo).unwrap().display().to_string();
@@ -188,12 +271,17 @@ fn main() {
         // Let the debounced diagnostics of the edits go, then time a save.
         std::thread::sleep(Duration::from_millis(300));
         while c.conn.receiver.try_recv().is_ok() {}
+        c.backlog.clear();
         diagnostics.push((c.diagnostics_after_save(&uri, version), name.clone()));
         c.notify("textDocument/didClose", json!({ "textDocument": { "uri": uri } }));
     }
+    large_documents(&mut c, &repo);
     c.request("shutdown", Value::Null);
     c.notify("exit", Value::Null);
     let _ = thread.join();
+    if only_large {
+        return;
+    }
 
     println!("tslc lsp response times (release, in process), every example, each name of each file:");
     let mut worst = 0f64;

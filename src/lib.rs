@@ -96,13 +96,29 @@ pub fn check_source_reusing(
     previous: Option<&scene::SceneDesc>,
 ) -> Checked {
     let (loaded, diags) = load::load_source(name, text, options);
-    finish(loaded, diags, options, previous)
+    finish(loaded, diags, options, previous, &|| false)
+}
+
+/// [`check_source_reusing`] that stops between its phases (loading,
+/// checking, reading images, describing the scene) once `cancelled()` is
+/// true, and then gives `None`: the language server cancels the check of
+/// a text that an edit has replaced.
+pub fn check_source_cancellable(
+    name: &str,
+    text: &str,
+    options: &LoadOptions,
+    previous: Option<&scene::SceneDesc>,
+    cancelled: &dyn Fn() -> bool,
+) -> Option<Checked> {
+    let (loaded, diags) = load::load_source(name, text, options);
+    let checked = finish(loaded, diags, options, previous, cancelled);
+    (!cancelled()).then_some(checked)
 }
 
 /// Loads and checks a program from a file.
 pub fn check_file(path: &Path, options: &LoadOptions) -> Checked {
     let (loaded, diags) = load::load_file(path, options);
-    finish(loaded, diags, options, None)
+    finish(loaded, diags, options, None, &|| false)
 }
 
 fn finish(
@@ -110,16 +126,19 @@ fn finish(
     mut diagnostics: Vec<Diagnostic>,
     options: &LoadOptions,
     previous: Option<&scene::SceneDesc>,
+    cancelled: &dyn Fn() -> bool,
 ) -> Checked {
     // Type checking a file that did not parse would only add noise.
     let parsed = !diagnostics.iter().any(Diagnostic::is_error);
-    let (program, scene) = if parsed {
+    let (program, scene) = if parsed && !cancelled() {
         let (mut program, more) = check::check(loaded);
         diagnostics.extend(more);
-        diagnostics.extend(load::load_images(&mut program, options));
+        if !cancelled() {
+            diagnostics.extend(load::load_images(&mut program, options));
+        }
         // The scene's values are evaluated, which needs a well-typed
         // program; its files are read once here.
-        let scene = if diagnostics.iter().any(Diagnostic::is_error) {
+        let scene = if cancelled() || diagnostics.iter().any(Diagnostic::is_error) {
             None
         } else {
             if options.lean {

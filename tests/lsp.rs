@@ -12,7 +12,8 @@ const TIMEOUT: Duration = Duration::from_secs(60);
 
 struct Client {
     child: Child,
-    stdin: ChildStdin,
+    /// `None` once closed.
+    stdin: Option<ChildStdin>,
     incoming: mpsc::Receiver<Value>,
     /// Notifications read while waiting for something else.
     backlog: Vec<Value>,
@@ -75,7 +76,15 @@ fn read_message(reader: &mut impl BufRead) -> Option<Value> {
 }
 
 impl Client {
+    /// The server started and initialized.
     fn start(tag: &str) -> Client {
+        let mut client = Client::spawn(tag);
+        client.initialize();
+        client
+    }
+
+    /// The server started, not yet initialized.
+    fn spawn(tag: &str) -> Client {
         let cache = tempfile_dir::TempDir::new(tag);
         let mut child = Command::new(env!("CARGO_BIN_EXE_tslc"))
             .arg("lsp")
@@ -95,8 +104,11 @@ impl Client {
                 }
             }
         });
-        let mut client = Client { child, stdin, incoming, backlog: Vec::new(), next_id: 0, _cache: cache };
-        let init = client.request(
+        Client { child, stdin: Some(stdin), incoming, backlog: Vec::new(), next_id: 0, _cache: cache }
+    }
+
+    fn initialize(&mut self) {
+        let init = self.request(
             "initialize",
             json!({
                 "processId": null,
@@ -106,14 +118,40 @@ impl Client {
             }),
         );
         assert!(init["result"]["capabilities"]["hoverProvider"].as_bool().unwrap_or(false), "{init}");
-        client.notify("initialized", json!({}));
-        client
+        self.notify("initialized", json!({}));
     }
 
     fn send(&mut self, message: Value) {
-        let body = message.to_string();
-        write!(self.stdin, "Content-Length: {}\r\n\r\n{body}", body.len()).unwrap();
-        self.stdin.flush().unwrap();
+        self.send_raw(&framed(message.to_string().as_bytes()));
+    }
+
+    /// Bytes as they are, framed or not.
+    fn send_raw(&mut self, bytes: &[u8]) {
+        let stdin = self.stdin.as_mut().expect("the input is open");
+        stdin.write_all(bytes).unwrap();
+        stdin.flush().unwrap();
+    }
+
+    /// The next message that is not a notification with `id` (`null`
+    /// for the refusal of a message that could not be read).
+    fn response_to(&mut self, id: Value) -> Value {
+        let wanted = |m: &Value| m.get("method").is_none() && m["id"] == id;
+        if let Some(k) = self.backlog.iter().position(wanted) {
+            return self.backlog.remove(k);
+        }
+        loop {
+            let m = self.receive();
+            if wanted(&m) {
+                return m;
+            }
+            self.backlog.push(m);
+        }
+    }
+
+    /// The diagnostics published for `uri` so far (read so far).
+    fn published(&self, uri: &str) -> Vec<Value> {
+        let of = |m: &&Value| m["method"] == "textDocument/publishDiagnostics" && m["params"]["uri"] == uri;
+        self.backlog.iter().filter(of).cloned().collect()
     }
 
     fn notify(&mut self, method: &str, params: Value) {
@@ -177,20 +215,40 @@ impl Client {
         );
     }
 
-    fn shutdown(mut self) {
+    fn shutdown(self) {
+        self.finish();
+    }
+
+    /// Shuts the server down and returns every message it sent that was
+    /// not read yet.
+    fn finish(mut self) -> Vec<Value> {
         let response = self.request("shutdown", Value::Null);
         assert!(response.get("error").is_none(), "{response}");
         self.notify("exit", Value::Null);
+        let status = self.wait();
+        assert!(status.success(), "tslc lsp exits cleanly: {status}");
+        // The reader thread ends with the server's output.
+        self.backlog.extend(self.incoming.iter());
+        self.backlog
+    }
+
+    /// The server's exit status, once it has exited (it must, within the
+    /// timeout).
+    fn wait(&mut self) -> std::process::ExitStatus {
         let deadline = Instant::now() + TIMEOUT;
         loop {
             if let Some(status) = self.child.try_wait().unwrap() {
-                assert!(status.success(), "tslc lsp exits cleanly: {status}");
-                return;
+                return status;
             }
             assert!(Instant::now() < deadline, "tslc lsp did not exit");
             std::thread::sleep(Duration::from_millis(20));
         }
     }
+}
+
+/// A message body with its header.
+fn framed(body: &[u8]) -> Vec<u8> {
+    [format!("Content-Length: {}\r\n\r\n", body.len()).as_bytes(), body].concat()
 }
 
 /// The LSP position (line, UTF-16 column) of byte `offset` of `text`.
@@ -520,4 +578,283 @@ fn imports_are_followed() {
     assert!(d["message"].as_str().unwrap().contains("lib.tsl"), "{d}");
     assert!(d["relatedInformation"][0]["location"]["uri"].as_str().unwrap().ends_with("lib.tsl"), "{d}");
     client.shutdown();
+}
+
+/// Answers a hover on `doc`: the server is alive and in step.
+fn still_answers(client: &mut Client, doc: &str, after: &str) {
+    let hover = client.request(
+        "textDocument/hover",
+        json!({ "textDocument": { "uri": doc }, "position": { "line": 0, "character": 7 } }),
+    );
+    assert!(hover.get("error").is_none() && hover["result"].is_object(), "after {after}: {hover}");
+}
+
+#[test]
+fn unreadable_messages_are_answered_and_the_server_goes_on() {
+    let mut client = Client::start("unreadable");
+    let doc = uri(&repo().join("examples/unreadable.tsl"));
+    client.open(&doc, "float f(float x) { return x; }\n");
+    let (parse_error, invalid_request) = (-32700, -32600);
+    let cases: Vec<(&str, Vec<u8>, i64)> = vec![
+        // Bodies that are not JSON.
+        ("truncated JSON", framed(br#"{"jsonrpc":"2.0","id":1,"method":"#), parse_error),
+        ("a word", framed(b"hello"), parse_error),
+        ("an empty body", framed(b""), parse_error),
+        ("two objects", framed(b"{} {}"), parse_error),
+        ("nesting past serde's limit", framed("[".repeat(10_000).as_bytes()), parse_error),
+        // Bodies that are not UTF-8.
+        (
+            "invalid UTF-8 in a string",
+            framed(b"{\"jsonrpc\":\"2.0\",\"method\":\"x\",\"params\":\"\xff\xfe\"}"),
+            parse_error,
+        ),
+        ("a lone continuation byte", framed(b"\x80"), parse_error),
+        ("a truncated character", framed(b"{\"a\":\"\xe2\x82\"}"), parse_error),
+        // JSON that is not a request, notification or response.
+        ("an empty batch", framed(b"[]"), invalid_request),
+        ("a batch", framed(br#"[{"jsonrpc":"2.0","id":99,"method":"shutdown"}]"#), invalid_request),
+        ("a number", framed(b"42"), invalid_request),
+        ("a string", framed(br#""initialize""#), invalid_request),
+        ("null", framed(b"null"), invalid_request),
+        ("a fractional id", framed(br#"{"jsonrpc":"2.0","id":1.5,"method":"textDocument/hover"}"#), invalid_request),
+        ("an id past 32 bits", framed(br#"{"jsonrpc":"2.0","id":4294967296,"method":"x"}"#), invalid_request),
+        ("a method that is a number", framed(br#"{"jsonrpc":"2.0","method":7}"#), invalid_request),
+        // Lengths over the bound, refused unread.
+        ("a Content-Length of 10^14", b"Content-Length: 100000000000000\r\n\r\n".to_vec(), invalid_request),
+        ("a length past 64 bits", b"Content-Length: 99999999999999999999999\r\n\r\n{}".to_vec(), invalid_request),
+        ("a length of 2^40 with a body", b"Content-Length: 1099511627776\r\n\r\n{\"id\":1}".to_vec(), invalid_request),
+        // Lengths that cannot be read, and headers that are not headers.
+        ("a negative length", b"Content-Length: -5\r\n\r\n{}".to_vec(), parse_error),
+        ("a length that is a word", b"Content-Length: twelve\r\n\r\n{}".to_vec(), parse_error),
+        ("an empty length", b"Content-Length: \r\n\r\n{}".to_vec(), parse_error),
+        ("no length", b"Content-Type: application/json\r\n\r\n{}".to_vec(), parse_error),
+        ("two lengths", b"Content-Length: 2\r\nContent-Length: 3\r\n\r\n{}".to_vec(), parse_error),
+        ("a header line without a colon", b"hello\r\n\r\n".to_vec(), parse_error),
+        ("JSON without a header", b"{\"jsonrpc\":\"2.0\",\"id\":5,\"method\":\"shutdown\"}\r\n".to_vec(), parse_error),
+        ("a header line of 1 MB", [vec![b'x'; 1 << 20], b"\r\n\r\n".to_vec()].concat(), parse_error),
+        (
+            "a length of 1 MB of digits",
+            [b"Content-Length: ".to_vec(), vec![b'7'; 1 << 20], b"\r\n\r\n".to_vec()].concat(),
+            parse_error,
+        ),
+    ];
+    for (what, bytes, code) in cases {
+        client.send_raw(&bytes);
+        let refusal = client.response_to(Value::Null);
+        assert_eq!(refusal["error"]["code"], code, "{what}: {refusal}");
+        still_answers(&mut client, &doc, what);
+    }
+    // An unknown header of 1 MB is skipped: its message is answered.
+    client.next_id += 1;
+    let body = json!({ "jsonrpc": "2.0", "id": client.next_id, "method": "textDocument/documentSymbol",
+                       "params": { "textDocument": { "uri": doc } } })
+    .to_string();
+    let padding = "p".repeat(1 << 20);
+    client.send_raw(format!("X-Padding: {padding}\r\nContent-Length: {}\r\n\r\n{body}", body.len()).as_bytes());
+    let symbols = client.response_to(json!(client.next_id));
+    assert_eq!(symbols["result"][0]["name"], "f", "{symbols}");
+    // Headers as some clients write them: only line feeds, any case, a content type.
+    let body = br#"{"jsonrpc":"2.0","id":"lf","method":"textDocument/documentSymbol","params":{"textDocument":{"uri":"DOC"}}}"#;
+    let body = String::from_utf8_lossy(body).replace("DOC", &doc);
+    let header = format!("content-length:{}\nContent-Type: application/vscode-jsonrpc; charset=utf-8\n\n", body.len());
+    client.send_raw(format!("{header}{body}").as_bytes());
+    assert_eq!(client.response_to(json!("lf"))["result"][0]["name"], "f");
+    client.shutdown();
+}
+
+#[test]
+fn bad_requests_get_errors_with_their_ids() {
+    let mut client = Client::start("bad-requests");
+    let doc = uri(&repo().join("examples/bad_requests.tsl"));
+    client.open(&doc, "float f(float x) { return x; }\n");
+    let (invalid_request, method_not_found, invalid_params) = (-32600, -32601, -32602);
+    let hover = "textDocument/hover";
+    let cases = [
+        (json!({ "jsonrpc": "2.0", "id": 7 }), invalid_request),
+        (json!({ "jsonrpc": "2.0", "id": 8, "method": "textDocument/noSuchThing", "params": {} }), method_not_found),
+        (json!({ "jsonrpc": "2.0", "id": 9, "method": "$/noSuchThing" }), method_not_found),
+        (json!({ "jsonrpc": "2.0", "id": 10, "method": hover, "params": { "textDocument": 5 } }), invalid_params),
+        (json!({ "jsonrpc": "2.0", "id": 11, "method": hover }), invalid_params),
+        (json!({ "jsonrpc": "2.0", "id": 12, "method": hover, "params": [1, 2] }), invalid_params),
+        (json!({ "jsonrpc": "2.0", "id": "thirteen", "method": hover, "params": "x" }), invalid_params),
+        (
+            json!({ "jsonrpc": "2.0", "id": 14, "method": "textDocument/semanticTokens/full",
+                    "params": { "textDocument": { "uri": "not a uri" } } }),
+            invalid_params,
+        ),
+        (
+            json!({ "jsonrpc": "2.0", "id": 15, "method": hover,
+                    "params": { "textDocument": { "uri": doc }, "position": { "line": -1, "character": 0 } } }),
+            invalid_params,
+        ),
+    ];
+    for (message, code) in cases {
+        let id = message["id"].clone();
+        client.send(message.clone());
+        let answer = client.response_to(id.clone());
+        assert_eq!(answer["error"]["code"], code, "{message}: {answer}");
+        still_answers(&mut client, &doc, &message.to_string());
+    }
+    // Notifications with bad parameters are dropped (and logged).
+    for params in [json!({ "textDocument": 1 }), json!(null), json!([]), json!({ "contentChanges": "x" })] {
+        for method in ["textDocument/didOpen", "textDocument/didChange", "textDocument/didClose"] {
+            client.notify(method, params.clone());
+            still_answers(&mut client, &doc, method);
+        }
+    }
+    client.shutdown();
+}
+
+#[test]
+fn initialization_and_shutdown_survive_bad_messages() {
+    let mut client = Client::spawn("init");
+    client.send(json!({ "jsonrpc": "2.0", "id": 1, "method": "textDocument/hover", "params": {} }));
+    assert_eq!(client.response_to(json!(1))["error"]["code"], -32002, "not initialized yet");
+    client.send_raw(&framed(b"[]"));
+    assert_eq!(client.response_to(Value::Null)["error"]["code"], -32600);
+    for params in [json!({ "capabilities": 5 }), json!([]), json!("x")] {
+        client.send(json!({ "jsonrpc": "2.0", "id": 2, "method": "initialize", "params": params }));
+        assert_eq!(client.response_to(json!(2))["error"]["code"], -32602, "{params}");
+    }
+    client.initialize();
+    // A request before `initialized` is answered all the same.
+    let doc = uri(&repo().join("examples/init.tsl"));
+    client.open(&doc, "float f(float x) { return x; }\n");
+    still_answers(&mut client, &doc, "initialize");
+    // After `shutdown`, requests are refused until `exit`.
+    assert!(client.request("shutdown", Value::Null).get("error").is_none());
+    let late = client.request("textDocument/documentSymbol", json!({ "textDocument": { "uri": doc } }));
+    assert_eq!(late["error"]["code"], -32600, "{late}");
+    client.notify("exit", Value::Null);
+    assert!(client.wait().success());
+}
+
+#[test]
+fn input_that_ends_mid_message_stops_the_server_with_an_error() {
+    for ending in [&b"Content-Length: 100\r\n\r\n{\"jsonrpc\":"[..], b"Content-Len", b"Content-Length: 10\r\n"] {
+        let mut client = Client::start("ending");
+        client.send_raw(ending);
+        client.stdin = None;
+        // The protocol's exit status for a client gone without `shutdown`.
+        let status = client.wait();
+        assert_eq!(status.code(), Some(1), "{}: {status}", String::from_utf8_lossy(ending));
+    }
+}
+
+/// `functions` small functions on one line (10,300: 667 KB, 72,096
+/// semantic tokens).
+fn one_line_program(functions: usize) -> String {
+    let mut text = String::from("float f0(float x) { return x; } ");
+    for k in 1..functions {
+        text.push_str(&format!("float f{k}(float x) {{ float y = f{}(x) * 0.5; return y + x; }} ", k - 1));
+    }
+    text
+}
+
+#[test]
+fn requests_on_a_665_kb_line_take_linear_time() {
+    // Each within the client's 60 s timeout in a debug build; counting
+    // every position from the line's start took 80 s (semantic tokens)
+    // and 35 s (symbols) in a release build.
+    let mut client = Client::start("one-line");
+    let text = one_line_program(10_300);
+    assert!(text.len() > 665_000);
+    let doc = uri(&repo().join("examples/one_line.tsl"));
+    client.open(&doc, &text);
+    let tokens = client.result("textDocument/semanticTokens/full", json!({ "textDocument": { "uri": doc } }));
+    let data: Vec<u64> = tokens["data"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap()).collect();
+    // f0, x, x; then each function: its name, x, y, the call, x, y, x.
+    assert_eq!(data.len() / 5, 3 + 7 * 10_299);
+    assert!(data.chunks(5).all(|t| t[0] == 0), "one line");
+    let last: u64 = data.chunks(5).map(|t| t[1]).sum();
+    assert_eq!(last as usize, text.rfind("+ x").unwrap() + 2, "the last token's column");
+
+    let symbols = client.result("textDocument/documentSymbol", json!({ "textDocument": { "uri": doc } }));
+    let symbols = symbols.as_array().unwrap();
+    assert_eq!(symbols.len(), 10_300);
+    assert_eq!(symbols[10_299]["selectionRange"]["start"]["character"], text.rfind("f10299").unwrap());
+
+    let at = json!({ "line": 0, "character": text.rfind("f10298").unwrap() + 1 });
+    let hover = client.result("textDocument/hover", json!({ "textDocument": { "uri": doc }, "position": at }));
+    assert!(text_of(&hover).contains("float f10298(float x)"), "{hover}");
+    let highlights =
+        client.result("textDocument/documentHighlight", json!({ "textDocument": { "uri": doc }, "position": at }));
+    assert_eq!(highlights.as_array().unwrap().len(), 2, "the definition and the call");
+    let end = json!({ "line": 0, "character": text.encode_utf16().count() + 10 });
+    client.result("textDocument/completion", json!({ "textDocument": { "uri": doc }, "position": end }));
+    assert_eq!(client.diagnostics(&doc, 1), Vec::<Value>::new());
+    client.shutdown();
+}
+
+#[test]
+fn references_index_the_file_once() {
+    // 40,000 references in a 1.5 MB file: indexing it per reference took
+    // 30 s for half as many in a release build.
+    let mut client = Client::start("references");
+    let mut text = String::from("float f(float x) {\n    return x;\n}\n");
+    for k in 0..40_000 {
+        text.push_str(&format!("float g{k}(float x) {{ return f(x); }}\n"));
+    }
+    let doc = uri(&repo().join("examples/references.tsl"));
+    client.open(&doc, &text);
+    let at = json!({ "line": 0, "character": 6 });
+    let refs = client.result(
+        "textDocument/references",
+        json!({ "textDocument": { "uri": doc }, "position": at, "context": { "includeDeclaration": true } }),
+    );
+    let refs = refs.as_array().unwrap();
+    assert_eq!(refs.len(), 40_001);
+    assert_eq!(refs[40_000]["range"]["start"], json!({ "line": 40_002, "character": 31 }), "{}", refs[40_000]);
+    client.shutdown();
+}
+
+/// A program the checker takes seconds on in a debug build (4 MB).
+fn slow_program() -> String {
+    let mut text = String::from("float f0(float x) { return x; }\n");
+    for k in 1..60_000 {
+        text.push_str(&format!("float f{k}(float x) {{ float y = f{}(x) * 0.5; return y + x; }}\n", k - 1));
+    }
+    text
+}
+
+#[test]
+fn a_slow_document_does_not_delay_the_others() {
+    let mut client = Client::start("slow");
+    let slow = uri(&repo().join("examples/slow.tsl"));
+    client.open(&slow, &slow_program());
+    for k in 0..3 {
+        let fast = uri(&repo().join(format!("examples/fast{k}.tsl")));
+        client.open(&fast, "float f() { return nowhere; }\n");
+        let diagnostics = client.diagnostics(&fast, 1);
+        assert!(diagnostics[0]["message"].as_str().unwrap().contains("nowhere"), "{diagnostics:?}");
+    }
+    assert_eq!(client.published(&slow), Vec::<Value>::new(), "the others did not wait for the slow one");
+    // Shutting down cancels the slow check.
+    client.finish();
+}
+
+#[test]
+fn stale_versions_are_never_published() {
+    let mut client = Client::start("stale");
+    let doc = uri(&repo().join("examples/stale.tsl"));
+    // A slow first version, replaced at once.
+    client.open(&doc, &slow_program());
+    client.change(&doc, 2, json!([{ "text": "float f() { return version_two; }\n" }]));
+    let diagnostics = client.diagnostics(&doc, 2);
+    assert!(diagnostics[0]["message"].as_str().unwrap().contains("version_two"), "{diagnostics:?}");
+    // A document's checks run one at a time: a check of version 1 would
+    // have been published before version 2's.
+    assert!(client.published(&doc).is_empty(), "{:?}", client.published(&doc));
+
+    // Several slow versions in a row, saved (checked at once) and closed.
+    for version in 3..6 {
+        client.change(&doc, version, json!([{ "text": slow_program() }]));
+        client.notify("textDocument/didSave", json!({ "textDocument": { "uri": doc } }));
+    }
+    client.notify("textDocument/didClose", json!({ "textDocument": { "uri": doc } }));
+    let rest = client.finish();
+    let published: Vec<&Value> = rest.iter().filter(|m| m["params"]["uri"] == doc).collect();
+    assert_eq!(published.len(), 1, "only the clearing on close: {published:?}");
+    assert_eq!(published[0]["params"]["diagnostics"], json!([]));
+    assert_eq!(published[0]["params"]["version"], Value::Null);
 }

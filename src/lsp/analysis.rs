@@ -8,16 +8,21 @@
 //! half typed. Its diagnostics are not shown (the diagnostics pass is
 //! `check_source`'s, in `diagnostics.rs`).
 
+use super::line_index::LineIndex;
 use crate::check::{self, BuiltinFn, InterfaceMethod, Symbol, SymbolKind, Ty, interface_method};
 use crate::diag::{FileId, Span};
 use crate::load::{self, LoadOptions, Module};
 use crate::syntax::ast::*;
+use std::cell::OnceCell;
 
 /// A document's text checked with its imports and the prelude.
 pub struct Analysis {
     pub program: check::Program,
     /// The module of the document itself.
     pub root: usize,
+    /// Each file's line index, built the first time a position in it is
+    /// asked for (so once per version of the document).
+    line_indexes: Vec<OnceCell<LineIndex>>,
 }
 
 impl Analysis {
@@ -33,7 +38,18 @@ impl Analysis {
         }
         .unwrap_or(0);
         let (program, _) = check::check(loaded);
-        Analysis { program, root }
+        let line_indexes = (0..program.loaded.sources.len()).map(|_| OnceCell::new()).collect();
+        Analysis { program, root, line_indexes }
+    }
+
+    /// The LSP range of a span, in its own file.
+    pub fn range(&self, span: Span) -> lsp_types::Range {
+        let text = self.text(span.file);
+        let index = match self.line_indexes.get(span.file.0 as usize) {
+            Some(cell) => cell.get_or_init(|| LineIndex::new(text)),
+            None => &LineIndex::new(text),
+        };
+        index.range(text, span.start as usize, span.end as usize)
     }
 
     pub fn module(&self) -> &Module {
@@ -491,11 +507,12 @@ fn item_start(item: &Item) -> Option<usize> {
 }
 
 /// Text on one line, shortened to `max` characters with an ellipsis.
+/// Reads no more of `text` than it shows (a value may be megabytes).
 pub fn one_line(text: &str, max: usize) -> String {
-    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
-    if flat.chars().count() <= max {
-        return flat;
-    }
-    let cut: String = flat.chars().take(max).collect();
-    format!("{cut} ...")
+    let mut flat = text
+        .split_whitespace()
+        .enumerate()
+        .flat_map(|(k, word)| (k > 0).then_some(' ').into_iter().chain(word.chars()));
+    let shown: String = flat.by_ref().take(max).collect();
+    if flat.next().is_some() { format!("{shown} ...") } else { shown }
 }

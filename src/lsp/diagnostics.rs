@@ -1,13 +1,16 @@
 //! Diagnostics of a document: exactly what `tslc check` reports for its
 //! unsaved text (`tsl::check_source`: syntax, types, images, the scene;
-//! run by the server's worker thread), as LSP diagnostics. Errors inside an imported file are shown at the
-//! import that brings them in, pointing to where they are.
+//! run by the server's diagnostics workers), as LSP diagnostics. Errors
+//! inside an imported file are shown at the import that brings them in,
+//! pointing to where they are.
 
-use super::documents::{LineIndex, Workspace};
+use super::documents::Workspace;
+use super::line_index::LineIndex;
 use crate::Checked;
-use crate::diag::{Diagnostic, Severity, SourceMap, Span};
+use crate::diag::{Diagnostic, FileId, Severity, SourceMap, Span};
 use crate::syntax::ast::Item;
 use lsp_types::{DiagnosticRelatedInformation, DiagnosticSeverity, Location, NumberOrString};
+use std::collections::HashMap;
 use std::path::Path;
 
 /// The diagnostics of a document's text, checked (`tsl::check_source`).
@@ -17,7 +20,6 @@ pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<
     let Some(root) = modules.iter().find(|m| !m.is_prelude).map(|m| m.file) else {
         return Vec::new();
     };
-    let index = LineIndex::new(text);
     let imports: Vec<(&str, Span)> = modules
         .iter()
         .find(|m| m.file == root)
@@ -32,11 +34,21 @@ pub fn diagnostics(workspace: &Workspace, checked: &Checked, text: &str) -> Vec<
                 .collect()
         })
         .unwrap_or_default();
+    // The document and each file a label points into are indexed once.
+    let mut indexes: HashMap<FileId, LineIndex> = HashMap::from([(root, LineIndex::new(text))]);
+    for d in &checked.diagnostics {
+        for file in d.labels.iter().map(|l| l.span.file).chain([d.span.file]) {
+            if (file.0 as usize) < sources.len() {
+                indexes.entry(file).or_insert_with(|| LineIndex::new(sources.text(file)));
+            }
+        }
+    }
+    let index = &indexes[&root];
     let located = |span: Span| -> Option<Location> {
         let is_prelude = modules.iter().any(|m| m.file == span.file && m.is_prelude);
         let uri = workspace.uri_of(sources.name(span.file), is_prelude)?;
         let file_text = sources.text(span.file);
-        let range = LineIndex::new(file_text).range(file_text, span.start as usize, span.end as usize);
+        let range = indexes.get(&span.file)?.range(file_text, span.start as usize, span.end as usize);
         Some(Location { uri, range })
     };
     checked

@@ -1,59 +1,18 @@
-//! Open documents, positions as LSP counts them, and where files are: the
-//! workspace's import directories and the prelude's files on disk.
+//! Open documents (bounded in size), and where files are: the workspace's
+//! import directories and the prelude's files on disk.
 
+use super::line_index::LineIndex;
 use crate::load::{LoadOptions, PRELUDE};
 use lsp_types::{Position, Range, TextDocumentContentChangeEvent, Url};
 use std::path::{Path, PathBuf};
 
-/// Line starts of a text, to convert byte offsets to LSP positions (lines
-/// and UTF-16 code units, the encoding every client supports) and back.
-#[derive(Debug, Clone)]
-pub struct LineIndex {
-    line_starts: Vec<usize>,
-}
-
-impl LineIndex {
-    pub fn new(text: &str) -> LineIndex {
-        let line_starts = std::iter::once(0).chain(text.match_indices('\n').map(|(i, _)| i + 1)).collect();
-        LineIndex { line_starts }
-    }
-
-    /// The byte offset of a position, clamped into the text: a column past
-    /// the end of its line is the line's end, a line past the end the end
-    /// of the text (clients send both while edits race).
-    pub fn offset(&self, text: &str, pos: Position) -> usize {
-        let Some(&start) = self.line_starts.get(pos.line as usize) else {
-            return text.len();
-        };
-        let end = self.line_starts.get(pos.line as usize + 1).map_or(text.len(), |&next| next - 1);
-        let line = text.get(start..end.max(start)).unwrap_or("");
-        let mut units = 0u32;
-        for (i, c) in line.char_indices() {
-            if units >= pos.character {
-                return start + i;
-            }
-            units += c.len_utf16() as u32;
-        }
-        start + line.len()
-    }
-
-    /// The position of a byte offset (clamped to the text, and back to a
-    /// character boundary).
-    pub fn position(&self, text: &str, offset: usize) -> Position {
-        let mut offset = offset.min(text.len());
-        while !text.is_char_boundary(offset) {
-            offset -= 1;
-        }
-        let line = self.line_starts.partition_point(|&s| s <= offset) - 1;
-        let start = self.line_starts[line];
-        let character = text[start..offset].chars().map(|c| c.len_utf16() as u32).sum();
-        Position { line: line as u32, character }
-    }
-
-    pub fn range(&self, text: &str, start: usize, end: usize) -> Range {
-        Range { start: self.position(text, start), end: self.position(text, end.max(start)) }
-    }
-}
+/// The largest document the server keeps and checks: the largest source
+/// `tslc check` reads ([`crate::load::MAX_SOURCE_BYTES`], 256 MiB). An
+/// open or edit that makes a document larger leaves it empty and marked
+/// too large (one diagnostic says so; requests get no answers) until a
+/// whole-text change brings it back within the bound, so edits cannot
+/// grow a document without bound.
+pub const MAX_DOCUMENT_BYTES: usize = crate::load::MAX_SOURCE_BYTES as usize;
 
 /// A text document the client has open.
 #[derive(Debug, Clone)]
@@ -61,29 +20,65 @@ pub struct Document {
     pub text: String,
     pub version: i32,
     pub index: LineIndex,
+    /// The size the text would have, when over [`MAX_DOCUMENT_BYTES`]
+    /// (the text is then empty).
+    pub too_large: Option<usize>,
 }
 
 impl Document {
     pub fn new(text: String, version: i32) -> Document {
-        let index = LineIndex::new(&text);
-        Document { text, version, index }
+        let mut doc = Document { text: String::new(), version, index: LineIndex::default(), too_large: None };
+        doc.set_text(text, MAX_DOCUMENT_BYTES);
+        doc.index = LineIndex::new(&doc.text);
+        doc
     }
 
     /// Applies the client's changes in order: whole-text replacements and
     /// range edits (incremental sync).
     pub fn apply(&mut self, changes: Vec<TextDocumentContentChangeEvent>, version: i32) {
+        self.apply_within(changes, version, MAX_DOCUMENT_BYTES);
+    }
+
+    /// [`Document::apply`] with a bound of `max` bytes. The line index is
+    /// built once per range edit, and once after whole-text changes.
+    fn apply_within(&mut self, changes: Vec<TextDocumentContentChangeEvent>, version: i32, max: usize) {
+        let mut indexed = true;
         for change in changes {
             match change.range {
-                None => self.text = change.text,
+                None => {
+                    self.set_text(change.text, max);
+                    indexed = false;
+                    continue;
+                }
+                // The text is unknown: an edit of it means nothing.
+                Some(_) if self.too_large.is_some() => continue,
                 Some(range) => {
+                    if !indexed {
+                        self.index = LineIndex::new(&self.text);
+                    }
                     let start = self.index.offset(&self.text, range.start);
                     let end = self.index.offset(&self.text, range.end).max(start);
-                    self.text.replace_range(start..end, &change.text);
+                    let size = self.text.len() - (end - start) + change.text.len();
+                    if size > max {
+                        self.too_large = Some(size);
+                        self.text = String::new();
+                    } else {
+                        self.text.replace_range(start..end, &change.text);
+                    }
+                    indexed = false;
                 }
             }
+        }
+        if !indexed {
             self.index = LineIndex::new(&self.text);
         }
         self.version = version;
+    }
+
+    /// Sets the whole text (not indexed yet), or marks the document too
+    /// large.
+    fn set_text(&mut self, text: String, max: usize) {
+        (self.text, self.too_large) = if text.len() > max { (String::new(), Some(text.len())) } else { (text, None) };
     }
 
     pub fn offset(&self, pos: Position) -> usize {
@@ -192,20 +187,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn positions_count_utf16_units() {
-        let text = "ab\nçd 😀e\n";
-        let index = LineIndex::new(text);
-        assert_eq!(index.position(text, 3), Position::new(1, 0));
-        let e = text.find('e').unwrap();
-        // ç and d are one unit each, the space one, the emoji two.
-        assert_eq!(index.position(text, e), Position::new(1, 5));
-        assert_eq!(index.offset(text, Position::new(1, 5)), e);
-        assert_eq!(index.offset(text, Position::new(1, 99)), text.len() - 1, "past the line: its end");
-        assert_eq!(index.offset(text, Position::new(9, 0)), text.len(), "past the text: its end");
-        assert_eq!(index.position(text, e - 1), Position::new(1, 3), "inside a character: its start");
-    }
-
-    #[test]
     fn incremental_edits_apply_in_order() {
         let mut doc = Document::new("float f() { return 1; }\n".into(), 1);
         let edit = |l0, c0, l1, c1, text: &str| TextDocumentContentChangeEvent {
@@ -218,5 +199,29 @@ mod tests {
         assert_eq!(doc.version, 2);
         doc.apply(vec![edit(5, 0, 0, 0, "x")], 3);
         assert!(doc.text.ends_with('x'), "a range past the end inserts at the end, never panics");
+    }
+
+    #[test]
+    fn documents_over_the_bound_are_refused_and_recover() {
+        let whole = |text: &str| TextDocumentContentChangeEvent { range: None, range_length: None, text: text.into() };
+        let insert = |text: &str| TextDocumentContentChangeEvent {
+            range: Some(Range::new(Position::new(0, 0), Position::new(0, 0))),
+            range_length: None,
+            text: text.into(),
+        };
+        let mut doc = Document::new(String::new(), 1);
+        // Growing by edits stops at the bound: the text is dropped, not kept.
+        for (k, piece) in ["abcd", "efgh", "ijkl"].into_iter().enumerate() {
+            doc.apply_within(vec![insert(piece)], k as i32 + 2, 10);
+        }
+        assert_eq!((doc.text.as_str(), doc.too_large), ("", Some(12)));
+        doc.apply_within(vec![insert("x")], 5, 10);
+        assert_eq!((doc.text.as_str(), doc.too_large), ("", Some(12)), "an edit of an unknown text is ignored");
+        // A whole text over the bound, then one within it.
+        doc.apply_within(vec![whole("0123456789ab")], 6, 10);
+        assert_eq!((doc.text.as_str(), doc.too_large), ("", Some(12)));
+        doc.apply_within(vec![whole("0123"), insert("x")], 7, 10);
+        assert_eq!((doc.text.as_str(), doc.too_large, doc.version), ("x0123", None, 7));
+        assert_eq!(doc.offset(Position::new(0, 9)), 5, "the index follows the text");
     }
 }

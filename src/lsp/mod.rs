@@ -1,22 +1,27 @@
 //! `tslc lsp`: a language server over stdio (the Language Server Protocol,
-//! with rust-analyzer's `lsp-server` and `lsp-types`; no async runtime).
+//! with rust-analyzer's `lsp-server` types and `lsp-types`; no async
+//! runtime).
 //!
-//! The main loop owns the open documents and answers requests on its own
-//! thread from an [`analysis::Analysis`] of the current text (the
-//! compiler's front end, cached per document version). Diagnostics are
-//! computed on a worker thread, as `tslc check` would report them, when a
+//! `transport` reads and writes the framed messages (a bad message is
+//! answered and the server goes on). The main loop owns the open
+//! documents and answers requests on its own thread from an
+//! [`analysis::Analysis`] of the current text (the compiler's front end,
+//! cached per document version). Diagnostics are computed by a pool of
+//! workers (`scheduler`), as `tslc check` would report them, when a
 //! document opens or is saved and 150 ms after the last change, so typing
-//! never waits for a scene's meshes to be read. Every request and
-//! notification runs under `catch_unwind`: a bug answers one request with
-//! an error and the server goes on.
+//! never waits for a scene's meshes to be read and a slow document never
+//! holds up the others. Every request and notification runs under
+//! `catch_unwind`: a bug answers one request with an error and the server
+//! goes on.
 //!
-//! The modules: `documents` (texts, positions, the workspace's paths and
-//! the prelude's files), `analysis` (checking a document, what is under a
-//! position and what it refers to), `context` (where the cursor is, from
-//! the tokens before it), `docs` (stdlib doc blocks, docs/language.md),
-//! and one module per feature: `diagnostics`, `hover`, `navigation`
-//! (definition, references, highlights), `symbols`, `completion`,
-//! `signature`, `semantic` (semantic tokens).
+//! The modules: `documents` (texts, the workspace's paths and the
+//! prelude's files), `line_index` (positions as LSP counts them),
+//! `analysis` (checking a document, what is under a position and what it
+//! refers to), `context` (where the cursor is, from the tokens before it),
+//! `docs` (stdlib doc blocks, docs/language.md), and one module per
+//! feature: `diagnostics`, `hover`, `navigation` (definition, references,
+//! highlights), `symbols`, `completion`, `signature`, `semantic`
+//! (semantic tokens).
 
 mod analysis;
 mod completion;
@@ -25,42 +30,52 @@ mod diagnostics;
 mod docs;
 mod documents;
 mod hover;
+mod line_index;
 mod navigation;
+mod scheduler;
 mod semantic;
 mod signature;
 mod symbols;
+mod transport;
 
 use analysis::Analysis;
 use crossbeam_channel::{RecvTimeoutError, Sender};
 use documents::{Document, Workspace};
-use lsp_server::{Connection, ErrorCode, Message, Notification, Request, Response};
+use lsp_server::{Connection, ErrorCode, Message, Notification, Request, RequestId, Response};
 use lsp_types::notification::Notification as _;
+use lsp_types::request::Request as _;
 use lsp_types::*;
+use scheduler::{Scheduler, Work};
 use serde_json::Value;
 use std::collections::HashMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::rc::Rc;
-use std::sync::{Arc, mpsc};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+pub use documents::MAX_DOCUMENT_BYTES;
+pub use scheduler::DIAGNOSTICS_WORKERS;
+pub use transport::{MAX_HEADER_LINE_BYTES, MAX_JSON_VALUES, MAX_MESSAGE_BYTES};
 
 /// How long after the last change diagnostics are computed.
 pub const DEBOUNCE: Duration = Duration::from_millis(150);
 
 /// Runs the server over standard input and output until the client
-/// sends `exit`. `import_paths` are searched for imports after those of
-/// the initialization options (`{"importPaths": [...]}`).
+/// sends `exit` or the input ends (an error unless `shutdown` came
+/// first). `import_paths` are searched for imports after those of the
+/// initialization options (`{"importPaths": [...]}`).
 pub fn run_stdio(import_paths: Vec<PathBuf>) -> Result<(), String> {
-    let (connection, io_threads) = Connection::stdio();
+    let (connection, io_threads) = transport::stdio().map_err(|e| format!("tslc lsp: {e}"))?;
     run(connection, import_paths)?;
-    io_threads.join().map_err(|e| format!("tslc lsp: {e}"))
+    io_threads.join()
 }
 
 /// Runs the server on a connection (stdio, or in memory for tests).
 pub fn run(connection: Connection, import_paths: Vec<PathBuf>) -> Result<(), String> {
-    let protocol = |e: lsp_server::ProtocolError| format!("tslc lsp: {e}");
-    let (id, params) = connection.initialize_start().map_err(protocol)?;
-    let init: InitializeParams = serde_json::from_value(params).map_err(|e| format!("tslc lsp: initialize: {e}"))?;
+    let Some((id, init)) = initialize(&connection) else {
+        return Err("tslc lsp: the client left before `initialize`".into());
+    };
     let workspace = Arc::new(workspace_of(&init, import_paths));
     let snippets = init
         .capabilities
@@ -72,8 +87,9 @@ pub fn run(connection: Connection, import_paths: Vec<PathBuf>) -> Result<(), Str
         "capabilities": capabilities(),
         "serverInfo": { "name": "tslc", "version": env!("CARGO_PKG_VERSION") },
     });
-    connection.initialize_finish(id, result).map_err(protocol)?;
+    let _ = connection.sender.send(Response::new_ok(id, result).into());
     let mut server = Server::new(connection.sender.clone(), workspace, snippets);
+    let mut shut_down = false;
     loop {
         let message = match server.next_deadline() {
             Some(deadline) => {
@@ -89,12 +105,16 @@ pub fn run(connection: Connection, import_paths: Vec<PathBuf>) -> Result<(), Str
             },
         };
         match message {
-            Some(Message::Request(req)) => {
-                if connection.handle_shutdown(&req).map_err(protocol)? {
-                    break;
-                }
-                server.on_request(req);
+            Some(Message::Request(req)) if shut_down => {
+                let message = format!("tslc lsp: `{}` after `shutdown`", req.method);
+                let _ =
+                    connection.sender.send(Response::new_err(req.id, ErrorCode::InvalidRequest as i32, message).into());
             }
+            Some(Message::Request(req)) if req.method == request::Shutdown::METHOD => {
+                shut_down = true;
+                let _ = connection.sender.send(Response::new_ok(req.id, ()).into());
+            }
+            Some(Message::Request(req)) => server.on_request(req),
             Some(Message::Notification(n)) if n.method == notification::Exit::METHOD => break,
             Some(Message::Notification(n)) => server.on_notification(n),
             Some(Message::Response(_)) | None => {}
@@ -102,7 +122,37 @@ pub fn run(connection: Connection, import_paths: Vec<PathBuf>) -> Result<(), Str
         server.publish_due();
     }
     server.stop();
-    Ok(())
+    // As the protocol asks: a client that leaves without `shutdown` has
+    // the server exit with an error.
+    if shut_down { Ok(()) } else { Err("tslc lsp: the client left without `shutdown`".into()) }
+}
+
+/// Waits for the `initialize` request: other requests are answered
+/// ServerNotInitialized, an `initialize` whose parameters cannot be read
+/// InvalidParams, and other notifications are dropped. `None` when the
+/// client leaves first.
+fn initialize(connection: &Connection) -> Option<(RequestId, InitializeParams)> {
+    loop {
+        match connection.receiver.recv().ok()? {
+            Message::Request(req) if req.method == request::Initialize::METHOD => {
+                match serde_json::from_value::<InitializeParams>(req.params) {
+                    Ok(params) => return Some((req.id, params)),
+                    Err(e) => {
+                        let message = format!("tslc lsp: initialize: {e}");
+                        let answer = Response::new_err(req.id, ErrorCode::InvalidParams as i32, message);
+                        connection.sender.send(answer.into()).ok()?;
+                    }
+                }
+            }
+            Message::Request(req) => {
+                let message = format!("tslc lsp: `{}` before `initialize`", req.method);
+                let answer = Response::new_err(req.id, ErrorCode::ServerNotInitialized as i32, message);
+                connection.sender.send(answer.into()).ok()?;
+            }
+            Message::Notification(n) if n.method == notification::Exit::METHOD => return None,
+            Message::Notification(_) | Message::Response(_) => {}
+        }
+    }
 }
 
 fn workspace_of(init: &InitializeParams, mut import_paths: Vec<PathBuf>) -> Workspace {
@@ -156,14 +206,6 @@ fn capabilities() -> ServerCapabilities {
     }
 }
 
-/// A diagnostics job for the worker: a document's text, or `None` to
-/// clear its diagnostics (closed, or a prelude file).
-struct Job {
-    uri: Url,
-    version: Option<i32>,
-    text: Option<String>,
-}
-
 struct Server {
     sender: Sender<Message>,
     workspace: Arc<Workspace>,
@@ -172,13 +214,12 @@ struct Server {
     analyses: HashMap<Url, (i32, Rc<Analysis>)>,
     /// Documents changed since their diagnostics, and when to compute them.
     pending: HashMap<Url, Instant>,
-    jobs: Option<mpsc::Sender<Job>>,
-    worker: Option<std::thread::JoinHandle<()>>,
+    scheduler: Scheduler,
     snippets: bool,
 }
 
 /// The message of a caught panic.
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+pub(crate) fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     payload
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
@@ -198,15 +239,7 @@ fn handle<R: request::Request>(req: Request, f: impl FnOnce(R::Params) -> R::Res
 impl Server {
     fn new(sender: Sender<Message>, workspace: Arc<Workspace>, snippets: bool) -> Server {
         let options = workspace.load_options();
-        let (jobs, rx) = mpsc::channel::<Job>();
-        let worker = {
-            let (sender, workspace, options) = (sender.clone(), workspace.clone(), options.clone());
-            std::thread::Builder::new()
-                .name("tslc-lsp-diagnostics".into())
-                .stack_size(64 << 20)
-                .spawn(move || diagnostics_worker(&rx, &sender, &workspace, &options))
-                .ok()
-        };
+        let scheduler = Scheduler::new(sender.clone(), workspace.clone(), options.clone());
         Server {
             sender,
             workspace,
@@ -214,17 +247,13 @@ impl Server {
             docs: HashMap::new(),
             analyses: HashMap::new(),
             pending: HashMap::new(),
-            jobs: Some(jobs),
-            worker,
+            scheduler,
             snippets,
         }
     }
 
     fn stop(&mut self) {
-        self.jobs = None;
-        if let Some(worker) = self.worker.take() {
-            let _ = worker.join();
-        }
+        self.scheduler.stop();
     }
 
     fn log(&self, kind: MessageType, message: String) {
@@ -249,10 +278,14 @@ impl Server {
 
     fn diagnose(&self, uri: &Url) {
         let Some(doc) = self.docs.get(uri) else { return };
-        let text = self.workspace.prelude_name(uri).is_none().then(|| doc.text.clone());
-        if let Some(jobs) = &self.jobs {
-            let _ = jobs.send(Job { uri: uri.clone(), version: Some(doc.version), text });
-        }
+        let work = if let Some(size) = doc.too_large {
+            Work::Publish(vec![too_large(size)])
+        } else if self.workspace.prelude_name(uri).is_some() {
+            Work::Publish(Vec::new())
+        } else {
+            Work::Check(doc.text.clone())
+        };
+        self.scheduler.submit(uri, doc.version, work);
     }
 
     fn on_notification(&mut self, n: Notification) {
@@ -263,38 +296,47 @@ impl Server {
     }
 
     fn notification(&mut self, n: Notification) {
+        /// The parameters of a notification, or a log message saying why not.
+        fn params<N: notification::Notification>(server: &Server, n: lsp_server::Notification) -> Option<N::Params> {
+            serde_json::from_value(n.params)
+                .map_err(|e| server.log(MessageType::WARNING, format!("tslc lsp: {} ignored: {e}", N::METHOD)))
+                .ok()
+        }
+        use notification::*;
         match n.method.as_str() {
-            notification::DidOpenTextDocument::METHOD => {
-                let Ok(p) = serde_json::from_value::<DidOpenTextDocumentParams>(n.params) else { return };
+            DidOpenTextDocument::METHOD => {
+                let Some(p) = params::<DidOpenTextDocument>(self, n) else { return };
                 let uri = p.text_document.uri;
                 self.docs.insert(uri.clone(), Document::new(p.text_document.text, p.text_document.version));
+                self.analyses.remove(&uri);
                 self.diagnose(&uri);
             }
-            notification::DidChangeTextDocument::METHOD => {
-                let Ok(p) = serde_json::from_value::<DidChangeTextDocumentParams>(n.params) else { return };
+            DidChangeTextDocument::METHOD => {
+                let Some(p) = params::<DidChangeTextDocument>(self, n) else { return };
                 let uri = p.text_document.uri;
                 if let Some(doc) = self.docs.get_mut(&uri) {
                     // Applied to a copy: a bad edit leaves the document as it was.
                     let mut changed = doc.clone();
                     changed.apply(p.content_changes, p.text_document.version);
                     *doc = changed;
+                    self.analyses.remove(&uri);
+                    // The check of the text it had is stale from now on.
+                    self.scheduler.supersede(&uri);
                     self.pending.insert(uri, Instant::now() + DEBOUNCE);
                 }
             }
-            notification::DidSaveTextDocument::METHOD => {
-                let Ok(p) = serde_json::from_value::<DidSaveTextDocumentParams>(n.params) else { return };
+            DidSaveTextDocument::METHOD => {
+                let Some(p) = params::<DidSaveTextDocument>(self, n) else { return };
                 self.pending.remove(&p.text_document.uri);
                 self.diagnose(&p.text_document.uri);
             }
-            notification::DidCloseTextDocument::METHOD => {
-                let Ok(p) = serde_json::from_value::<DidCloseTextDocumentParams>(n.params) else { return };
+            DidCloseTextDocument::METHOD => {
+                let Some(p) = params::<DidCloseTextDocument>(self, n) else { return };
                 let uri = p.text_document.uri;
                 self.docs.remove(&uri);
                 self.analyses.remove(&uri);
                 self.pending.remove(&uri);
-                if let Some(jobs) = &self.jobs {
-                    let _ = jobs.send(Job { uri, version: None, text: None });
-                }
+                self.scheduler.close(&uri);
             }
             _ => {}
         }
@@ -359,7 +401,7 @@ impl Server {
                 signature::signature_help(&a, cx.call.as_ref()?, in_material)
             }),
             Formatting::METHOD => handle::<Formatting>(req, |p| {
-                let doc = self.docs.get(&p.text_document.uri)?;
+                let doc = self.docs.get(&p.text_document.uri).filter(|d| d.too_large.is_none())?;
                 // A file that does not parse is left alone; its errors are
                 // already shown.
                 let formatted = crate::format::format_source(&doc.text).ok()?;
@@ -378,7 +420,7 @@ impl Server {
 
     /// An open document and its analysis (cached per version).
     fn at(&mut self, uri: &Url) -> Option<(&Document, Rc<Analysis>)> {
-        let doc = self.docs.get(uri)?;
+        let doc = self.docs.get(uri).filter(|d| d.too_large.is_none())?;
         let fresh = self.analyses.get(uri).filter(|(version, _)| *version == doc.version);
         let analysis = match fresh {
             Some((_, analysis)) => analysis.clone(),
@@ -394,88 +436,15 @@ impl Server {
     }
 }
 
-/// A scene described by a check whose mesh and environment files have not been
-/// modified since it started (a 1M-triangle mesh takes seconds to read).
-fn unchanged_scene(
-    scene: &crate::scene::SceneDesc,
-    started: std::time::SystemTime,
-) -> Option<&crate::scene::SceneDesc> {
-    let meshes = scene.objects.iter().filter_map(|o| match &o.shape {
-        crate::scene::ShapeDesc::Mesh { file } => Some(file.value.path.clone()),
-        _ => None,
-    });
-    let environment = scene.environment.iter().filter_map(|e| match &e.source {
-        crate::scene::EnvironmentSourceDesc::Image(image) => Some(image.value.path.clone()),
-        crate::scene::EnvironmentSourceDesc::Constant(_) => None,
-    });
-    let unchanged =
-        |path: std::path::PathBuf| std::fs::metadata(path).and_then(|m| m.modified()).is_ok_and(|t| t < started);
-    meshes.chain(environment).all(unchanged).then_some(scene)
-}
-
-/// Computes and publishes diagnostics, newest text first: a burst of
-/// jobs for one document is one check.
-fn diagnostics_worker(
-    jobs: &mpsc::Receiver<Job>,
-    sender: &Sender<Message>,
-    ws: &Workspace,
-    options: &crate::LoadOptions,
-) {
-    // The scene of each document's last check (and when it started): its
-    // meshes and environment image are reused while their files are
-    // unchanged. (Texture images are decoded again: the texture manager's
-    // cache cannot tell a file that changed.)
-    let mut last: HashMap<Url, (crate::scene::SceneDesc, std::time::SystemTime)> = HashMap::new();
-    while let Ok(first) = jobs.recv() {
-        let mut batch = vec![first];
-        batch.extend(jobs.try_iter());
-        let mut latest: Vec<Job> = Vec::new();
-        for job in batch {
-            latest.retain(|j| j.uri != job.uri);
-            latest.push(job);
-        }
-        for job in latest {
-            let diagnostics = match &job.text {
-                None => {
-                    last.remove(&job.uri);
-                    Vec::new()
-                }
-                Some(text) => {
-                    let name = Workspace::source_name(&job.uri);
-                    let previous = last.get(&job.uri).and_then(|(scene, at)| unchanged_scene(scene, *at));
-                    let run = || {
-                        let started = std::time::SystemTime::now();
-                        let checked = crate::check_source_reusing(&name, text, options, previous);
-                        let shown = diagnostics::diagnostics(ws, &checked, text);
-                        (checked, started, shown)
-                    };
-                    catch_unwind(AssertUnwindSafe(run))
-                        .map(|(checked, started, shown)| {
-                            // The last scene described stays while the text
-                            // has errors: its files are reused once it is fixed.
-                            if let Some(scene) = checked.scene {
-                                last.insert(job.uri.clone(), (scene, started));
-                            }
-                            shown
-                        })
-                        .unwrap_or_else(|panic| {
-                            vec![Diagnostic {
-                                message: format!(
-                                    "internal error in tslc (please report it): {}",
-                                    panic_message(&*panic)
-                                ),
-                                severity: Some(DiagnosticSeverity::ERROR),
-                                source: Some("tslc".into()),
-                                ..Diagnostic::default()
-                            }]
-                        })
-                }
-            };
-            let params = PublishDiagnosticsParams { uri: job.uri, diagnostics, version: job.version };
-            let note = Notification::new(notification::PublishDiagnostics::METHOD.into(), params);
-            if sender.send(note.into()).is_err() {
-                return;
-            }
-        }
+/// The diagnostic of a document over [`MAX_DOCUMENT_BYTES`].
+fn too_large(size: usize) -> lsp_types::Diagnostic {
+    lsp_types::Diagnostic {
+        message: format!(
+            "this document is {size} bytes, larger than {} MiB, the most a source file may be: it is not checked",
+            MAX_DOCUMENT_BYTES >> 20
+        ),
+        severity: Some(DiagnosticSeverity::ERROR),
+        source: Some("tslc".into()),
+        ..lsp_types::Diagnostic::default()
     }
 }

@@ -2,20 +2,20 @@
 //! document's imports and into the prelude.
 
 use super::analysis::{Analysis, Node, node_at};
-use super::documents::{LineIndex, Workspace};
-use crate::diag::Span;
-use lsp_types::{DocumentHighlight, DocumentHighlightKind, Location};
+use super::documents::Workspace;
+use crate::diag::{FileId, Span};
+use lsp_types::{DocumentHighlight, DocumentHighlightKind, Location, Url};
 use std::path::Path;
 
 /// A span as an LSP location: its file's URI (a prelude file from the
 /// prelude directory) and range.
 pub fn location(workspace: &Workspace, analysis: &Analysis, span: Span) -> Option<Location> {
-    let module = analysis.module_of(span.file)?;
-    let name = analysis.program.loaded.sources.name(span.file);
-    let uri = workspace.uri_of(name, module.is_prelude)?;
-    let text = analysis.text(span.file);
-    let range = LineIndex::new(text).range(text, span.start as usize, span.end as usize);
-    Some(Location { uri, range })
+    Some(Location { uri: file_uri(workspace, analysis, span.file)?, range: analysis.range(span) })
+}
+
+fn file_uri(workspace: &Workspace, analysis: &Analysis, file: FileId) -> Option<Url> {
+    let module = analysis.module_of(file)?;
+    workspace.uri_of(analysis.program.loaded.sources.name(file), module.is_prelude)
 }
 
 /// Where what is at `offset` is defined: the definition of a name, a
@@ -47,11 +47,18 @@ pub fn references(workspace: &Workspace, analysis: &Analysis, offset: usize, wit
     let Some(target) = node_at(analysis.module(), offset).and_then(|n| analysis.target(n)) else {
         return Vec::new();
     };
-    analysis
-        .references(target, with_definition)
-        .into_iter()
-        .filter_map(|span| location(workspace, analysis, span))
-        .collect()
+    // References are sorted by file: each file's URI is made once.
+    let mut uri: Option<(FileId, Option<Url>)> = None;
+    let mut out = Vec::new();
+    for span in analysis.references(target, with_definition) {
+        if uri.as_ref().is_none_or(|(file, _)| *file != span.file) {
+            uri = Some((span.file, file_uri(workspace, analysis, span.file)));
+        }
+        if let Some((_, Some(uri))) = &uri {
+            out.push(Location { uri: uri.clone(), range: analysis.range(span) });
+        }
+    }
+    out
 }
 
 /// The references in the document itself, the definition marked as written.
@@ -70,13 +77,8 @@ pub fn highlights(analysis: &Analysis, offset: usize) -> Vec<(Span, DocumentHigh
 
 /// [`highlights`] as LSP values.
 pub fn document_highlights(analysis: &Analysis, offset: usize) -> Vec<DocumentHighlight> {
-    let text = analysis.text(analysis.file());
-    let index = LineIndex::new(text);
     highlights(analysis, offset)
         .into_iter()
-        .map(|(s, kind)| DocumentHighlight {
-            range: index.range(text, s.start as usize, s.end as usize),
-            kind: Some(kind),
-        })
+        .map(|(s, kind)| DocumentHighlight { range: analysis.range(s), kind: Some(kind) })
         .collect()
 }

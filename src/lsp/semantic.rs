@@ -8,7 +8,7 @@ use crate::check::{GLOBALS, SymbolKind};
 use crate::diag::Span;
 use crate::syntax::ast::*;
 use lsp_types::{SemanticToken, SemanticTokenModifier, SemanticTokenType, SemanticTokens, SemanticTokensLegend};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 const TYPES: &[SemanticTokenType] = &[
     SemanticTokenType::FUNCTION,
@@ -64,7 +64,7 @@ pub fn tokens(analysis: &Analysis, doc: &Document) -> SemanticTokens {
     for span in p.builtin_calls.keys() {
         put(*span, (FUNCTION, LIBRARY));
     }
-    let params = parameter_spans(analysis);
+    let params: HashSet<Span> = parameter_spans(analysis).into_iter().collect();
     for (span, decl) in &p.local_uses {
         put(*span, (if params.contains(decl) { PARAMETER } else { VARIABLE }, 0));
     }
