@@ -52,6 +52,14 @@ pub fn format_source(src: &str) -> Result<String, Vec<Diagnostic>> {
     Ok(out)
 }
 
+/// Whether `diagnostic` is [`format_source`] refusing a formatting that
+/// would change the program (a formatter bug to report), rather than the
+/// source's own syntax error. Editors show the first as a failed request:
+/// the user asked for a formatting and gets none.
+pub fn is_refusal(diagnostic: &Diagnostic) -> bool {
+    diagnostic.message.starts_with(verify::REFUSED)
+}
+
 /// The printed text, before verification.
 fn print(src: &str, lexed: &lexed::Lexed, ast: &crate::syntax::ast::SourceFile) -> String {
     let out = doc::render(&printer::print(src, lexed, ast));

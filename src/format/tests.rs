@@ -340,3 +340,11 @@ fn the_verifier_refuses_output_that_does_not_parse() {
     let d = refusal("const float A = 1;", "const float A = 1; /* never closed\n");
     assert!(d.message.starts_with("formatting refused because its output would not parse ("), "{}", d.message);
 }
+
+#[test]
+fn refusals_are_told_apart_from_the_sources_own_syntax_errors() {
+    let d = refusal("const float A = (1);", "const float A = 1;\n");
+    assert!(super::is_refusal(&d), "{}", d.message);
+    let syntax = format_source("const float A = ;").unwrap_err();
+    assert!(!syntax.is_empty() && !syntax.iter().any(super::is_refusal), "{syntax:?}");
+}

@@ -42,6 +42,9 @@ pub(super) fn same_program(src: &str, lexed: &Lexed, ast: &SourceFile, out: &str
     same_comments(src, lexed, out, &out_lexed).map_err(|d| refused(src, d, "it would lose or change a comment"))
 }
 
+/// How every refusal's message starts ([`super::is_refusal`]).
+pub(super) const REFUSED: &str = "formatting refused";
+
 /// The diagnostic: "formatting refused because it would change the
 /// program: the array at 2:5 would have 1 element instead of 5".
 fn refused(src: &str, d: Difference, because: &str) -> Vec<Diagnostic> {
@@ -52,7 +55,7 @@ fn refused(src: &str, d: Difference, because: &str) -> Vec<Diagnostic> {
         format!("{} at {line}:{col} {}", d.subject, d.change)
     };
     vec![
-        Diagnostic::error(d.span, format!("formatting refused because {because}: {what}"))
+        Diagnostic::error(d.span, format!("{REFUSED} because {because}: {what}"))
             .with_primary(if d.change.is_empty() { "here".to_string() } else { d.change })
             .with_help(
                 "`tslc fmt` checks that what it prints is the same program with the same comments; \

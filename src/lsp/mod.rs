@@ -231,9 +231,17 @@ type Handled = Result<Value, (ErrorCode, String)>;
 
 /// Decodes a request's parameters, runs `f` and encodes its answer.
 fn handle<R: request::Request>(req: Request, f: impl FnOnce(R::Params) -> R::Result) -> Handled {
+    handle_fallible::<R>(req, |p| Ok(f(p)))
+}
+
+/// [`handle`] for a request that can fail with an error the editor shows.
+fn handle_fallible<R: request::Request>(
+    req: Request,
+    f: impl FnOnce(R::Params) -> Result<R::Result, (ErrorCode, String)>,
+) -> Handled {
     let params: R::Params =
         serde_json::from_value(req.params).map_err(|e| (ErrorCode::InvalidParams, format!("{}: {e}", R::METHOD)))?;
-    serde_json::to_value(f(params)).map_err(|e| (ErrorCode::InternalError, e.to_string()))
+    serde_json::to_value(f(params)?).map_err(|e| (ErrorCode::InternalError, e.to_string()))
 }
 
 impl Server {
@@ -400,15 +408,28 @@ impl Server {
                 let in_material = matches!(cx.place, context::Place::Code { in_material: true });
                 signature::signature_help(&a, cx.call.as_ref()?, in_material)
             }),
-            Formatting::METHOD => handle::<Formatting>(req, |p| {
-                let doc = self.docs.get(&p.text_document.uri).filter(|d| d.too_large.is_none())?;
-                // A file that does not parse is left alone; its errors are
-                // already shown.
-                let formatted = crate::format::format_source(&doc.text).ok()?;
+            Formatting::METHOD => handle_fallible::<Formatting>(req, |p| {
+                let Some(doc) = self.docs.get(&p.text_document.uri).filter(|d| d.too_large.is_none()) else {
+                    return Ok(None);
+                };
+                let formatted = match crate::format::format_source(&doc.text) {
+                    Ok(text) => text,
+                    // A refusal is a failed request, so the editor shows why
+                    // nothing changed.
+                    Err(diags) if diags.iter().any(crate::format::is_refusal) => {
+                        let mut sources = crate::diag::SourceMap::new();
+                        sources.add(Workspace::source_name(&p.text_document.uri), doc.text.as_str());
+                        let message = crate::diag::render_text(&sources, &diags, crate::diag::Colors::Never);
+                        return Err((ErrorCode::RequestFailed, message));
+                    }
+                    // A file that does not parse is left alone; its errors
+                    // are already shown.
+                    Err(_) => return Ok(None),
+                };
                 if formatted == doc.text {
-                    return Some(Vec::new());
+                    return Ok(Some(Vec::new()));
                 }
-                Some(vec![TextEdit { range: doc.range(0, doc.text.len()), new_text: formatted }])
+                Ok(Some(vec![TextEdit { range: doc.range(0, doc.text.len()), new_text: formatted }]))
             }),
             SemanticTokensFullRequest::METHOD => handle::<SemanticTokensFullRequest>(req, |p| {
                 let (doc, a) = self.at(&p.text_document.uri)?;
