@@ -80,7 +80,7 @@ fn too_large_diagnostic(at: Span, what: &str, size: u64) -> Diagnostic {
              on their own, so a tree that uses the previous one in two different children (or under \
              `transform` or `bump`) doubles at every level",
         )
-        .with_help("use the same material in both places, or build the tree with fewer levels")
+        .with_help("use one material where the children may be the same, or build the tree with fewer levels")
 }
 
 impl<'a> Sizes<'a> {

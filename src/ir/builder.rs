@@ -39,17 +39,18 @@ pub(crate) struct Builder {
     pub(crate) too_large: bool,
 }
 
-/// The most values one IR function may define while it is lowered (2^18,
-/// 262,144), checked as they are defined. Inlining copies a function or a
-/// material at every use that cannot share the first copy's code (another
-/// coordinate context, another lobe to sample), so a small program can ask
-/// for exponentially many; past this bound lowering stops and reports the
+/// The most values one IR function may define while it is lowered (2^20,
+/// 1,048,576; folded constants count), checked as they are defined.
+/// Inlining copies a function or a material at every use that cannot
+/// share the first copy's code (other arguments, another coordinate
+/// context, another lobe to sample), so a small program can ask for
+/// exponentially many; past this bound lowering stops and reports the
 /// entry point instead of allocating gigabytes (reaching it takes about
-/// 3 s and 100 MB; Cranelift would then need about 4 KB per instruction).
-/// The largest entry of the examples, texture_tree's `cube.sample`,
-/// defines about 8,600 values (22,000 in `spectral64`); a generated
-/// 100,000-term sum about 100,000.
-pub const MAX_FUNCTION_VALUES: usize = 1 << 18;
+/// 3 s and 250 MB). The largest entry of the examples, texture_tree's
+/// `cube.sample`, defines about 8,600 values (22,000 in `spectral64`); a
+/// generated 100,000-term sum about 100,000, a sum of 100,000 constants
+/// about 300,000.
+pub const MAX_FUNCTION_VALUES: usize = 1 << 20;
 
 /// Shading globals replaced in a coordinate context, by name.
 pub(crate) type GlobalChanges = Vec<(&'static str, Vec<Value>)>;

@@ -141,13 +141,14 @@ impl<'p> Lowerer<'p> {
                 Diagnostic::error(at, format!("{what} {TOO_LARGE}"))
                     .with_primary(format!("inlined, `{}` would define more than {max} IR values", b.func.name))
                     .with_note(
-                        "a material or function is compiled again at each use that cannot share an earlier copy \
-                         (under another `transform` or `bump`, or as another child to sample), so a tree that \
-                         uses the previous one twice that way doubles at every level",
+                        "every call of a function and every use of a material is inlined; a use that cannot share \
+                         an earlier copy's code (other arguments, another `transform` or `bump`, another child to \
+                         sample) is compiled again, so code that uses the level below twice that way doubles at \
+                         every level",
                     )
                     .with_help(format!(
-                        "use a material twice in the same place (`mix(t, m, m)` compiles `m` once), or use fewer \
-                         levels; the bound is {max} values per compiled function"
+                        "compute what the uses share once and pass it on, or use fewer levels; the bound is {max} \
+                         values per compiled function"
                     )),
             );
         }
