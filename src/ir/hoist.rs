@@ -18,6 +18,10 @@
 //! everything point-only under a per-call condition. A scope entered under
 //! a point-only condition (`select` by face, `mix` at a weight of 0 or 1)
 //! stops the move: `prepare` keeps those branches.
+//!
+//! The same move to the function's outermost scope
+//! ([`Builder::outermost`]) lowers constants, in every function: their
+//! values read only the frame globals, so they are computed once there.
 
 use super::builder::Builder;
 use super::{ArrayId, Inst, Op, Value, Var};
