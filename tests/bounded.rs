@@ -170,6 +170,28 @@ fn long_chains_and_dags_of_constants() {
     assert_eq!(floats(&run(&lower(&checked, |n| n == "value"), "value", 0)), vec![sum]);
 }
 
+/// Scene values share the constants they read: 500 objects whose radius
+/// is the last of 20,000 constants evaluate the chain once, not 500 times.
+#[test]
+fn scene_values_evaluate_a_shared_chain_once() {
+    let objects: String = (0..500)
+        .map(|k| format!("    object sphere {{ center ({k}, 0, 10); radius c20000 * 0.25; material lambert; }}\n"))
+        .collect();
+    let src = chain("float", "2", "{p} * 1.0", 20_000)
+        + "scene {\n    camera { from (0, 0, -4); to (0, 0, 0); fov 40; }\n"
+        + &objects
+        + "}\n";
+    let checked = check(&src);
+    assert_clean(&checked);
+    let scene = checked.scene.expect("a scene");
+    assert_eq!(scene.objects.len(), 500);
+    let radius = |o: &tsl::scene::ObjectDesc| match &o.shape {
+        tsl::scene::ShapeDesc::Sphere { radius, .. } => radius.value,
+        _ => 0.0,
+    };
+    assert!(scene.objects.iter().all(|o| radius(o) == 0.5));
+}
+
 /// A constant that reads the point through a function is reported once,
 /// not once for every constant built on it.
 #[test]

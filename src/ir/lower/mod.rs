@@ -139,16 +139,39 @@ pub fn lower_value(
     to: &Ty,
     absolute_spectra: bool,
 ) -> (Function, Vec<Diagnostic>) {
-    let mut lw = Lowerer::new(program, model);
-    lw.absolute_spectra = absolute_spectra;
-    let mut b = Builder::new(name);
-    let ctx = lw.root_ctx();
-    let mut fr = lw.new_frame(false, HashSet::default());
-    let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
-    let lanes = lw.lanes(&mut b, v, to);
-    lw.write_results(&mut b, to, &lanes);
-    let f = lw.finish_entry(b, expr.span, "this value");
-    (f, lw.diags)
+    ValueLowerer::new(program, model).lower(name, expr, to, absolute_spectra)
+}
+
+/// Lowers values one after another ([`lower_value`]), keeping what they
+/// share: the constants already folded. A scene of a thousand objects
+/// whose radius is the last of a long chain of constants evaluates the
+/// chain once, not once per object.
+pub struct ValueLowerer<'p> {
+    program: &'p Program,
+    model: ColorModel,
+    folded: HashMap<MatId, constants::Folded>,
+}
+
+impl<'p> ValueLowerer<'p> {
+    pub fn new(program: &'p Program, model: ColorModel) -> Self {
+        ValueLowerer { program, model, folded: HashMap::default() }
+    }
+
+    /// [`lower_value`], with the constants of the values lowered before.
+    pub fn lower(&mut self, name: &str, expr: &Expr, to: &Ty, absolute_spectra: bool) -> (Function, Vec<Diagnostic>) {
+        let mut lw = Lowerer::new(self.program, self.model);
+        lw.absolute_spectra = absolute_spectra;
+        std::mem::swap(&mut lw.folded_consts, &mut self.folded);
+        let mut b = Builder::new(name);
+        let ctx = lw.root_ctx();
+        let mut fr = lw.new_frame(false, HashSet::default());
+        let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
+        let lanes = lw.lanes(&mut b, v, to);
+        lw.write_results(&mut b, to, &lanes);
+        let f = lw.finish_entry(b, expr.span, "this value");
+        std::mem::swap(&mut lw.folded_consts, &mut self.folded);
+        (f, lw.diags)
+    }
 }
 
 /// Lowers material expressions of the root program (a scene object's
