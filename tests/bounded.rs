@@ -345,6 +345,21 @@ fn exponential_material_trees_are_refused_by_check() {
         assert!(text.contains(&format!("input.tsl:{line}:10")), "{text}");
         assert!(text.contains(&format!("it holds {size} material definitions; the most is 256")), "{text}");
     }
+    // Templates that double through their arguments: reported where a
+    // tree uses them (counts saturate, so 2^(2^40) is not computed).
+    for t0 in ["mix(noise(P), a, scale(rgb(0.5, 0.5, 0.5), a))", "blend(u, [a, transform(rotate(9, (0, 0, 1)), a)])"] {
+        let mut src = format!("material t0(material a) = {t0};\n");
+        for k in 1..=40 {
+            src += &format!("material t{k}(material a) = t{}(t{}(a));\n", k - 1, k - 1);
+        }
+        src += "material m = t40(lambert);\n";
+        let checked = check(&src);
+        let text = checked.render_diagnostics();
+        assert_eq!(checked.count(Severity::Error), 1, "{text}");
+        assert!(text.starts_with("error: material `m` is too large to compile\n"), "{text}");
+        assert!(text.contains("┌─ input.tsl:42:10\n"), "{text}");
+        assert!(text.contains("it holds more than 10^19 material definitions"), "{text}");
+    }
     // A scene's own expression over a tree just within the bound.
     let src = material_chain("mix(noise(P), {p}, scale(rgb(0.9, 0.8, 0.7), {p}))", 8)
         .replace("material m8;", "material mix(u, m8, scale(rgb(0.5, 0.5, 0.5), m8));");

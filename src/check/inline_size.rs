@@ -72,7 +72,8 @@ pub(super) fn report_inline_sizes(program: &Program, diags: &mut Vec<Diagnostic>
 }
 
 fn too_large_diagnostic(at: Span, what: &str, size: u64) -> Diagnostic {
-    let size = if size == u64::MAX { "more than 18446744073709551615".to_string() } else { size.to_string() };
+    // Counts saturate: 2^64 - 1 stands for anything larger.
+    let size = if size == u64::MAX { "more than 10^19".to_string() } else { size.to_string() };
     Diagnostic::error(at, format!("{what} is too large to compile"))
         .with_primary(format!("inlined, it holds {size} material definitions; the most is {MAX_INLINED_MATERIALS}"))
         .with_note(
