@@ -475,4 +475,29 @@ mod tests {
         assert_eq!(did_you_mean("lihgt", ["light", "object"]), Some("light"));
         assert_eq!(did_you_mean("fvo", ["fov", "from"]), Some("fov"));
     }
+
+    #[test]
+    fn control_characters_become_one_visible_character() {
+        let shown: String = "a\x1b\x07\t\r\x7f\u{9b}\u{202e}é".chars().map(escape_char).collect();
+        assert_eq!(shown, "a␛␇\t␍␡\u{fffd}\u{fffd}é");
+    }
+
+    /// A label from the middle of one long line to the middle of another:
+    /// both ends quoted in windows, the lines between as codespan shows
+    /// them, every line short.
+    #[test]
+    fn a_multi_line_label_over_long_lines_is_cut_at_both_ends() {
+        let long = "x".repeat(1000);
+        let text = format!("{long}START{long}\nshort\n{long}END{long}\n");
+        let mut sm = SourceMap::new();
+        let f = sm.add("a.tsl", text.as_str());
+        let (start, end) = (text.find("START").unwrap(), text.find("END").unwrap() + 3);
+        let d = Diagnostic::error(Span::new(f, start, end), "here").with_primary("spans two lines");
+        let out = render_text(&sm, &[d], Colors::Never);
+        assert!(out.contains("a.tsl:1:1001\n"), "{out}");
+        assert!(out.contains(&format!("1 │   ...{}START", "x".repeat(QUOTE_CONTEXT_CHARS))), "{out}");
+        assert!(out.contains(&format!("END{}...\n", "x".repeat(QUOTE_CONTEXT_CHARS))), "{out}");
+        assert!(out.contains("2 │ │ short"), "{out}");
+        assert!(out.lines().all(|l| l.chars().count() <= 2 * QUOTE_CONTEXT_CHARS + 20), "{out}");
+    }
 }

@@ -128,13 +128,15 @@ impl<'a> Checker<'a> {
         None
     }
 
-    /// The nodes other than constants from which a path through nodes
-    /// other than constants reaches code that reads a shading global: a
-    /// search backwards from the readers, linear in the graph.
+    /// The code (functions, materials, methods: not constants, not scene
+    /// values) from which a path through such code reaches a read of a
+    /// shading global: a search backwards from the readers, linear in the
+    /// graph.
     fn reaching_point_readers(&self) -> FxHashSet<Node> {
         let mut callers: FxHashMap<&Node, Vec<&Node>> = FxHashMap::default();
         for (from, out) in &self.graph {
-            if self.is_const(from) {
+            // Constants and scene values are the roots asked about.
+            if self.is_const(from) || matches!(from, Node::SceneValue(..)) {
                 continue;
             }
             for (to, _) in &out.list {
@@ -163,15 +165,17 @@ impl<'a> Checker<'a> {
     /// linear in the graph, however many constants use one another.
     pub(super) fn report_varying_values(&mut self) {
         let is_root = |n: &Node| self.is_const(n) || matches!(n, Node::SceneValue(..));
-        let mut roots: Vec<Node> = self.graph.keys().filter(|n| is_root(n)).cloned().collect();
-        roots.sort();
         let varying = self.reaching_point_readers();
+        // Only the roots that use varying code, in a fixed order.
+        let mut roots: Vec<Node> = self
+            .graph
+            .iter()
+            .filter(|(n, e)| is_root(n) && e.list.iter().any(|(to, _)| varying.contains(to)))
+            .map(|(n, _)| n.clone())
+            .collect();
+        roots.sort();
         for start in roots {
             let scene = matches!(start, Node::SceneValue(..));
-            let out = self.dependencies(&start);
-            if !out.iter().any(|(n, _)| varying.contains(n)) {
-                continue;
-            }
             // A direct read was refused where it is written.
             let Some((path, read, first_use)) = self.path_to(&start, true, |n| self.reads_globals.get(n).copied())
             else {
