@@ -83,9 +83,15 @@ impl<'p> Lowerer<'p> {
         }
     }
 
+    /// Whether [`Self::known_constant`] has `sym` (without copying it in).
+    fn is_known(&self, b: &Builder, sym: Symbol) -> bool {
+        let id = (sym.module, sym.item);
+        self.folded_consts.contains_key(&id) || b.memo.get_outermost(&MemoKey::Constant(id)).is_some()
+    }
+
     /// `sym` and the constants it needs that are not known yet, each once,
     /// every constant after those its value names (`sym` last).
-    fn constants_to_lower(&mut self, b: &mut Builder, sym: Symbol) -> Vec<Symbol> {
+    fn constants_to_lower(&self, b: &Builder, sym: Symbol) -> Vec<Symbol> {
         let mut order = Vec::new();
         let mut seen: HashSet<ConstId> = HashSet::default();
         seen.insert((sym.module, sym.item));
@@ -94,7 +100,7 @@ impl<'p> Lowerer<'p> {
         while let Some((_, deps)) = stack.last_mut() {
             match deps.pop() {
                 Some(dep) => {
-                    if seen.insert((dep.module, dep.item)) && self.known_constant(b, dep).is_none() {
+                    if seen.insert((dep.module, dep.item)) && !self.is_known(b, dep) {
                         let next = self.named_constants(dep);
                         stack.push((dep, next));
                     }
