@@ -45,8 +45,8 @@ pub(crate) struct Builder {
 /// share the first copy's code (other arguments, another coordinate
 /// context, another lobe to sample), so a small program can ask for
 /// exponentially many; past this bound lowering stops and reports the
-/// entry point instead of allocating gigabytes (reaching it takes about
-/// 3 s and 250 MB). The largest entry of the examples, texture_tree's
+/// entry point instead of allocating gigabytes (reaching it took 2-3 s
+/// and 250-350 MB in release builds). The largest entry of the examples, texture_tree's
 /// `cube.sample`, defines about 8,600 values (22,000 in `spectral64`); a
 /// generated 100,000-term sum about 100,000, a sum of 100,000 constants
 /// about 300,000.
