@@ -2,13 +2,48 @@
 //!
 //! Front-end passes never fail: they return a value plus a list of
 //! [`Diagnostic`]s. Rendering for people (with codespan-reporting) or as JSON
-//! happens only at the edge, through [`render_text`] and [`to_json`].
+//! happens only at the edge, through [`render_text`] and [`json_lines`].
+//!
+//! What is rendered is bounded whatever the input: at most
+//! [`MAX_DIAGNOSTICS_PER_FILE`] diagnostics per file, then one line saying
+//! how many more there are; quoted lines cut to windows around the labels
+//! ([`MAX_QUOTED_LINE_CHARS`]); and no control character from a file's
+//! text reaches the terminal ([`escape_char`]).
 
-use codespan_reporting::diagnostic as cs;
-use codespan_reporting::files::SimpleFiles;
+mod quote;
+
+pub use quote::{MAX_QUOTED_LINE_CHARS, QUOTE_CONTEXT_CHARS};
+
 use codespan_reporting::term;
 use serde::Serialize;
 use std::ops::Range;
+
+/// The most diagnostics rendered for one file (100, as clang's error
+/// limit): past them, most are echoes of one mistake, and a file of
+/// thousands of errors would print megabytes. A file with more shows its
+/// first 99 and, last, one line counting the rest: `error: 3901 more errors
+/// in input.tsl not shown`. The parser stops collecting syntax errors at
+/// the same bound (99 and its own count).
+pub const MAX_DIAGNOSTICS_PER_FILE: usize = 100;
+
+/// How a character of a file's text is shown in a terminal. Control
+/// characters would let a file drive the terminal (move the cursor, change
+/// colours, rewrite the title), so: C0 controls other than tab and newline
+/// become their Unicode control pictures (U+2400 + code: ESC is `␛`), DEL
+/// becomes `␡`, and the C1 controls (U+0080 to U+009F) and the
+/// bidirectional overrides (U+202A to U+202E, U+2066 to U+2069), which
+/// have no picture, become `�` (U+FFFD). Each is one column wide, so carets
+/// under a quoted line stay aligned. Tabs are kept (codespan expands them);
+/// a newline is never part of a quoted line.
+pub fn escape_char(c: char) -> char {
+    match c {
+        '\t' => c,
+        '\u{0}'..='\u{1f}' => char::from_u32(0x2400 + c as u32).unwrap_or('\u{fffd}'),
+        '\u{7f}' => '\u{2421}',
+        '\u{80}'..='\u{9f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' => '\u{fffd}',
+        _ => c,
+    }
+}
 
 /// Index of a source file in a [`SourceMap`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
@@ -76,6 +111,11 @@ impl SourceMap {
 
     pub fn is_empty(&self) -> bool {
         self.files.is_empty()
+    }
+
+    /// The byte offset where each line of a file starts.
+    pub fn line_starts(&self, id: FileId) -> &[usize] {
+        &self.files[id.0 as usize].line_starts
     }
 
     /// The 1-based line and column (in characters) of a byte offset.
@@ -172,31 +212,32 @@ pub enum Colors {
 pub const UNLOCATED: &str = "<tsl>";
 
 /// Renders diagnostics as rustc-style text: `file:line:col`, the source
-/// line, carets, labels, help.
+/// line, carets, labels, help. At most [`MAX_DIAGNOSTICS_PER_FILE`] per
+/// file, then a line counting the rest; long lines cut to windows around
+/// the labels; control characters escaped ([`escape_char`]).
 pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) -> String {
-    let mut files = SimpleFiles::new();
-    for i in 0..sources.len() {
-        let id = FileId(i as u32);
-        files.add(sources.name(id), sources.text(id));
-    }
     let config = term::Config::default();
     let mut out: Vec<u8> = Vec::new();
+    let mut hidden = Hidden::new(sources, diags);
     for d in diags {
+        if hidden.hides(d) {
+            continue;
+        }
         // Not about any source text (a bad override, a failed write): one line.
         if sources.name(d.span.file) == UNLOCATED && sources.text(d.span.file).is_empty() {
             let severity = if d.is_error() { "error" } else { "warning" };
-            out.extend(format!("{severity}: {}\n", d.message).bytes());
+            out.extend(format!("{severity}: {}\n", quote::escape(&d.message)).bytes());
             for line in d
                 .help
                 .iter()
-                .map(|h| format!("  = help: {h}\n"))
-                .chain(d.notes.iter().map(|n| format!("  = note: {n}\n")))
+                .map(|h| format!("  = help: {}\n", quote::escape(h)))
+                .chain(d.notes.iter().map(|n| format!("  = note: {}\n", quote::escape(n))))
             {
                 out.extend(line.bytes());
             }
             continue;
         }
-        let cs_diag = to_codespan(d);
+        let (files, cs_diag) = quote::Quote::new(sources, d, &config);
         // Writing into a Vec cannot fail; a bad span could, and then the
         // plain one-line form below still tells the user what happened.
         let ok = match colors {
@@ -211,26 +252,75 @@ pub fn render_text(sources: &SourceMap, diags: &[Diagnostic], colors: Colors) ->
         };
         if !ok {
             let (line, col) = sources.line_col(d.span.file, d.span.start);
-            out.extend(format!("error: {}\n  at {}:{line}:{col}\n", d.message, sources.name(d.span.file)).bytes());
+            let (message, name) = (quote::escape(&d.message), quote::escape(sources.name(d.span.file)));
+            out.extend(format!("error: {message}\n  at {name}:{line}:{col}\n").bytes());
         }
+    }
+    for (file, errors, warnings) in hidden.counts() {
+        let severity = if errors > 0 { "error" } else { "warning" };
+        out.extend(format!("{severity}: {}\n", hidden_message(sources, file, errors, warnings)).bytes());
     }
     String::from_utf8_lossy(&out).into_owned()
 }
 
-fn to_codespan(d: &Diagnostic) -> cs::Diagnostic<usize> {
-    let severity = match d.severity {
-        Severity::Error => cs::Severity::Error,
-        Severity::Warning => cs::Severity::Warning,
-    };
-    let mut labels = vec![cs::Label::primary(d.span.file.0 as usize, d.span.range()).with_message(&d.primary_label)];
-    labels.extend(
-        d.labels.iter().map(|l| cs::Label::secondary(l.span.file.0 as usize, l.span.range()).with_message(&l.message)),
-    );
-    let mut notes: Vec<String> = d.notes.iter().map(|n| format!("note: {n}")).collect();
-    if let Some(help) = &d.help {
-        notes.push(format!("help: {help}"));
+/// The diagnostics left out per file: a file with more than
+/// [`MAX_DIAGNOSTICS_PER_FILE`] shows the first `MAX - 1`, and a last line
+/// counts the rest (so the parser's own count, its hundredth diagnostic,
+/// passes through).
+struct Hidden {
+    /// Per file, in order of first appearance: its diagnostics in all,
+    /// those seen so far, and the errors and warnings left out.
+    files: Vec<HiddenIn>,
+}
+
+struct HiddenIn {
+    file: FileId,
+    total: usize,
+    seen: usize,
+    errors: usize,
+    warnings: usize,
+}
+
+impl Hidden {
+    fn new(sources: &SourceMap, diags: &[Diagnostic]) -> Hidden {
+        let mut files: Vec<HiddenIn> = Vec::new();
+        for d in diags.iter().filter(|d| sources.name(d.span.file) != UNLOCATED) {
+            match files.iter_mut().find(|f| f.file == d.span.file) {
+                Some(f) => f.total += 1,
+                None => files.push(HiddenIn { file: d.span.file, total: 1, seen: 0, errors: 0, warnings: 0 }),
+            }
+        }
+        Hidden { files }
     }
-    cs::Diagnostic::new(severity).with_message(&d.message).with_labels(labels).with_notes(notes)
+
+    /// Counts `d` (the diagnostics in the order given to [`Hidden::new`]);
+    /// whether it is left out.
+    fn hides(&mut self, d: &Diagnostic) -> bool {
+        let Some(f) = self.files.iter_mut().find(|f| f.file == d.span.file) else { return false };
+        f.seen += 1;
+        if f.total <= MAX_DIAGNOSTICS_PER_FILE || f.seen < MAX_DIAGNOSTICS_PER_FILE {
+            return false;
+        }
+        if d.is_error() {
+            f.errors += 1;
+        } else {
+            f.warnings += 1;
+        }
+        true
+    }
+
+    /// (file, errors, warnings) for each file that lost some.
+    fn counts(&self) -> impl Iterator<Item = (FileId, usize, usize)> + '_ {
+        self.files.iter().filter(|f| f.errors + f.warnings > 0).map(|f| (f.file, f.errors, f.warnings))
+    }
+}
+
+/// `3900 more errors and 2 more warnings in input.tsl not shown`.
+fn hidden_message(sources: &SourceMap, file: FileId, errors: usize, warnings: usize) -> String {
+    let count = |n: usize, what: &str| format!("{n} more {what}{}", if n == 1 { "" } else { "s" });
+    let parts: Vec<String> =
+        [(errors, "error"), (warnings, "warning")].iter().filter(|(n, _)| *n > 0).map(|(n, w)| count(*n, w)).collect();
+    format!("{} in {} not shown", parts.join(" and "), quote::escape(sources.name(file)))
 }
 
 /// One diagnostic as the JSON object `--message-format json` prints.
@@ -258,6 +348,32 @@ pub struct JsonLabel<'a> {
     pub column: usize,
     pub byte_start: u32,
     pub byte_end: u32,
+}
+
+/// The JSON lines `--message-format json` prints for `diags`: one object
+/// per diagnostic, at most [`MAX_DIAGNOSTICS_PER_FILE`] per file, the last
+/// of a file that has more saying how many are left out (at the position
+/// of the first of them).
+pub fn json_lines(sources: &SourceMap, diags: &[Diagnostic]) -> Vec<String> {
+    let mut hidden = Hidden::new(sources, diags);
+    let mut first_hidden: Vec<(FileId, Span)> = Vec::new();
+    let mut lines = Vec::new();
+    for d in diags {
+        if hidden.hides(d) {
+            if !first_hidden.iter().any(|(f, _)| *f == d.span.file) {
+                first_hidden.push((d.span.file, d.span));
+            }
+            continue;
+        }
+        lines.push(to_json(sources, d));
+    }
+    for (file, errors, warnings) in hidden.counts() {
+        let span = first_hidden.iter().find(|(f, _)| *f == file).map_or(Span { file, start: 0, end: 0 }, |(_, s)| *s);
+        let message = hidden_message(sources, file, errors, warnings);
+        let d = if errors > 0 { Diagnostic::error(span, message) } else { Diagnostic::warning(span, message) };
+        lines.push(to_json(sources, &d));
+    }
+    lines
 }
 
 /// The JSON form of one diagnostic, on one line.
@@ -358,5 +474,30 @@ mod tests {
         assert_eq!(did_you_mean("n", ["N", "P"]), Some("N"));
         assert_eq!(did_you_mean("lihgt", ["light", "object"]), Some("light"));
         assert_eq!(did_you_mean("fvo", ["fov", "from"]), Some("fov"));
+    }
+
+    #[test]
+    fn control_characters_become_one_visible_character() {
+        let shown: String = "a\x1b\x07\t\r\x7f\u{9b}\u{202e}é".chars().map(escape_char).collect();
+        assert_eq!(shown, "a␛␇\t␍␡\u{fffd}\u{fffd}é");
+    }
+
+    /// A label from the middle of one long line to the middle of another:
+    /// both ends quoted in windows, the lines between as codespan shows
+    /// them, every line short.
+    #[test]
+    fn a_multi_line_label_over_long_lines_is_cut_at_both_ends() {
+        let long = "x".repeat(1000);
+        let text = format!("{long}START{long}\nshort\n{long}END{long}\n");
+        let mut sm = SourceMap::new();
+        let f = sm.add("a.tsl", text.as_str());
+        let (start, end) = (text.find("START").unwrap(), text.find("END").unwrap() + 3);
+        let d = Diagnostic::error(Span::new(f, start, end), "here").with_primary("spans two lines");
+        let out = render_text(&sm, &[d], Colors::Never);
+        assert!(out.contains("a.tsl:1:1001\n"), "{out}");
+        assert!(out.contains(&format!("1 │   ...{}START", "x".repeat(QUOTE_CONTEXT_CHARS))), "{out}");
+        assert!(out.contains(&format!("END{}...\n", "x".repeat(QUOTE_CONTEXT_CHARS))), "{out}");
+        assert!(out.contains("2 │ │ short"), "{out}");
+        assert!(out.lines().all(|l| l.chars().count() <= 2 * QUOTE_CONTEXT_CHARS + 20), "{out}");
     }
 }

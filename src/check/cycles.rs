@@ -2,6 +2,7 @@
 //! from one shading point to the next.
 
 use super::*;
+use rustc_hash::FxHashSet;
 
 impl<'a> Checker<'a> {
     /// Shade trees are DAGs: any cycle among functions, materials, methods,
@@ -9,7 +10,7 @@ impl<'a> Checker<'a> {
     pub(super) fn report_recursion(&mut self) {
         let mut nodes: Vec<Node> = self.graph.keys().cloned().collect();
         nodes.sort();
-        let mut state: HashMap<Node, u8> = HashMap::new();
+        let mut state: FxHashMap<Node, u8> = FxHashMap::default();
         for start in nodes {
             if state.contains_key(&start) {
                 continue;
@@ -17,7 +18,7 @@ impl<'a> Checker<'a> {
             let mut stack: Vec<(Node, usize, Option<Span>)> = vec![(start.clone(), 0, None)];
             state.insert(start, 1);
             while let Some((node, next, _)) = stack.last().cloned() {
-                let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+                let out = self.dependencies(&node);
                 if let Some((to, span)) = out.get(next).cloned() {
                     if let Some(top) = stack.last_mut() {
                         top.1 += 1;
@@ -43,6 +44,11 @@ impl<'a> Checker<'a> {
                 }
             }
         }
+    }
+
+    /// What `node` uses, in the order of first use.
+    fn dependencies(&self, node: &Node) -> &[(Node, Span)] {
+        self.graph.get(node).map_or(&[], |e| e.list.as_slice())
     }
 
     pub(super) fn is_const(&self, node: &Node) -> bool {
@@ -94,23 +100,23 @@ impl<'a> Checker<'a> {
         skip_consts: bool,
         reads: impl Fn(&Node) -> Option<Span>,
     ) -> Option<(Vec<Node>, Span, Span)> {
-        let mut seen: HashMap<Node, ()> = HashMap::new();
+        let mut seen: rustc_hash::FxHashSet<Node> = Default::default();
         let mut stack: Vec<(Node, usize)> = vec![(start.clone(), 0)];
-        seen.insert(start.clone(), ());
+        seen.insert(start.clone());
         while let Some((node, next)) = stack.last().cloned() {
             if let Some(read) = reads(&node).filter(|_| stack.len() > 1) {
                 let path: Vec<Node> = stack.iter().map(|(n, _)| n.clone()).collect();
-                let out = self.graph.get(start)?;
+                let out = self.dependencies(start);
                 let first_use = out.iter().find(|(n, _)| path.get(1) == Some(n)).map(|(_, span)| *span)?;
                 return Some((path, read, first_use));
             }
-            let out = self.graph.get(&node).map(Vec::as_slice).unwrap_or(&[]);
+            let out = self.dependencies(&node);
             match out.get(next) {
                 Some((to, _)) => {
                     if let Some(top) = stack.last_mut() {
                         top.1 += 1;
                     }
-                    if seen.insert(to.clone(), ()).is_none() && !(skip_consts && self.is_const(to)) {
+                    if seen.insert(to.clone()) && !(skip_consts && self.is_const(to)) {
                         stack.push((to.clone(), 0));
                     }
                 }
@@ -122,18 +128,56 @@ impl<'a> Checker<'a> {
         None
     }
 
+    /// The code (functions, materials, methods: not constants, not scene
+    /// values) from which a path through such code reaches a read of a
+    /// shading global: a search backwards from the readers, linear in the
+    /// graph.
+    fn reaching_point_readers(&self) -> FxHashSet<Node> {
+        let mut callers: FxHashMap<&Node, Vec<&Node>> = FxHashMap::default();
+        for (from, out) in &self.graph {
+            // Constants and scene values are the roots asked about.
+            if self.is_const(from) || matches!(from, Node::SceneValue(..)) {
+                continue;
+            }
+            for (to, _) in &out.list {
+                callers.entry(to).or_default().push(from);
+            }
+        }
+        let mut found: FxHashSet<Node> = FxHashSet::default();
+        let mut stack: Vec<&Node> = self.reads_globals.keys().filter(|n| !self.is_const(n)).collect();
+        while let Some(n) = stack.pop() {
+            if !found.insert(n.clone()) {
+                continue;
+            }
+            stack.extend(callers.get(n).into_iter().flatten().copied());
+        }
+        found
+    }
+
     /// A constant or a scene value (other than a material) may not depend
     /// on the shading point, not even through the functions it calls; a
     /// render setting may not depend on the frame (the `time` mapping may
     /// read `frame`).
+    ///
+    /// Constants on the way are not followed: a constant that reads the
+    /// point is reported for itself, once, and a value that uses it is not
+    /// (as an ill-typed expression is reported once). So the search is
+    /// linear in the graph, however many constants use one another.
     pub(super) fn report_varying_values(&mut self) {
         let is_root = |n: &Node| self.is_const(n) || matches!(n, Node::SceneValue(..));
-        let mut roots: Vec<Node> = self.graph.keys().filter(|n| is_root(n)).cloned().collect();
+        let varying = self.reaching_point_readers();
+        // Only the roots that use varying code, in a fixed order.
+        let mut roots: Vec<Node> = self
+            .graph
+            .iter()
+            .filter(|(n, e)| is_root(n) && e.list.iter().any(|(to, _)| varying.contains(to)))
+            .map(|(n, _)| n.clone())
+            .collect();
         roots.sort();
         for start in roots {
             let scene = matches!(start, Node::SceneValue(..));
             // A direct read was refused where it is written.
-            let Some((path, read, first_use)) = self.path_to(&start, scene, |n| self.reads_globals.get(n).copied())
+            let Some((path, read, first_use)) = self.path_to(&start, true, |n| self.reads_globals.get(n).copied())
             else {
                 continue;
             };

@@ -18,6 +18,7 @@ mod builtins;
 mod calls;
 mod cycles;
 mod expr;
+mod inline_size;
 mod interface;
 mod items;
 mod scene;
@@ -44,6 +45,17 @@ use std::sync::Arc;
 
 /// The most elements an array may have.
 pub const MAX_ARRAY_LEN: u32 = 4096;
+
+/// The most material definitions (`lambert(...)`, `mirror`, ...) one
+/// material may hold once its tree is inlined: 256, sixteen times the
+/// largest example (texture_tree's `cube` holds 16). Children that are the
+/// same material count once; other children each count, so a tree that
+/// uses the previous one in two different children at every level doubles
+/// per level. `tslc check` counts without compiling, so such a tree is
+/// refused before a compile would take minutes and gigabytes (a tree of
+/// 610 took 1 s and 600 MB to compile; each definition inlined costs about
+/// 200 IR instructions in `sample` alone).
+pub const MAX_INLINED_MATERIALS: u64 = 256;
 
 /// The most iterations one `for` loop runs: the IR's limit, which the
 /// checker reports when constant bounds exceed it.
@@ -202,12 +214,12 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         current: (0, 0),
         resolutions: SpanMap::default(),
         local_uses: FxHashMap::default(),
-        reads_globals: HashMap::new(),
-        reads_frame: HashMap::new(),
-        frame_limits: HashMap::new(),
+        reads_globals: FxHashMap::default(),
+        reads_frame: FxHashMap::default(),
+        frame_limits: FxHashMap::default(),
         diags: &mut diags,
         expr_types: ExprTypes::default(),
-        graph: HashMap::new(),
+        graph: FxHashMap::default(),
         body: Body::default(),
         images: Vec::new(),
         texture_calls: HashMap::new(),
@@ -238,6 +250,10 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
         images,
         texture_calls,
     };
+    // Counting needs a well-formed program (no cycle among trees).
+    if !diags.iter().any(Diagnostic::is_error) {
+        inline_size::report_inline_sizes(&program, &mut diags);
+    }
     (program, diags)
 }
 
@@ -337,6 +353,35 @@ impl Node {
     }
 }
 
+/// A node's dependencies, each once, in the order of first use (with the
+/// span of that use).
+#[derive(Debug, Default)]
+struct Edges {
+    list: Vec<(Node, Span)>,
+    /// The targets, once there are many (a constant summing thousands of
+    /// others): a repeated use is then found without a scan.
+    index: Option<rustc_hash::FxHashSet<Node>>,
+}
+
+impl Edges {
+    /// Lists past this many targets are indexed.
+    const SCANNED: usize = 16;
+
+    fn add(&mut self, to: Node, span: Span) {
+        let known = match &mut self.index {
+            Some(index) => !index.insert(to.clone()),
+            None => self.list.iter().any(|(n, _)| *n == to),
+        };
+        if known {
+            return;
+        }
+        self.list.push((to, span));
+        if self.index.is_none() && self.list.len() > Self::SCANNED {
+            self.index = Some(self.list.iter().map(|(n, _)| n.clone()).collect());
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum LocalKind {
     Param,
@@ -402,17 +447,17 @@ struct Checker<'a> {
     /// Name uses that are locals, to their declarations.
     local_uses: FxHashMap<Span, Span>,
     /// Items whose own code reads a shading global, with the first use.
-    reads_globals: HashMap<Node, Span>,
+    reads_globals: FxHashMap<Node, Span>,
     /// Items and scene values whose own code reads `frame` or `time`, by
     /// the global's name, with the first read and that name.
-    reads_frame: HashMap<(Node, &'static str), (Span, &'static str)>,
+    reads_frame: FxHashMap<(Node, &'static str), (Span, &'static str)>,
     /// Scene values that may not depend on (all of) the frame globals: the
     /// render settings.
-    frame_limits: HashMap<Node, FrameGlobals>,
+    frame_limits: FxHashMap<Node, FrameGlobals>,
     diags: &'a mut Vec<Diagnostic>,
     expr_types: ExprTypes,
     /// Dependencies between items, with the span of the first use.
-    graph: HashMap<Node, Vec<(Node, Span)>>,
+    graph: FxHashMap<Node, Edges>,
     body: Body,
     images: Vec<ImageUse>,
     texture_calls: HashMap<Span, TextureCall>,

@@ -48,10 +48,7 @@ impl<'a> Checker<'a> {
     }
 
     pub(super) fn edge(&mut self, from: Node, to: Node, span: Span) {
-        let edges = self.graph.entry(from).or_default();
-        if !edges.iter().any(|(n, _)| *n == to) {
-            edges.push((to, span));
-        }
+        self.graph.entry(from).or_default().add(to, span);
     }
 
     /// Records that the current body uses a global item.

@@ -34,7 +34,23 @@ pub(crate) struct Builder {
     /// a hit group lowers all its methods under one branch of a `select`,
     /// and each method's own branch on the same condition folds.
     pub(crate) facts: Vec<(Value, bool)>,
+    /// Set once the function has defined more than [`MAX_FUNCTION_VALUES`]
+    /// values: lowering then stops inlining and reports the entry point.
+    pub(crate) too_large: bool,
 }
+
+/// The most values one IR function may define while it is lowered (2^20,
+/// 1,048,576; folded constants count), checked as they are defined.
+/// Inlining copies a function or a material at every use that cannot
+/// share the first copy's code (other arguments, another coordinate
+/// context, another lobe to sample), so a small program can ask for
+/// exponentially many; past this bound lowering stops and reports the
+/// entry point instead of allocating gigabytes (reaching it took 2-3 s
+/// and 250-350 MB in release builds). The largest entry of the examples, texture_tree's
+/// `cube.sample`, defines about 8,600 values (22,000 in `spectral64`); a
+/// generated 100,000-term sum about 100,000, a sum of 100,000 constants
+/// about 300,000.
+pub const MAX_FUNCTION_VALUES: usize = 1 << 20;
 
 /// Shading globals replaced in a coordinate context, by name.
 pub(crate) type GlobalChanges = Vec<(&'static str, Vec<Value>)>;
@@ -74,6 +90,9 @@ pub(crate) enum MemoKey {
         sampler: usize,
         coords: Vec<Value>,
     },
+    /// The value of a `const` item (module, item), remembered in the
+    /// outermost scope (see [`Builder::outermost`]).
+    Constant((usize, usize)),
 }
 
 /// An operation as a value-numbering key: floats compare by bits, so
@@ -127,6 +146,7 @@ impl Builder {
             contexts: HashMap::default(),
             hoisting: None,
             facts: Vec::new(),
+            too_large: false,
         }
     }
 
@@ -152,6 +172,7 @@ impl Builder {
     }
 
     pub(crate) fn fresh_value(&mut self, ty: Scalar) -> Value {
+        self.too_large |= self.func.values.len() >= MAX_FUNCTION_VALUES;
         self.func.values.push(ty);
         Value(self.func.values.len() as u32 - 1)
     }

@@ -18,6 +18,10 @@
 //! everything point-only under a per-call condition. A scope entered under
 //! a point-only condition (`select` by face, `mix` at a weight of 0 or 1)
 //! stops the move: `prepare` keeps those branches.
+//!
+//! The same move to the function's outermost scope
+//! ([`Builder::outermost`]) lowers constants, in every function: their
+//! values read only the frame globals, so they are computed once there.
 
 use super::builder::Builder;
 use super::{ArrayId, Inst, Op, Value, Var};
@@ -174,9 +178,29 @@ impl Builder {
         if !inputs.iter().all(|v| self.movable_to(*v, anchor)) {
             return f(self);
         }
-        let stack = self.stack.split_off(anchor + 1);
-        let memo = self.memo.split_off(anchor + 1);
-        let conditional = self.hoisting.as_mut().map(|h| h.conditional.split_off(anchor + 1)).unwrap_or_default();
+        self.in_scope(anchor, f)
+    }
+
+    /// Runs `f` in the function's outermost scope, wherever the builder
+    /// is: what `f` defines and remembers there dominates every later
+    /// instruction. For code whose inputs are all defined at the top (the
+    /// value of a constant, which reads only the frame globals). The
+    /// conditions known in the scopes left (`facts`) are hidden from `f`.
+    pub(crate) fn outermost<R>(&mut self, f: impl FnOnce(&mut Builder) -> R) -> R {
+        if self.stack.len() == 1 && self.facts.is_empty() {
+            return f(self);
+        }
+        let facts = std::mem::take(&mut self.facts);
+        let result = self.in_scope(0, f);
+        self.facts = facts;
+        result
+    }
+
+    /// Runs `f` in the open scope at `depth`, then reopens the inner ones.
+    fn in_scope<R>(&mut self, depth: usize, f: impl FnOnce(&mut Builder) -> R) -> R {
+        let stack = self.stack.split_off(depth + 1);
+        let memo = self.memo.split_off(depth + 1);
+        let conditional = self.hoisting.as_mut().map(|h| h.conditional.split_off(depth + 1)).unwrap_or_default();
         let result = f(self);
         self.stack.extend(stack);
         self.memo.restore(memo);

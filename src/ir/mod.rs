@@ -32,6 +32,7 @@ pub mod split;
 pub mod verify;
 
 pub use adce::eliminate_dead_code_aggressive;
+pub use builder::MAX_FUNCTION_VALUES;
 pub use gvn::value_number;
 pub use semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 pub use verify::{VerifyError, verify_function, verify_module};

@@ -57,7 +57,8 @@ pub fn describe_frame(
     let model = description_model(model);
     let dir = Path::new(program.loaded.sources.name(file)).parent().map(Path::to_path_buf).unwrap_or_default();
     let globals = ShadingGlobals { frame: request.frame, ..ShadingGlobals::default() }.words();
-    let mut d = Describer { program, model, module, item, dir, reuse, globals, diags: Vec::new(), named: None };
+    let values = crate::ir::lower::ValueLowerer::new(program, model);
+    let mut d = Describer { program, model, module, item, dir, reuse, globals, diags: Vec::new(), named: None, values };
     let desc = d.scene(scene, request);
     let failed = d.diags.iter().any(Diagnostic::is_error);
     (desc.filter(|_| !failed), d.diags)
@@ -79,6 +80,8 @@ struct Describer<'a> {
     diags: Vec<Diagnostic>,
     /// The last object material found to be a plain material name.
     named: Option<Arc<str>>,
+    /// Lowers the values, each constant once for them all.
+    values: crate::ir::lower::ValueLowerer<'a>,
 }
 
 /// The words of a number or a tuple of numbers, written out, as lowering
@@ -139,7 +142,7 @@ impl<'a> Describer<'a> {
         if let Some(words) = literal_words(e, ty) {
             return Some(words);
         }
-        let (f, diags) = crate::ir::lower::lower_value(self.program, self.model, "value", e, ty, emission);
+        let (f, diags) = self.values.lower("value", e, ty, emission);
         if !diags.is_empty() {
             self.diags.extend(diags);
             return None;

@@ -106,10 +106,12 @@ fn binary(
     node(file, start as usize, end as usize, kind)
 }
 
-/// The most syntax errors reported for one file (as clang's error limit):
-/// a broken file of thousands of lines gets its first errors and a count,
-/// not megabytes of echoes.
-pub const MAX_SYNTAX_ERRORS: usize = 100;
+/// The most syntax errors reported for one file, before one more
+/// diagnostic counting the rest: with it, the bound of every file's
+/// diagnostics ([`MAX_DIAGNOSTICS_PER_FILE`](crate::diag::MAX_DIAGNOSTICS_PER_FILE)),
+/// applied while parsing so a broken file of thousands of lines does not
+/// collect thousands of errors first.
+pub const MAX_SYNTAX_ERRORS: usize = crate::diag::MAX_DIAGNOSTICS_PER_FILE - 1;
 
 /// Parses one source file.
 pub fn parse(file: FileId, src: &str) -> (SourceFile, Vec<Diagnostic>) {

@@ -331,9 +331,9 @@ fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
     match args.message_format {
         MessageFormat::Json => {
             let mut out = std::io::stdout().lock();
-            for d in &checked.diagnostics {
+            for line in diag::json_lines(sources, &checked.diagnostics) {
                 // A closed stdout (e.g. piped into `head`) is not our error.
-                let _ = writeln!(out, "{}", diag::to_json(sources, d));
+                let _ = writeln!(out, "{line}");
             }
         }
         MessageFormat::Human => {

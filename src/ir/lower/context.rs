@@ -17,6 +17,9 @@ impl<'p> Lowerer<'p> {
             direction_only: false,
             absolute_spectra: false,
             types: Default::default(),
+            folded_consts: HashMap::default(),
+            default_methods: Default::default(),
+            gave_up: false,
         }
     }
 
@@ -125,6 +128,39 @@ impl<'p> Lowerer<'p> {
         }
     }
 
+    /// Finishes the function of an entry point. One that grew past
+    /// [`MAX_FUNCTION_VALUES`](crate::ir::MAX_FUNCTION_VALUES) while it was
+    /// lowered (lowering then stopped inlining) is an error at `at`, the
+    /// material or function the entry is for; the entries after it are not
+    /// inlined either ([`Self::stopped`]), since the lowering has failed.
+    pub(super) fn finish_entry(&mut self, b: Builder, at: Span, what: &str) -> Function {
+        self.gave_up |= b.too_large;
+        if b.too_large && !self.diags.iter().any(|d| d.span == at && d.message.ends_with(TOO_LARGE)) {
+            let max = crate::ir::MAX_FUNCTION_VALUES;
+            self.diags.push(
+                Diagnostic::error(at, format!("{what} {TOO_LARGE}"))
+                    .with_primary(format!("inlined, `{}` would define more than {max} IR values", b.func.name))
+                    .with_note(
+                        "every call of a function and every use of a material is inlined; a use that cannot share \
+                         an earlier copy's code (other arguments, another `transform` or `bump`, another child to \
+                         sample) is compiled again, so code that uses the level below twice that way doubles at \
+                         every level",
+                    )
+                    .with_help(format!(
+                        "compute what the uses share once and pass it on, or use fewer levels; the bound is {max} \
+                         values per compiled function"
+                    )),
+            );
+        }
+        b.finish()
+    }
+
+    /// Whether lowering has stopped inlining: this function grew past the
+    /// bound, or an earlier one did.
+    pub(super) fn stopped(&self, b: &Builder) -> bool {
+        b.too_large || self.gave_up
+    }
+
     pub(super) fn lower_function_entry(
         &mut self,
         name: &str,
@@ -139,7 +175,7 @@ impl<'p> Lowerer<'p> {
         let result = self.inline_function(&mut b, sym, f, args, &ctx);
         let lanes = self.lanes(&mut b, result, ret);
         self.write_results(&mut b, ret, &lanes);
-        b.finish()
+        self.finish_entry(b, sym.span, &format!("function `{name}`"))
     }
 
     pub(super) fn material_entries(&mut self, name: &str, sym: Symbol, module: &mut Module, entries: &mut Vec<Entry>) {
@@ -158,14 +194,14 @@ impl<'p> Lowerer<'p> {
                     let inst = self.instance_from_def(&mut b, sym, &[], &ctx, &Rc::new(HashMap::default()), false);
                     let result = self.instance_method(&mut b, &inst, im, &args, &ctx);
                     self.write_results(&mut b, &im.ret, &result);
-                    module.functions.push(b.finish());
+                    module.functions.push(self.finish_entry(b, sym.span, &format!("material `{name}`")));
                     entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
                     continue;
                 }
             };
             let result = self.mat_method(&mut b, &mat, im, &args, &ctx);
             self.write_results(&mut b, &im.ret, &result);
-            module.functions.push(b.finish());
+            module.functions.push(self.finish_entry(b, sym.span, &format!("material `{name}`")));
             entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
         }
     }
@@ -177,6 +213,9 @@ impl<'p> Lowerer<'p> {
         }
     }
 }
+
+/// The end of the message for an entry point past the bound.
+const TOO_LARGE: &str = "is too large to compile";
 
 pub(super) enum MatSource<'p> {
     Tree(&'p Expr),

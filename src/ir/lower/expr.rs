@@ -29,6 +29,16 @@ impl<'p> Lowerer<'p> {
     }
 
     pub(super) fn expr(&mut self, b: &mut Builder, fr: &mut Frame<'p>, ctx: &Ctx, e: &'p Expr) -> Val<'p> {
+        if self.stopped(b) {
+            // Past the bound lowering stops inlining (the entry is
+            // reported): values become zeros, materials stay expressions.
+            let ty = self.ty_of(e);
+            let holds_material =
+                |t: &Ty| matches!(t, Ty::Material) || matches!(t, Ty::Array(el, _) if **el == Ty::Material);
+            if !holds_material(&ty) && ty != Ty::Void {
+                return self.zero_value(b, &ty);
+            }
+        }
         crate::syntax::ast::with_stack(|| self.expr_unguarded(b, fr, ctx, e))
     }
 
@@ -222,16 +232,7 @@ impl<'p> Lowerer<'p> {
             return Val::Lanes(g);
         }
         match self.symbol(fr.in_prelude, n) {
-            Some(sym) if sym.kind == SymbolKind::Const => {
-                let Item::Const(c) = self.item(sym) else {
-                    ruled_out!("the constant `{n}` is not a constant item");
-                    return Val::Unit;
-                };
-                // Constants fold, so lowering the value at each use is cheap.
-                let ty = Ty::from_ast(&c.ty);
-                let mut cfr = self.new_frame(self.is_prelude(sym), HashSet::default());
-                self.expr_as(b, &mut cfr, ctx, &c.value, &ty)
-            }
+            Some(sym) if sym.kind == SymbolKind::Const => self.constant(b, sym),
             Some(_) => Val::Material(Mat { expr: e, env: self.mat_env(fr), in_prelude: fr.in_prelude }),
             None => {
                 ruled_out!("the name `{n}` resolves to nothing");

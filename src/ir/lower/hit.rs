@@ -184,7 +184,7 @@ impl<'p> Lowerer<'p> {
         for (k, (_, v)) in outputs.iter().enumerate() {
             b.push(Inst::Output(k as u32, *v));
         }
-        let combined = b.finish();
+        let combined = self.finish_entry(b, mat.expr.span, "this material");
         HitGroup { split: split::split(&combined, hit_words, &parts), combined, entries }
     }
 
@@ -293,6 +293,10 @@ impl<'p> Lowerer<'p> {
                     // Not a partial blend (`only:`), which samples as `a`.
                     TreeNode::Mix if mix && bound.get(3).copied().flatten().is_none() => {
                         let (a, c) = (child(1)?, child(2)?);
+                        // `mix(t, m, m)` is `m` at every weight: no choice.
+                        if self.same_material(&a, &c) {
+                            return None;
+                        }
                         // As `tree_node` computes it: the same values, numbered once.
                         let t = self.node_float(b, mat, bound.first().copied().flatten()?, ctx);
                         if b.is_per_call(t) {

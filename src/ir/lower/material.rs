@@ -139,6 +139,9 @@ impl<'p> Lowerer<'p> {
         args: &[Vec<Value>],
         ctx: &Ctx,
     ) -> Vec<Value> {
+        if self.stopped(b) {
+            return self.typed_zeros(b, &im.ret);
+        }
         let e = mat.expr;
         match &e.kind {
             ExprKind::Name(n) => {
@@ -172,14 +175,17 @@ impl<'p> Lowerer<'p> {
                 }
             }
             ExprKind::Ternary { cond, then_expr, else_expr } => {
-                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
-                let c = self.expr(b, &mut fr, ctx, cond);
-                let c = self.scalar(b, c);
-                let tys = self.words(&im.ret);
                 let (m1, m2) = (
                     Mat { expr: then_expr, env: mat.env.clone(), in_prelude: mat.in_prelude },
                     Mat { expr: else_expr, env: mat.env.clone(), in_prelude: mat.in_prelude },
                 );
+                if self.same_material(&m1, &m2) {
+                    return self.mat_method(b, &m1, im, args, ctx);
+                }
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let c = self.expr(b, &mut fr, ctx, cond);
+                let c = self.scalar(b, c);
+                let tys = self.words(&im.ret);
                 b.branch(
                     self,
                     c,
@@ -277,10 +283,28 @@ impl<'p> Lowerer<'p> {
     /// Whether method `im` of the material expression is the interface
     /// default everywhere in its tree (no leaf defines it and no node
     /// changes it). Conservative: `false` when unsure.
+    ///
+    /// Each named tree is analysed once per method (`default_methods`), and
+    /// a node's children that are the same material once: a tree that
+    /// uses the previous tree twice at every level costs its depth, not
+    /// 2^depth.
     pub(super) fn uses_default(&self, mat: &Mat<'p>, im: &'static InterfaceMethod, depth: u32) -> bool {
         if depth > 64 {
             return false;
         }
+        if let Some(id) = self.mat_identity(mat) {
+            let key = (id, im.name);
+            if let Some(known) = self.default_methods.borrow().get(&key) {
+                return *known;
+            }
+            let found = self.uses_default_uncached(mat, im, depth);
+            self.default_methods.borrow_mut().insert(key, found);
+            return found;
+        }
+        self.uses_default_uncached(mat, im, depth)
+    }
+
+    fn uses_default_uncached(&self, mat: &Mat<'p>, im: &'static InterfaceMethod, depth: u32) -> bool {
         let defines = |def: &ast::MaterialDef| def.methods.iter().any(|m| m.name.name == im.name);
         match &mat.expr.kind {
             ExprKind::Name(n) => {
@@ -305,7 +329,7 @@ impl<'p> Lowerer<'p> {
             }
             ExprKind::Index { base, .. } => {
                 let items = self.material_items(Some(base), mat);
-                !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
+                !items.is_empty() && self.distinct(&items).iter().all(|m| self.uses_default(m, im, depth + 1))
             }
             ExprKind::Ternary { then_expr, else_expr, .. } => [then_expr, else_expr].iter().all(|e| {
                 self.uses_default(&Mat { expr: e, env: mat.env.clone(), in_prelude: mat.in_prelude }, im, depth + 1)
@@ -352,7 +376,7 @@ impl<'p> Lowerer<'p> {
                     positional.get(k).map(|a| Mat { expr: &a.value, env: mat.env.clone(), in_prelude: mat.in_prelude })
                 };
                 let all = |items: Vec<Mat<'p>>| {
-                    !items.is_empty() && items.iter().all(|m| self.uses_default(m, im, depth + 1))
+                    !items.is_empty() && self.distinct(&items).iter().all(|m| self.uses_default(m, im, depth + 1))
                 };
                 let Some(node) = self.program.builtin_calls.get(&callee.span).and_then(|f| f.tree_node()) else {
                     return false;
@@ -381,6 +405,54 @@ impl<'p> Lowerer<'p> {
             }
             _ => false,
         }
+    }
+
+    /// The material a material expression names when it is a plain name
+    /// (of a material definition or a tree without parameters, directly or
+    /// through template parameters): two children with the same identity
+    /// are the same material in the same place, lowered once.
+    pub(super) fn mat_identity(&self, mat: &Mat<'p>) -> Option<MatId> {
+        let mut mat = mat;
+        loop {
+            let ExprKind::Name(n) = &mat.expr.kind else { return None };
+            if let Some(bound) = mat.env.get(n.as_str()) {
+                let Val::Material(inner) = bound else { return None };
+                mat = inner;
+                continue;
+            }
+            let sym = self.symbol(mat.in_prelude, n)?;
+            return match self.item(sym) {
+                Item::Material(_) => Some((sym.module, sym.item)),
+                Item::MaterialTree(t) if t.params.is_none() => Some((sym.module, sym.item)),
+                _ => None,
+            };
+        }
+    }
+
+    /// Whether `a` and `b` are the same material ([`Self::mat_identity`]).
+    pub(super) fn same_material(&self, a: &Mat<'p>, b: &Mat<'p>) -> bool {
+        self.mat_identity(a).is_some_and(|id| self.mat_identity(b) == Some(id))
+    }
+
+    /// `items` with repeats of the same material left out.
+    pub(super) fn distinct(&self, items: &[Mat<'p>]) -> Vec<Mat<'p>> {
+        let groups = self.material_groups(items);
+        groups.iter().map(|g| items[g[0]].clone()).collect()
+    }
+
+    /// The indices of `items`, grouped by material: each group holds the
+    /// children that are the same material ([`Self::mat_identity`]), in
+    /// order of first appearance; a child without an identity is alone.
+    pub(super) fn material_groups(&self, items: &[Mat<'p>]) -> Vec<Vec<usize>> {
+        let mut groups: Vec<(Option<MatId>, Vec<usize>)> = Vec::new();
+        for (k, item) in items.iter().enumerate() {
+            let id = self.mat_identity(item);
+            match groups.iter_mut().find(|(g, _)| id.is_some() && *g == id) {
+                Some((_, members)) => members.push(k),
+                None => groups.push((id, vec![k])),
+            }
+        }
+        groups.into_iter().map(|(_, members)| members).collect()
     }
 
     /// The interface default of a method that needs no material to compute

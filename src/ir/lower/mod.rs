@@ -21,6 +21,7 @@ macro_rules! ruled_out {
 }
 
 mod builtins;
+mod constants;
 mod context;
 mod expr;
 mod hit;
@@ -138,15 +139,39 @@ pub fn lower_value(
     to: &Ty,
     absolute_spectra: bool,
 ) -> (Function, Vec<Diagnostic>) {
-    let mut lw = Lowerer::new(program, model);
-    lw.absolute_spectra = absolute_spectra;
-    let mut b = Builder::new(name);
-    let ctx = lw.root_ctx();
-    let mut fr = lw.new_frame(false, HashSet::default());
-    let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
-    let lanes = lw.lanes(&mut b, v, to);
-    lw.write_results(&mut b, to, &lanes);
-    (b.finish(), lw.diags)
+    ValueLowerer::new(program, model).lower(name, expr, to, absolute_spectra)
+}
+
+/// Lowers values one after another ([`lower_value`]), keeping what they
+/// share: the constants already folded. A scene of a thousand objects
+/// whose radius is the last of a long chain of constants evaluates the
+/// chain once, not once per object.
+pub struct ValueLowerer<'p> {
+    program: &'p Program,
+    model: ColorModel,
+    folded: HashMap<MatId, constants::Folded>,
+}
+
+impl<'p> ValueLowerer<'p> {
+    pub fn new(program: &'p Program, model: ColorModel) -> Self {
+        ValueLowerer { program, model, folded: HashMap::default() }
+    }
+
+    /// [`lower_value`], with the constants of the values lowered before.
+    pub fn lower(&mut self, name: &str, expr: &Expr, to: &Ty, absolute_spectra: bool) -> (Function, Vec<Diagnostic>) {
+        let mut lw = Lowerer::new(self.program, self.model);
+        lw.absolute_spectra = absolute_spectra;
+        std::mem::swap(&mut lw.folded_consts, &mut self.folded);
+        let mut b = Builder::new(name);
+        let ctx = lw.root_ctx();
+        let mut fr = lw.new_frame(false, HashSet::default());
+        let v = lw.expr_as(&mut b, &mut fr, &ctx, expr, to);
+        let lanes = lw.lanes(&mut b, v, to);
+        lw.write_results(&mut b, to, &lanes);
+        let f = lw.finish_entry(b, expr.span, "this value");
+        std::mem::swap(&mut lw.folded_consts, &mut self.folded);
+        (f, lw.diags)
+    }
 }
 
 /// Lowers material expressions of the root program (a scene object's
@@ -170,7 +195,7 @@ pub fn lower_material_exprs(
             let mat = Mat::of_root(expr);
             let result = lw.mat_method(&mut b, &mat, im, &args, &ctx);
             lw.write_results(&mut b, &im.ret, &result);
-            module.functions.push(b.finish());
+            module.functions.push(lw.finish_entry(b, expr.span, "this material"));
             entries.push(Entry { name: fname, kind: EntryKind::Method(im.name), params, ret: im.ret.clone() });
         }
     }
@@ -208,7 +233,7 @@ pub fn lower_reflection_sums(
         let wo = args[2 * lights].clone();
         let sum = lw.reflection_sum(&mut b, &mat, &args[..2 * lights], &wo, &ctx);
         lw.write_results(&mut b, &Ty::Color, &sum);
-        module.functions.push(b.finish());
+        module.functions.push(lw.finish_entry(b, expr.span, "this material"));
         entries.push(Entry { name: fname, kind: EntryKind::Method("reflection"), params, ret: Ty::Color });
     }
     verify::debug_verify_module(&module, "lowering");
@@ -239,7 +264,7 @@ pub fn lower_delta_lobes(
         let ctx = lw.root_ctx();
         let mat = Mat::of_root(expr);
         let lobes = lw.delta_lobes(&mut b, &mat, &wo, &eta, &ctx);
-        let (function, ret) = finish_words(b, &lobes);
+        let (function, ret) = finish_words(&mut lw, b, &lobes, expr.span);
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("delta_lobes"), params, ret });
     }
@@ -270,7 +295,7 @@ pub fn lower_eval_pdf(
         let ctx = lw.root_ctx();
         let mat = Mat::of_root(expr);
         let results = lw.eval_pdf(&mut b, &mat, &args[0], &args[1], &args[2], &ctx);
-        let (function, ret) = finish_words(b, &results);
+        let (function, ret) = finish_words(&mut lw, b, &results, expr.span);
         module.functions.push(function);
         entries.push(Entry { name: fname, kind: EntryKind::Method("eval_pdf"), params, ret });
     }
@@ -336,14 +361,15 @@ fn interface(name: &str) -> &'static InterfaceMethod {
     interface_method(name).unwrap_or_else(|| unreachable!("`{name}` is an interface method"))
 }
 
-/// Finishes an entry that returns `results` as float words (a combination
-/// of methods), with the array type hosts read them as.
-fn finish_words(mut b: Builder, results: &[Value]) -> (Function, Ty) {
+/// Finishes an entry for the material at `at` that returns `results` as
+/// float words (a combination of methods), with the array type hosts read
+/// them as.
+fn finish_words(lw: &mut Lowerer, mut b: Builder, results: &[Value], at: Span) -> (Function, Ty) {
     b.func.results = vec![Scalar::F32; results.len()];
     for (k, x) in results.iter().enumerate() {
         b.push(Inst::Output(k as u32, *x));
     }
-    (b.finish(), Ty::Array(Box::new(Ty::Float), results.len() as u32))
+    (lw.finish_entry(b, at, "this material"), Ty::Array(Box::new(Ty::Float), results.len() as u32))
 }
 
 struct Lowerer<'p> {
@@ -365,6 +391,16 @@ struct Lowerer<'p> {
     /// functions ask for the same expressions' types many times, and a
     /// hash probe is cheaper than the checker's bisection.
     types: std::cell::RefCell<HashMap<Span, &'p Ty>>,
+    /// The constants whose values folded to literal words, for every
+    /// function this lowerer builds (see `constants`).
+    folded_consts: HashMap<(usize, usize), constants::Folded>,
+    /// Whether a named material uses a method's interface default
+    /// throughout its tree, by (module, item) and method (see
+    /// `uses_default`).
+    default_methods: std::cell::RefCell<HashMap<(MatId, &'static str), bool>>,
+    /// Set once an entry point was too large (see `finish_entry`): the
+    /// lowering has failed, and the entries after it are not inlined.
+    gave_up: bool,
 }
 
 // ---------------------------------------------------------------- values
@@ -391,6 +427,10 @@ enum ArrayVal {
     Elems(Vec<Vec<Value>>),
     Ir { arrays: Vec<ArrayId>, len: u32 },
 }
+
+/// A named material (a definition, or a tree without parameters): its
+/// (module, item).
+type MatId = (usize, usize);
 
 /// A material expression with the template bindings it sees.
 #[derive(Debug, Clone)]

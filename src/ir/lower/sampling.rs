@@ -410,16 +410,28 @@ impl<'p> Lowerer<'p> {
         let sel = self.selection(b, weights);
         let zero = b.f(0.0);
         let mut pdf = zero;
-        for (k, (item, p)) in items.iter().zip(&sel).enumerate() {
-            // What the guard below gives at a weight of 0.
-            let child = if unused.get(k).copied().unwrap_or(false) {
-                vec![zero]
-            } else {
-                let used = b.flt(zero, *p);
-                b.guarded(self, used, vec![zero], |b, me| me.mat_method(b, item, method("pdf"), args, ctx))
+        // Children that are the same material: one pdf for them all.
+        for group in self.material_groups(items) {
+            let mut used = None;
+            for k in group.iter().filter(|k| !unused.get(**k).copied().unwrap_or(false)) {
+                let positive = b.flt(zero, sel[*k]);
+                used = Some(match used {
+                    None => positive,
+                    Some(u) => b.bin(BinOp::Or, u, positive),
+                });
+            }
+            // What the guard gives at a weight of 0.
+            let child = match used {
+                None => vec![zero],
+                Some(used) => {
+                    let item = &items[group[0]];
+                    b.guarded(self, used, vec![zero], |b, me| me.mat_method(b, item, method("pdf"), args, ctx))
+                }
             };
-            let term = b.fmul(*p, child[0]);
-            pdf = b.fadd(pdf, term);
+            for k in group {
+                let term = b.fmul(sel[k], child[0]);
+                pdf = b.fadd(pdf, term);
+            }
         }
         vec![pdf]
     }
@@ -457,7 +469,12 @@ impl<'p> Lowerer<'p> {
         let live: Vec<usize> = (0..items.len()).filter(|k| !unused.get(*k).copied().unwrap_or(false)).collect();
         let only = (live.len() == 1).then(|| live[0]);
         let outermost = !std::mem::replace(&mut self.direction_only, true);
-        let chosen = self.sample_child(b, 0, only, weights, &sel, &starts, items, args, ctx);
+        let groups = self.material_groups(items);
+        let chosen = if only.is_none() && groups.len() < items.len() {
+            self.sample_group(b, &groups, weights, &sel, &starts, items, args, ctx)
+        } else {
+            self.sample_child(b, 0, only, weights, &sel, &starts, items, args, ctx)
+        };
         self.direction_only = !outermost;
         let lanes = self.lanes;
         let s = Sample::split(&chosen, lanes);
@@ -534,6 +551,92 @@ impl<'p> Lowerer<'p> {
         b.branch(self, inside, &tys, here, |b, me| {
             me.sample_child(b, k + 1, None, weights, sel, starts, items, args, ctx)
         })
+    }
+
+    /// [`Self::sample_child`] for children of which some are the same
+    /// material: the child is chosen as the branches there choose it (the
+    /// first whose share holds the lobe number, else the last), and each
+    /// group of equal children is sampled once, with the remapped lobe
+    /// number and `w_k / p_k` of the member chosen. The same bits as
+    /// sampling each child in its own branch, but `mix(t, m, m)` samples
+    /// `m` once, so a tree that mixes the previous one with itself at
+    /// every level samples in linear code.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_group(
+        &mut self,
+        b: &mut Builder,
+        groups: &[Vec<usize>],
+        weights: &[Value],
+        sel: &[Value],
+        starts: &[Value],
+        items: &[Mat<'p>],
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let uc = args[2][0];
+        let n = items.len();
+        // Which child the lobe number picks, and what that child is given.
+        let mut taken = Vec::with_capacity(n);
+        let mut none_before = b.b(true);
+        for k in 0..n {
+            if k + 1 == n {
+                taken.push(none_before);
+                break;
+            }
+            let end = b.fadd(starts[k], sel[k]);
+            let inside = b.flt(uc, end);
+            taken.push(b.and(none_before, inside));
+            let outside = b.not(inside);
+            none_before = b.and(none_before, outside);
+        }
+        let (zero, top) = (b.f(0.0), b.f(ONE_MINUS_EPSILON));
+        let mut picks = Vec::with_capacity(groups.len());
+        for group in groups {
+            let mut pick: Option<(Value, Value, Value)> = None;
+            for &k in group {
+                let offset = b.fsub(uc, starts[k]);
+                let remapped = b.safe_div(offset, sel[k]);
+                let remapped = b.clamp(remapped, zero, top);
+                let ratio = b.safe_div(weights[k], sel[k]);
+                pick = Some(match pick {
+                    None => (taken[k], remapped, ratio),
+                    Some((in_group, r, q)) => (
+                        b.bin(BinOp::Or, in_group, taken[k]),
+                        b.select(taken[k], remapped, r),
+                        b.select(taken[k], ratio, q),
+                    ),
+                });
+            }
+            picks.push(pick.unwrap_or((zero, zero, zero)));
+        }
+        self.sample_picked(b, groups, &picks, items, args, ctx)
+    }
+
+    /// Samples the first group whose flag in `picks` is set (the last
+    /// group without a test), with its remapped lobe number; returns the
+    /// sample words and the group's `w_k / p_k`.
+    fn sample_picked(
+        &mut self,
+        b: &mut Builder,
+        groups: &[Vec<usize>],
+        picks: &[(Value, Value, Value)],
+        items: &[Mat<'p>],
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let here = |b: &mut Builder, me: &mut Self| -> Vec<Value> {
+            let (_, remapped, ratio) = picks[0];
+            let child_args = [args[0].clone(), args[1].clone(), vec![remapped], args[3].clone()];
+            let mut s = me.mat_method(b, &items[groups[0][0]], method("sample"), &child_args, ctx);
+            s.push(ratio);
+            s
+        };
+        if groups.len() == 1 {
+            return here(b, self);
+        }
+        let mut tys = self.words(&Ty::BsdfSample);
+        tys.push(Scalar::F32);
+        b.branch(self, picks[0].0, &tys, here, |b, me| me.sample_picked(b, &groups[1..], &picks[1..], items, args, ctx))
     }
 
     /// `sample` of `mix(t, a, b, only: ...)`: the node samples as `a` does,

@@ -223,6 +223,13 @@ impl<'p> Lowerer<'p> {
         args: &[Vec<Value>],
         ctx: &Ctx,
     ) -> Vec<Value> {
+        if self.same_material(a, c) {
+            // `mix(t, m, m)` is `m` whatever `t` (normals renormalised, as
+            // a blend's are): lowered once, so a tree that mixes the
+            // previous tree with itself at every level stays linear.
+            let v = self.mat_method(b, a, im, args, ctx);
+            return if im.name == "normal" { b.normalize(&v) } else { v };
+        }
         let (zero, one) = (b.f(0.0), b.f(1.0));
         let is_zero = b.feq(t, zero);
         let is_one = b.feq(t, one);
@@ -257,24 +264,42 @@ impl<'p> Lowerer<'p> {
         ctx: &Ctx,
     ) -> Vec<Value> {
         let zero = b.f(0.0);
+        // Children that are the same material are lowered once, when any
+        // of their weights is nonzero.
+        let groups = self.material_groups(items);
+        let used = |b: &mut Builder, group: &[usize]| -> Value {
+            let mut used = None;
+            for k in group {
+                let zero_weight = b.feq(w[*k], zero);
+                let nonzero = b.not(zero_weight);
+                used = Some(match used {
+                    None => nonzero,
+                    Some(u) => b.bin(BinOp::Or, u, nonzero),
+                });
+            }
+            used.unwrap_or_else(|| b.b(false))
+        };
         if im.ret == Ty::Bool {
             let mut acc = b.b(true);
-            for (wk, item) in w.iter().zip(items) {
-                let used = b.feq(*wk, zero);
-                let used = b.not(used);
+            for group in &groups {
+                let used = used(b, group);
                 let yes = b.b(true);
+                let item = &items[group[0]];
                 let o = b.guarded(self, used, vec![yes], |b, me| me.mat_method(b, item, im, args, ctx));
                 acc = b.and(acc, o[0]);
             }
             return vec![acc];
         }
         let n = self.lanes_of(&im.ret);
-        let mut results = Vec::new();
-        for (wk, item) in w.iter().zip(items) {
-            let used = b.feq(*wk, zero);
-            let used = b.not(used);
+        let mut results = vec![Vec::new(); items.len()];
+        for group in &groups {
+            let used = used(b, group);
             let zeros = b.zeros(n);
-            results.push(b.guarded(self, used, zeros, |b, me| me.mat_method(b, item, im, args, ctx)));
+            let item = &items[group[0]];
+            let v = b.guarded(self, used, zeros, |b, me| me.mat_method(b, item, im, args, ctx));
+            for k in group {
+                results[*k] = v.clone();
+            }
         }
         if results.windows(2).all(|r| r[0] == r[1]) {
             // All children agree: the weights (which sum to one) change nothing.
@@ -304,7 +329,50 @@ impl<'p> Lowerer<'p> {
             return self.typed_zeros(b, &im.ret);
         }
         let i = self.clamp_index(b, i, items.len() as i32);
+        let groups = self.material_groups(items);
+        if groups.len() < items.len() {
+            // Children that are the same material: one branch for them all.
+            return self.select_group(b, i, items, &groups, im, args, ctx);
+        }
         self.select_child(b, i, items, 0, im, args, ctx)
+    }
+
+    /// [`Self::select_child`] over groups of children that are the same
+    /// material: the first group holding index `i`, else a later one.
+    #[allow(clippy::too_many_arguments)]
+    fn select_group(
+        &mut self,
+        b: &mut Builder,
+        i: Value,
+        items: &[Mat<'p>],
+        groups: &[Vec<usize>],
+        im: &'static InterfaceMethod,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let Some((group, rest)) = groups.split_first() else { return self.typed_zeros(b, &im.ret) };
+        let item = &items[group[0]];
+        if rest.is_empty() {
+            return self.mat_method(b, item, im, args, ctx);
+        }
+        let mut hit = None;
+        for k in group {
+            let kv = b.i(*k as i32);
+            let is_k = b.bin(BinOp::IEq, i, kv);
+            hit = Some(match hit {
+                None => is_k,
+                Some(h) => b.bin(BinOp::Or, h, is_k),
+            });
+        }
+        let hit = hit.unwrap_or_else(|| b.b(false));
+        let tys = self.words(&im.ret);
+        b.branch(
+            self,
+            hit,
+            &tys,
+            |b, me| me.mat_method(b, item, im, args, ctx),
+            |b, me| me.select_group(b, i, items, rest, im, args, ctx),
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
