@@ -45,6 +45,18 @@ pub fn escape_char(c: char) -> char {
     }
 }
 
+/// `text` as a terminal may show it: every character through
+/// [`escape_char`], newlines too (one-line values such as file names and
+/// EXR header strings; quoted source lines keep their newlines apart).
+/// Borrowed when nothing needs escaping.
+pub fn printable(text: &str) -> std::borrow::Cow<'_, str> {
+    let shown = |c: char| c == '\t' || escape_char(c) == c;
+    if text.chars().all(shown) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    std::borrow::Cow::Owned(text.chars().map(|c| if c == '\t' { c } else { escape_char(c) }).collect())
+}
+
 /// Index of a source file in a [`SourceMap`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub struct FileId(pub u32);

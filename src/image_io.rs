@@ -41,7 +41,7 @@ pub use exr_read::{
     read_exr_with_metadata,
 };
 pub use merge::{array_spec, merge};
-pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning, printable};
+pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning};
 pub use non_finite::{NonFiniteTexels, replace_non_finite};
 
 use crate::files;

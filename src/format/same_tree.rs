@@ -480,11 +480,7 @@ pub(super) fn escaped(s: &str) -> String {
             out.push('…');
             break;
         }
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
+        out.push(crate::diag::escape_char(c));
     }
     out
 }

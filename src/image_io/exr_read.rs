@@ -12,8 +12,9 @@
 //! same open file (no second open that another file could answer) is
 //! handed on for its pixels.
 
-use super::metadata::{Metadata, printable};
+use super::metadata::Metadata;
 use super::{FILM_BUDGET_BYTES, MAX_IMAGE_FILE_BYTES, MAX_IMAGE_SIDE, MAX_IMAGE_SIZE, MAX_PIXELS, RenderedImage};
+use crate::diag::printable;
 use crate::input_file::{self, size_in_words};
 use exr::prelude::{self as exrp, FlatSamples, ReadChannels, ReadLayers};
 use std::borrow::Cow;

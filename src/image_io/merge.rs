@@ -11,8 +11,9 @@
 //! numbers, the overlap and the cover, on windows alone); only then is the
 //! frame allocated and the parts' pixels read into it one part at a time.
 
-use super::metadata::{AttributeValue, Metadata, PER_PART, meaning, printable};
+use super::metadata::{AttributeValue, Metadata, PER_PART, meaning};
 use super::{ExrHeader, NO_OBJECT, RenderedImage, read_exr_header, read_exr_with_metadata};
+use crate::diag::printable;
 use std::path::{Path, PathBuf};
 
 /// Joins tiles or crops of one image (EXR files) into the full frame,

@@ -9,7 +9,6 @@
 //! process), so [`sort_header_attributes`] puts every attribute of a
 //! written file in name order; OpenEXR leaves the order free.
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt;
 
@@ -68,25 +67,6 @@ pub const ATTRIBUTES: &[(&str, &str)] = &[
 /// Attributes that differ between the parts of one image; every other
 /// attribute must agree for `merge`.
 pub const PER_PART: &[&str] = &["tsl:tile", "tsl:scene"];
-
-/// `text` with its control characters (C0, DEL and C1) escaped as Rust
-/// writes them (`\u{1b}`, `\n`), for a terminal: a header's strings
-/// come from whoever wrote the file, and an escape sequence in one must
-/// not reach the terminal as one.
-pub fn printable(text: &str) -> Cow<'_, str> {
-    if !text.chars().any(char::is_control) {
-        return Cow::Borrowed(text);
-    }
-    let mut out = String::with_capacity(text.len() + 8);
-    for c in text.chars() {
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    Cow::Owned(out)
-}
 
 /// What an attribute means, for messages.
 pub fn meaning(name: &str) -> Option<&'static str> {

@@ -4,13 +4,15 @@
 //!
 //! Invariant: no control character from a file reaches the terminal. The
 //! header's strings (and file names) are written with their control
-//! characters escaped (`image_io::printable`); JSON escapes C0 itself, and
-//! DEL and C1 (U+009B is CSI to some terminals) are escaped as `\u00XX`.
+//! characters escaped (`diag::printable`, as diagnostics show a file's
+//! text); JSON escapes C0 itself, and DEL, C1 (U+009B is CSI to some
+//! terminals) and the bidirectional overrides are escaped as `\uXXXX`.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use tsl::image_io::{self, ExrHeader, printable};
+use tsl::diag::printable;
+use tsl::image_io::{self, ExrHeader};
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
@@ -60,13 +62,15 @@ fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
     })
 }
 
-/// Compact JSON with DEL and C1 characters escaped too: serde_json
-/// escapes only C0. Outside strings JSON text is ASCII, so every such
-/// character is inside a string, where `\u00XX` is the same character.
+/// Compact JSON with every character a terminal must not see raw (DEL,
+/// C1, the bidirectional overrides: `diag::escape_char`'s rule) escaped
+/// too: serde_json escapes only C0. Outside strings JSON text is ASCII, so
+/// every such character is inside a string, where `\uXXXX` is the same
+/// character.
 fn escape_json_controls(json: &str) -> String {
     let mut out = String::with_capacity(json.len());
     for c in json.chars() {
-        if c.is_control() {
+        if tsl::diag::escape_char(c) != c {
             out.push_str(&format!("\\u{:04x}", c as u32));
         } else {
             out.push(c);
