@@ -96,13 +96,13 @@ impl<'a> Checker<'a> {
     pub(super) fn call(&mut self, callee: &Ident, args: &[Arg], span: Span) -> Ty {
         let name = callee.name.as_str();
         // 1. A sibling method inside a material.
-        if let Some((material, _defined)) = self.body.material.clone()
+        if self.body.material.is_some()
             && let Some(im) = interface_method(name)
         {
             let params: Vec<ParamInfo> =
                 im.params.iter().map(|(n, t)| ParamInfo { name: n, ty: Some(t.clone()), required: true }).collect();
-            if let Some(from) = self.body.node.clone() {
-                self.edge(from, Node::Method(self.current, material, im.name), callee.span);
+            if let Some(from) = self.body.node {
+                self.edge(from, Node::Method(self.current, im.name), callee.span);
             }
             self.typed_args(name, &params, args, span);
             return im.ret.clone();
@@ -115,7 +115,7 @@ impl<'a> Checker<'a> {
         }
         // 3. A user or prelude item.
         if let Some(sym) = self.symbol(name) {
-            self.use_item(sym, name, callee.span);
+            self.use_item(sym, callee.span);
             let item = self.item(sym);
             let (params, ret): (&[Param], Ty) = match item {
                 Item::Function(f) => (&f.params, Ty::from_ast(&f.ret)),
@@ -304,7 +304,7 @@ impl<'a> Checker<'a> {
             return;
         }
         if let Some(node) = &self.body.node {
-            self.reads_globals.entry(node.clone()).or_insert(span);
+            self.reads_globals.entry(*node).or_insert(span);
         }
         let filter = self.option_literal(arg("filter"), "filter", Filter::NAMES, Filter::from_name);
         let wrap = self.option_literal(arg("wrap"), "wrap", Wrap::NAMES, Wrap::from_name);

@@ -15,7 +15,7 @@ impl<'a> Checker<'a> {
             if state.contains_key(&start) {
                 continue;
             }
-            let mut stack: Vec<(Node, usize, Option<Span>)> = vec![(start.clone(), 0, None)];
+            let mut stack: Vec<(Node, usize, Option<Span>)> = vec![(start, 0, None)];
             state.insert(start, 1);
             while let Some((node, next, _)) = stack.last().cloned() {
                 let out = self.dependencies(&node);
@@ -25,13 +25,13 @@ impl<'a> Checker<'a> {
                     }
                     match state.get(&to).copied().unwrap_or(0) {
                         0 => {
-                            state.insert(to.clone(), 1);
+                            state.insert(to, 1);
                             stack.push((to, 0, Some(span)));
                         }
                         1 => {
                             let pos = stack.iter().position(|(n, _, _)| *n == to).unwrap_or(0);
-                            let mut path: Vec<String> = stack[pos..].iter().map(|(n, _, _)| n.describe()).collect();
-                            path.push(to.describe());
+                            let mut path: Vec<String> = stack[pos..].iter().map(|(n, _, _)| self.describe(n)).collect();
+                            path.push(self.describe(&to));
                             let cycle: Vec<&Node> = stack[pos..].iter().map(|(n, _, _)| n).collect();
                             let d = self.cycle_diagnostic(&cycle, &to, span, path);
                             self.diags.push(d);
@@ -59,22 +59,22 @@ impl<'a> Checker<'a> {
     pub(super) fn cycle_diagnostic(&self, cycle: &[&Node], to: &Node, span: Span, path: Vec<String>) -> Diagnostic {
         if cycle.iter().all(|n| self.is_const(n)) {
             let msg = if cycle.len() == 1 {
-                format!("constant {} is defined in terms of itself", to.describe())
+                format!("constant {} is defined in terms of itself", self.describe(to))
             } else {
                 "these constants are defined in terms of each other".to_string()
             };
             return Diagnostic::error(span, msg).with_note(format!("cycle: {}", path.join(" -> ")));
         }
         let msg = if cycle.len() == 1 {
-            format!("{} calls itself: recursion is not allowed", to.describe())
+            format!("{} calls itself: recursion is not allowed", self.describe(to))
         } else {
             "recursion is not allowed: these definitions call each other".to_string()
         };
         let mut d = Diagnostic::error(span, msg).with_note(format!("cycle: {}", path.join(" -> ")));
         // The default `ambient` calls `diffuse`; say so when that closes the cycle.
         let default_ambient = cycle.iter().find_map(|n| match n {
-            Node::Method((m, i), name, "ambient") => match &self.loaded.modules[*m].ast.items[*i] {
-                Item::Material(def) if !def.methods.iter().any(|f| f.name.name == "ambient") => Some(name.clone()),
+            Node::Method((m, i), "ambient") => match &self.loaded.modules[*m].ast.items[*i] {
+                Item::Material(def) if !def.methods.iter().any(|f| f.name.name == "ambient") => Some(def.name.name.clone()),
                 _ => None,
             },
             _ => None,
@@ -101,11 +101,11 @@ impl<'a> Checker<'a> {
         reads: impl Fn(&Node) -> Option<Span>,
     ) -> Option<(Vec<Node>, Span, Span)> {
         let mut seen: rustc_hash::FxHashSet<Node> = Default::default();
-        let mut stack: Vec<(Node, usize)> = vec![(start.clone(), 0)];
-        seen.insert(start.clone());
+        let mut stack: Vec<(Node, usize)> = vec![(*start, 0)];
+        seen.insert(*start);
         while let Some((node, next)) = stack.last().cloned() {
             if let Some(read) = reads(&node).filter(|_| stack.len() > 1) {
-                let path: Vec<Node> = stack.iter().map(|(n, _)| n.clone()).collect();
+                let path: Vec<Node> = stack.iter().map(|(n, _)| *n).collect();
                 let out = self.dependencies(start);
                 let first_use = out.iter().find(|(n, _)| path.get(1) == Some(n)).map(|(_, span)| *span)?;
                 return Some((path, read, first_use));
@@ -116,8 +116,8 @@ impl<'a> Checker<'a> {
                     if let Some(top) = stack.last_mut() {
                         top.1 += 1;
                     }
-                    if seen.insert(to.clone()) && !(skip_consts && self.is_const(to)) {
-                        stack.push((to.clone(), 0));
+                    if seen.insert(*to) && !(skip_consts && self.is_const(to)) {
+                        stack.push((*to, 0));
                     }
                 }
                 None => {
@@ -146,7 +146,7 @@ impl<'a> Checker<'a> {
         let mut found: FxHashSet<Node> = FxHashSet::default();
         let mut stack: Vec<&Node> = self.reads_globals.keys().filter(|n| !self.is_const(n)).collect();
         while let Some(n) = stack.pop() {
-            if !found.insert(n.clone()) {
+            if !found.insert(*n) {
                 continue;
             }
             stack.extend(callers.get(n).into_iter().flatten().copied());
@@ -171,7 +171,7 @@ impl<'a> Checker<'a> {
             .graph
             .iter()
             .filter(|(n, e)| is_root(n) && e.list.iter().any(|(to, _)| varying.contains(to)))
-            .map(|(n, _)| n.clone())
+            .map(|(n, _)| *n)
             .collect();
         roots.sort();
         for start in roots {
@@ -182,43 +182,43 @@ impl<'a> Checker<'a> {
                 continue;
             };
             let reader = &path[path.len() - 1];
-            let names: Vec<String> = path.iter().map(Node::describe).collect();
+            let names: Vec<String> = path.iter().map(|n| self.describe(n)).collect();
             let (what, help) = if scene {
                 ("scene value", "scene values are fixed for a frame; only a `material` may vary over the surface")
             } else {
                 ("constant", "a constant is fixed for a frame; make it a function instead")
             };
             self.diags.push(
-                Diagnostic::error(first_use, format!("{what} {} depends on the shading point", start.describe()))
-                    .with_label(read, format!("{} reads a shading global here", reader.describe()))
+                Diagnostic::error(first_use, format!("{what} {} depends on the shading point", self.describe(&start)))
+                    .with_label(read, format!("{} reads a shading global here", self.describe(reader)))
                     .with_note(format!("through {}", names.join(" -> ")))
                     .with_help(help),
             );
         }
-        let mut limited: Vec<(Node, FrameGlobals)> = self.frame_limits.iter().map(|(n, l)| (n.clone(), *l)).collect();
-        limited.sort_by(|a, b| a.0.cmp(&b.0));
+        let mut limited: Vec<(Node, FrameGlobals)> = self.frame_limits.iter().map(|(n, l)| (*n, *l)).collect();
+        limited.sort_by_key(|a| a.0);
         for (start, limit) in limited {
             let refused = |name: &str| limit == FrameGlobals::Neither || name == "time";
             let reads = |n: &Node| {
-                FRAME_GLOBALS.iter().find_map(|g| self.reads_frame.get(&(n.clone(), *g)).filter(|_| refused(g)))
+                FRAME_GLOBALS.iter().find_map(|g| self.reads_frame.get(&(*n, *g)).filter(|_| refused(g)))
             };
             let Some((path, read, first_use)) = self.path_to(&start, false, |n| reads(n).map(|r| r.0)) else {
                 continue;
             };
             let reader = &path[path.len() - 1];
             let global = reads(reader).map_or("frame", |r| r.1);
-            let names: Vec<String> = path.iter().map(Node::describe).collect();
+            let names: Vec<String> = path.iter().map(|n| self.describe(n)).collect();
             let (message, help) = if limit == FrameGlobals::FrameOnly {
                 ("the `time` mapping depends on `time`".to_string(), "it defines `time`: compute it from `frame`")
             } else {
                 (
-                    format!("render setting {} depends on the frame", start.describe()),
+                    format!("render setting {} depends on the frame", self.describe(&start)),
                     "render settings hold for every frame of an animation",
                 )
             };
             self.diags.push(
                 Diagnostic::error(first_use, message)
-                    .with_label(read, format!("{} reads `{global}` here", reader.describe()))
+                    .with_label(read, format!("{} reads `{global}` here", self.describe(reader)))
                     .with_note(format!("through {}", names.join(" -> ")))
                     .with_help(help),
             );

@@ -146,7 +146,7 @@ impl<'a> Checker<'a> {
         };
         if allowed {
             if let (Some(node), Some(global)) = (&self.body.node, FRAME_GLOBALS.iter().find(|g| **g == name)) {
-                self.reads_frame.entry((node.clone(), *global)).or_insert((span, *global));
+                self.reads_frame.entry((*node, *global)).or_insert((span, *global));
             }
             return ty;
         }
@@ -190,12 +190,12 @@ impl<'a> Checker<'a> {
                 return Ty::Error;
             }
             if let Some(node) = &self.body.node {
-                self.reads_globals.entry(node.clone()).or_insert(span);
+                self.reads_globals.entry(*node).or_insert(span);
             }
             return t;
         }
         if let Some(sym) = self.symbol(name) {
-            self.use_item(sym, name, span);
+            self.use_item(sym, span);
             return match sym.kind {
                 SymbolKind::Const => self.const_type(sym),
                 SymbolKind::MaterialTree | SymbolKind::Material => {

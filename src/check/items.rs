@@ -37,7 +37,7 @@ impl<'a> Checker<'a> {
     }
 
     pub(super) fn check_function(&mut self, f: &Function) {
-        self.begin(Node::Item(self.current, f.name.name.to_string()), "a function", true, false);
+        self.begin(Node::Item(self.current), "a function", true, false);
         let ret = self.resolve_type(&f.ret, "a function");
         self.declare_params(&f.params, "a function");
         self.body.ret = Some(ret.clone());
@@ -60,7 +60,7 @@ impl<'a> Checker<'a> {
 
     pub(super) fn check_material(&mut self, d: &MaterialDef) {
         let name = d.name.name.clone();
-        self.begin(Node::Item(self.current, name.to_string()), "a material's parameters", true, false);
+        self.begin(Node::Item(self.current), "a material's parameters", true, false);
         self.declare_params(&d.params, "a material's parameter list");
         let params_scope = self.body.scopes.clone();
 
@@ -95,14 +95,14 @@ impl<'a> Checker<'a> {
         }
         // The item depends on all of its methods; defaults add their own edges.
         let id = self.current;
-        let item = Node::Item(id, name.to_string());
+        let item = Node::Item(id);
         for im in INTERFACE {
-            self.edge(item.clone(), Node::Method(id, name.to_string(), im.name), d.name.span);
+            self.edge(item, Node::Method(id, im.name), d.name.span);
         }
         if !defined.contains(&"ambient") {
             self.edge(
-                Node::Method(id, name.to_string(), "ambient"),
-                Node::Method(id, name.to_string(), "diffuse"),
+                Node::Method(id, "ambient"),
+                Node::Method(id, "diffuse"),
                 d.name.span,
             );
         }
@@ -117,7 +117,7 @@ impl<'a> Checker<'a> {
                 material: Some((name.to_string(), defined.clone())),
                 context: "a material method",
                 globals_allowed: true,
-                node: Some(Node::Method(id, name.to_string(), im.name)),
+                node: Some(Node::Method(id, im.name)),
                 ..Body::default()
             };
             self.push_scope();
@@ -163,7 +163,7 @@ impl<'a> Checker<'a> {
     }
 
     pub(super) fn check_tree(&mut self, t: &MaterialTree) {
-        self.begin(Node::Item(self.current, t.name.name.to_string()), "a material tree", true, true);
+        self.begin(Node::Item(self.current), "a material tree", true, true);
         if let Some(params) = &t.params {
             self.declare_params(params, "a material tree");
         }
@@ -173,7 +173,7 @@ impl<'a> Checker<'a> {
     }
 
     pub(super) fn check_const(&mut self, c: &ConstDef) {
-        self.begin(Node::Item(self.current, c.name.name.to_string()), "a constant", false, false);
+        self.begin(Node::Item(self.current), "a constant", false, false);
         let ty = self.resolve_type(&c.ty, "a constant");
         if ty.is_error() {
             return;

@@ -328,27 +328,23 @@ type ItemId = (usize, usize);
 
 /// A node of the dependency graph: a global item, or a method of a
 /// material. Nodes name items by position, since a user item and the
-/// prelude item it shadows share a name.
-#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// prelude item it shadows share a name; they hold no text of the user's,
+/// so a graph of 100,000 constants allocates no string per edge and its
+/// hashes are not the user's to choose ([`Checker::describe`] names them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 enum Node {
-    Item(ItemId, String),
-    Method(ItemId, String, &'static str),
+    Item(ItemId),
+    /// A material's interface method.
+    Method(ItemId, &'static str),
     /// A value of the scene (item `ItemId`): its entry (block or top-level
-    /// property) and `block.property`.
-    SceneValue(ItemId, usize, String),
+    /// property), the block's name and the property's.
+    SceneValue(ItemId, usize, &'static str, &'static str),
 }
 
 impl Node {
-    fn describe(&self) -> String {
-        match self {
-            Node::Item(_, n) | Node::SceneValue(_, _, n) => format!("`{n}`"),
-            Node::Method(_, m, f) => format!("`{m}.{f}`"),
-        }
-    }
-
     fn id(&self) -> ItemId {
         match self {
-            Node::Item(id, _) | Node::Method(id, _, _) | Node::SceneValue(id, _, _) => *id,
+            Node::Item(id) | Node::Method(id, _) | Node::SceneValue(id, ..) => *id,
         }
     }
 }
@@ -369,7 +365,7 @@ impl Edges {
 
     fn add(&mut self, to: Node, span: Span) {
         let known = match &mut self.index {
-            Some(index) => !index.insert(to.clone()),
+            Some(index) => !index.insert(to),
             None => self.list.iter().any(|(n, _)| *n == to),
         };
         if known {
@@ -377,7 +373,7 @@ impl Edges {
         }
         self.list.push((to, span));
         if self.index.is_none() && self.list.len() > Self::SCANNED {
-            self.index = Some(self.list.iter().map(|(n, _)| n.clone()).collect());
+            self.index = Some(self.list.iter().map(|(n, _)| *n).collect());
         }
     }
 }
@@ -506,8 +502,21 @@ impl<'a> Checker<'a> {
         table.get(name).copied()
     }
 
-    fn item_node(sym: Symbol, name: &str) -> Node {
-        Node::Item((sym.module, sym.item), name.to_string())
+    /// `node` for messages: `` `wood` ``, `` `phong.reflection` ``,
+    /// `` `camera.fov` ``.
+    fn describe(&self, node: &Node) -> String {
+        let item_name = |(m, i): ItemId| match &self.loaded.modules[m].ast.items[i] {
+            Item::Function(f) => f.name.name.to_string(),
+            Item::Material(d) => d.name.name.to_string(),
+            Item::MaterialTree(t) => t.name.name.to_string(),
+            Item::Const(c) => c.name.name.to_string(),
+            Item::Import { .. } | Item::Scene(_) => String::new(),
+        };
+        match *node {
+            Node::Item(id) => format!("`{}`", item_name(id)),
+            Node::Method(id, method) => format!("`{}.{method}`", item_name(id)),
+            Node::SceneValue(_, _, block, property) => format!("`{block}.{property}`"),
+        }
     }
 
     fn check_items(&mut self) {

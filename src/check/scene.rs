@@ -486,14 +486,14 @@ fn check_value(cx: &mut Checker<'_>, value: &Expr, spec: &Prop) {
     let names_items = || value.any(&|e: &Expr| matches!(e.kind, ExprKind::Name(_) | ExprKind::Call { .. }));
     cx.body.node = match &cx.body.scene_entry {
         Some((entry, block)) if spec.want != Want::Material && names_items() => {
-            Some(Node::SceneValue(cx.current, *entry, format!("{block}.{}", spec.name)))
+            Some(Node::SceneValue(cx.current, *entry, block, spec.name))
         }
         _ => None,
     };
     if let Some(node) = &cx.body.node
         && spec.frame != FrameGlobals::Both
     {
-        cx.frame_limits.insert(node.clone(), spec.frame);
+        cx.frame_limits.insert(*node, spec.frame);
     }
     let expected = match spec.want {
         Want::Positive | Want::NonNegative | Want::Float => Some(Ty::Float),

@@ -52,10 +52,10 @@ impl<'a> Checker<'a> {
     }
 
     /// Records that the current body uses a global item.
-    pub(super) fn use_item(&mut self, sym: Symbol, name: &str, span: Span) {
+    pub(super) fn use_item(&mut self, sym: Symbol, span: Span) {
         self.resolutions.insert(span, sym);
-        if let Some(from) = self.body.node.clone() {
-            self.edge(from, Self::item_node(sym, name), span);
+        if let Some(from) = self.body.node {
+            self.edge(from, Node::Item((sym.module, sym.item)), span);
         }
     }
 
