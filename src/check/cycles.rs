@@ -74,7 +74,9 @@ impl<'a> Checker<'a> {
         // The default `ambient` calls `diffuse`; say so when that closes the cycle.
         let default_ambient = cycle.iter().find_map(|n| match n {
             Node::Method((m, i), "ambient") => match &self.loaded.modules[*m].ast.items[*i] {
-                Item::Material(def) if !def.methods.iter().any(|f| f.name.name == "ambient") => Some(def.name.name.clone()),
+                Item::Material(def) if !def.methods.iter().any(|f| f.name.name == "ambient") => {
+                    Some(def.name.name.clone())
+                }
                 _ => None,
             },
             _ => None,
@@ -199,9 +201,8 @@ impl<'a> Checker<'a> {
         limited.sort_by_key(|a| a.0);
         for (start, limit) in limited {
             let refused = |name: &str| limit == FrameGlobals::Neither || name == "time";
-            let reads = |n: &Node| {
-                FRAME_GLOBALS.iter().find_map(|g| self.reads_frame.get(&(*n, *g)).filter(|_| refused(g)))
-            };
+            let reads =
+                |n: &Node| FRAME_GLOBALS.iter().find_map(|g| self.reads_frame.get(&(*n, *g)).filter(|_| refused(g)));
             let Some((path, read, first_use)) = self.path_to(&start, false, |n| reads(n).map(|r| r.0)) else {
                 continue;
             };

@@ -100,11 +100,7 @@ impl<'a> Checker<'a> {
             self.edge(item, Node::Method(id, im.name), d.name.span);
         }
         if !defined.contains(&"ambient") {
-            self.edge(
-                Node::Method(id, "ambient"),
-                Node::Method(id, "diffuse"),
-                d.name.span,
-            );
+            self.edge(Node::Method(id, "ambient"), Node::Method(id, "diffuse"), d.name.span);
         }
 
         for m in &d.methods {
