@@ -155,14 +155,94 @@ impl<'a> Checker<'a> {
         Ty::Error
     }
 
+    /// The options declared for a parameter (`in ("a", "b")`): on a
+    /// `string` parameter only, at least one, each once, its default among
+    /// them.
+    pub(super) fn check_declared_options(&mut self, p: &Param, ty: &Ty, options: &ParamOptions) {
+        if *ty != Ty::String {
+            if !ty.is_error() {
+                self.error(
+                    Diagnostic::error(
+                        options.span,
+                        format!("only `string` parameters have options; `{}` is a `{ty}`", p.name.name),
+                    )
+                    .with_help("remove the options, or make the parameter a `string`"),
+                );
+            }
+            return;
+        }
+        if options.values.is_empty() {
+            self.error(
+                Diagnostic::error(options.span, format!("`{}` has no options", p.name.name))
+                    .with_help("list the values the parameter accepts: `in (\"a\", \"b\")`, or remove `in ()`"),
+            );
+            return;
+        }
+        for (k, (value, span)) in options.values.iter().enumerate() {
+            if let Some((_, first)) = options.values[..k].iter().find(|(v, _)| v == value) {
+                self.error(
+                    Diagnostic::error(*span, format!("the option \"{value}\" is listed twice"))
+                        .with_label(*first, "first listed here"),
+                );
+            }
+        }
+        if let Some(Expr { kind: ExprKind::Str(value), span, .. }) = &p.default {
+            self.check_option(value, *span, &p.name.name, None, options);
+        }
+    }
+
+    /// Reports `value` (a literal at `span`) when it is not one of the
+    /// `options` declared for parameter `param` (of `callee`, in a call).
+    pub(super) fn check_option(
+        &mut self,
+        value: &str,
+        span: Span,
+        param: &str,
+        callee: Option<&str>,
+        options: &ParamOptions,
+    ) {
+        if options.contains(value) {
+            return;
+        }
+        let whose = callee.map(|c| format!(" of `{c}`")).unwrap_or_default();
+        let mut d = Diagnostic::error(span, format!("`{param}`{whose} has no option \"{value}\""))
+            .with_note(format!("the options are {}", options.listed()));
+        if let Some(s) = did_you_mean(value, options.values.iter().map(|(v, _)| v.as_str())) {
+            d = d.with_help(format!("did you mean \"{s}\"?"));
+        }
+        if callee.is_some() {
+            d = d.with_label(options.span, "declared here");
+        }
+        self.error(d);
+    }
+
+    /// The options declared for parameter `name` of the item being checked.
+    fn own_declared_options(&self, name: &str) -> Option<&'a ParamOptions> {
+        let (m, i) = self.current;
+        let params = match self.loaded.modules.get(m)?.ast.items.get(i)? {
+            Item::Function(f) => &f.params[..],
+            Item::Material(d) => &d.params[..],
+            Item::MaterialTree(t) => t.params.as_deref()?,
+            Item::Const(_) | Item::Import { .. } | Item::Scene(_) => return None,
+        };
+        params.iter().find(|p| p.name.name == name)?.options.as_ref()
+    }
+
     /// `p == "literal"` (either way round) where `p` is a `string`
-    /// parameter of the item being checked: "literal" is one of p's options.
+    /// parameter of the item being checked: "literal" is one of p's options
+    /// (and must be one of those it declares, if it declares them: a
+    /// comparison with another would always be false).
     pub(super) fn record_string_option(&mut self, lhs: &Expr, rhs: &Expr) {
-        let (name, literal) = match (&lhs.kind, &rhs.kind) {
-            (ExprKind::Name(n), ExprKind::Str(s)) | (ExprKind::Str(s), ExprKind::Name(n)) => (n, s),
+        let (name, literal, span) = match (&lhs.kind, &rhs.kind) {
+            (ExprKind::Name(n), ExprKind::Str(s)) => (n, s, rhs.span),
+            (ExprKind::Str(s), ExprKind::Name(n)) => (n, s, lhs.span),
             _ => return,
         };
         if self.lookup_local(name).is_some_and(|l| l.kind == LocalKind::Param) {
+            if let Some(options) = self.own_declared_options(name) {
+                self.check_option(literal, span, name, None, options);
+                return;
+            }
             let options = self.string_options.entry((self.current, name.to_string())).or_default();
             if !options.contains(literal) {
                 options.push(literal.clone());
@@ -180,6 +260,11 @@ impl<'a> Checker<'a> {
             };
             let (Some(slot), ExprKind::Str(literal)) = (slot, &a.value.kind) else { continue };
             let Some(p) = params.get(slot).filter(|p| Ty::from_ast(&p.ty) == Ty::String) else { continue };
+            if let Some(options) = &p.options {
+                // Declared: checked now, against the declaration alone.
+                self.check_option(literal, a.value.span, &p.name.name, Some(callee), options);
+                continue;
+            }
             let default = match p.default.as_ref().map(|d| &d.kind) {
                 Some(ExprKind::Str(d)) => Some(d.clone()),
                 _ => None,

@@ -25,6 +25,9 @@ impl<'a> Checker<'a> {
                 let found = self.expr(default, Some(&ty));
                 self.expect_ty(default, &found, &ty, "the default value");
             }
+            if let Some(options) = &p.options {
+                self.check_declared_options(p, &ty, options);
+            }
             if let Some(prev) = seen.insert(&p.name.name, p.name.span) {
                 self.error(
                     Diagnostic::error(p.name.span, format!("parameter `{}` is declared twice", p.name.name))

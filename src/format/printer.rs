@@ -346,6 +346,11 @@ impl Printer<'_> {
             if let Some(d) = &param.default {
                 out.extend([text(" "), p.tok(), text(" "), p.expr(d)]);
             }
+            if let Some(options) = &param.options {
+                // `in ("a", "b")`: the keyword, then the literals as a list.
+                out.extend([text(" "), p.tok(), text(" ")]);
+                out.push(p.list(&options.values, false, |p, _| p.tok()));
+            }
             Doc::Concat(out)
         })
     }

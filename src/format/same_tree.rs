@@ -173,10 +173,20 @@ fn same_function(a: &Function, b: &Function) -> Same {
 }
 
 fn same_param(a: &Param, b: &Param) -> Same {
-    let Param { ty, name, default, span } = a;
+    let Param { ty, name, default, options, span } = a;
     same_type(ty, &b.ty)?;
     same_ident(name, &b.name)?;
-    same_option(default, &b.default, *span, || format!("the parameter `{}`", name.name), "default value", same_expr)
+    let subject = || format!("the parameter `{}`", name.name);
+    same_option(default, &b.default, *span, subject, "default value", same_expr)?;
+    same_option(options, &b.options, *span, subject, "options", same_options)
+}
+
+fn same_options(a: &ParamOptions, b: &ParamOptions) -> Same {
+    let ParamOptions { values, span } = a;
+    if !values.iter().map(|(v, _)| v).eq(b.values.iter().map(|(v, _)| v)) {
+        return became(*span, format!("the options ({})", a.listed()), format!("({})", b.listed()));
+    }
+    Ok(())
 }
 
 fn same_type(a: &TypeExpr, b: &TypeExpr) -> Same {

@@ -217,12 +217,38 @@ impl BaseType {
     }
 }
 
+/// A parameter of a function, material or material tree. Its
+/// documentation is the `///` comment on the lines above it, read from the
+/// source text by [`doc_comment`](crate::syntax::doc_comment).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {
     pub ty: TypeExpr,
     pub name: Ident,
     pub default: Option<Expr>,
+    /// `in ("beckmann", "ggx")`: the values a `string` parameter accepts.
+    pub options: Option<ParamOptions>,
     pub span: Span,
+}
+
+/// The options declared for a `string` parameter, in their order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamOptions {
+    /// Each option's text and the span of its literal.
+    pub values: Vec<(String, Span)>,
+    /// From `in` to the closing parenthesis.
+    pub span: Span,
+}
+
+impl ParamOptions {
+    /// Whether `value` is one of the options.
+    pub fn contains(&self, value: &str) -> bool {
+        self.values.iter().any(|(v, _)| v == value)
+    }
+
+    /// The options as the user writes them: `"beckmann", "ggx"`.
+    pub fn listed(&self) -> String {
+        self.values.iter().map(|(v, _)| format!("\"{v}\"")).collect::<Vec<_>>().join(", ")
+    }
 }
 
 /// A function, or a method inside a material definition.

@@ -2,8 +2,10 @@
 //! AST. Knows nothing of types.
 
 pub mod ast;
+mod doc_comment;
 pub mod lexer;
 pub mod parser;
 mod scene_block;
 
+pub use doc_comment::doc_comment;
 pub use parser::parse;
