@@ -33,11 +33,15 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
 mod material;
+mod param_value;
 mod prepared;
+mod shader;
 
 use material::SAMPLE_WORDS;
 pub use material::{BsdfSample, Material, SampledDir};
+pub use param_value::{ParamType, ParamValue};
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
+pub use shader::{Instance, ParamInfo, Shader};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]

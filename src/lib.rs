@@ -45,6 +45,7 @@ pub use api::{
     Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
     SampledDir, WHITTED_METHODS, worth_preparing,
 };
+pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;
 pub use load::LoadOptions;

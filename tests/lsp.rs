@@ -371,6 +371,26 @@ fn the_editor_walk_through_of_issue_14() {
 }
 
 #[test]
+fn hover_on_a_named_argument_shows_the_parameter_doc_comment_and_options() {
+    let mut client = Client::start("param-docs");
+    let doc = uri(&repo().join("examples/param_docs.tsl"));
+    let text = "material tinted(\n    /// How much of the tint shows.\n    float amount = 0.5,\n    string tone = \"warm\" in (\"warm\", \"cold\"),\n) = lambert;\nmaterial m = tinted(amount: 0.2, tone: \"cold\");\n";
+    client.open(&doc, text);
+    let hover = |client: &mut Client, name: &str| {
+        text_of(&client.result(
+            "textDocument/hover",
+            json!({ "textDocument": { "uri": doc }, "position": at(text, "material m", name) }),
+        ))
+    };
+    let amount = hover(&mut client, "amount:");
+    assert!(amount.contains("float amount = 0.5"), "{amount}");
+    assert!(amount.contains("parameter of `tinted`: How much of the tint shows."), "{amount}");
+    let tone = hover(&mut client, "tone:");
+    assert!(tone.contains("string tone = \"warm\" in (\"warm\", \"cold\")"), "{tone}");
+    client.shutdown();
+}
+
+#[test]
 fn completion_knows_materials_and_scenes() {
     let mut client = Client::start("places");
     let doc = uri(&repo().join("examples/places.tsl"));

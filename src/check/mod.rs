@@ -19,6 +19,7 @@ mod calls;
 mod cycles;
 mod expr;
 mod inline_size;
+mod instance;
 mod interface;
 mod items;
 mod scene;
@@ -28,6 +29,7 @@ mod ty;
 mod types;
 
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
+pub use instance::{CheckedExpr, check_material_expr};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
 pub use span_map::SpanMap;

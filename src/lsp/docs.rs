@@ -302,7 +302,11 @@ mod tests {
             Some("fraction of light left after one unit of distance inside (Beer's law); gray(1) is clear")
         );
         let rough = stdlib_doc(prelude("physical.tsl"), "rough_conductor").unwrap();
-        assert!(param_doc(&rough, "k").unwrap().starts_with("complex index of refraction"));
+        assert!(
+            param_doc(&rough, "k")
+                .unwrap()
+                .starts_with("imaginary part (absorption) of the complex index of refraction")
+        );
     }
 
     #[test]

@@ -89,8 +89,16 @@ fn target_hover(analysis: &Analysis, target: Target, node: &Node<'_>) -> Option<
         Target::Param(sym, k) => {
             let param = item_params(analysis.item(sym)?)?.get(k)?;
             let owner = analysis.snippet(sym.span);
-            let mut out = format!("{}\n\nparameter of `{owner}`", code(&analysis.param_text(param)));
-            if let Some(meaning) = analysis.doc(sym).and_then(|d| docs::param_doc(&d, &param.name.name)) {
+            let mut declared = analysis.param_text(param);
+            if let Some(options) = &param.options {
+                declared.push_str(&format!(" in ({})", options.listed()));
+            }
+            let mut out = format!("{}\n\nparameter of `{owner}`", code(&declared));
+            // Its `///` comment, else its row in a stdlib file's table.
+            let before = analysis.snippet(crate::diag::Span { start: 0, end: param.span.start, ..param.span });
+            let meaning = crate::syntax::doc_comment(before, before.len())
+                .or_else(|| analysis.doc(sym).and_then(|d| docs::param_doc(&d, &param.name.name)));
+            if let Some(meaning) = meaning {
                 out.push_str(&format!(": {meaning}"));
             }
             out
