@@ -67,7 +67,7 @@ fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
 /// too: serde_json escapes only C0. Outside strings JSON text is ASCII, so
 /// every such character is inside a string, where `\uXXXX` is the same
 /// character.
-fn escape_json_controls(json: &str) -> String {
+pub fn escape_json_controls(json: &str) -> String {
     let mut out = String::with_capacity(json.len());
     for c in json.chars() {
         if tsl::diag::escape_char(c) != c {

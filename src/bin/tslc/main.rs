@@ -4,10 +4,11 @@
 //! terminal) or as JSON lines for editors and CI. Diagnostics go to stderr;
 //! requested data (JSON messages) to stdout.
 //! Exit codes: 0 clean, 1 errors (or warnings under `-W error`), 2 usage.
-//! `render`, `merge` and `make-mesh` live in `render.rs`; `watch` in
-//! `watch.rs` (its web page in `serve.rs`).
+//! `render`, `merge` and `make-mesh` live in `render.rs`; `query` in
+//! `query.rs`; `watch` in `watch.rs` (its web page in `serve.rs`).
 
 mod info;
+mod query;
 mod render;
 mod serve;
 mod watch;
@@ -37,6 +38,10 @@ enum Command {
     Render(render::RenderArgs),
     /// Join tiles rendered with `render --tile I/N` into one image.
     Merge(render::MergeArgs),
+    /// List the material templates of a file (or one by name) with their
+    /// parameters: types, defaults, doc comments and options (`--json` for
+    /// tools), as `oslquery` does.
+    Query(query::QueryArgs),
     /// Print what an EXR says about itself: frame, window, channels and
     /// the render settings, scene hash and tile it was made with.
     Info(info::InfoArgs),
@@ -177,6 +182,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
         Command::Info(args) => info::info(args),
+        Command::Query(args) => query::query(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
         Command::Watch(args) => watch::watch(args),
