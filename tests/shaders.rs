@@ -20,6 +20,31 @@ fn prelude_shaders(program: &Program) -> Vec<Shader> {
 }
 
 #[test]
+fn shaders_and_instances_can_be_shared_across_threads() {
+    fn shared<T: Send + Sync>() {}
+    shared::<Shader>();
+    shared::<Instance>();
+    shared::<tsl::ParamInfo>();
+    let program = program(HOST, ColorModel::Rgb);
+    let shader = program.shader("phong").unwrap();
+    let materials: Vec<Material> = std::thread::scope(|s| {
+        let handles: Vec<_> = [8.0f32, 64.0]
+            .map(|ns| {
+                let shader = &shader;
+                s.spawn(move || shader.instance().set("ns", ns).unwrap().specialise().unwrap())
+            })
+            .into_iter()
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    let g = tsl::ShadingGlobals { n: [0.0, 0.0, 1.0], ..Default::default() };
+    let (wi, wo) = ([0.3, 0.0, 0.954], [-0.3, 0.0, 0.954]);
+    let light = program.rgb(1.0, 1.0, 1.0);
+    let [soft, sharp] = [&materials[0], &materials[1]].map(|m| m.reflection(&g, wi, &light, wo).to_rgb()[0]);
+    assert!(sharp > soft, "a higher exponent is a sharper, higher peak: {soft} {sharp}");
+}
+
+#[test]
 fn every_stdlib_template_and_parameter_is_documented() {
     let program = program(HOST, ColorModel::Rgb);
     let shaders = prelude_shaders(&program);
@@ -165,7 +190,7 @@ fn non_default(p: &tsl::ParamInfo, k: usize, program: &Program) -> Option<(Param
             kd.set("ns", 12.0).ok()?;
             (kd.into(), "phong(ns: 12)".into())
         }
-        ParamType::Matrix => return None,
+        ParamType::Matrix | ParamType::BsdfSample => return None,
     })
 }
 

@@ -21,6 +21,8 @@ pub enum ParamType {
     Normal,
     Vec2,
     Matrix,
+    /// A sampled direction (`bsdf_sample`): hosts cannot set one.
+    BsdfSample,
     String,
     Material,
 }
@@ -38,6 +40,7 @@ impl ParamType {
             ParamType::Normal => "normal",
             ParamType::Vec2 => "vec2",
             ParamType::Matrix => "matrix",
+            ParamType::BsdfSample => "bsdf_sample",
             ParamType::String => "string",
             ParamType::Material => "material",
         }
@@ -57,9 +60,10 @@ impl ParamType {
                 Ty::Normal => ParamType::Normal,
                 Ty::Vec2 => ParamType::Vec2,
                 Ty::Matrix => ParamType::Matrix,
+                Ty::BsdfSample => ParamType::BsdfSample,
                 Ty::String => ParamType::String,
                 Ty::Material => ParamType::Material,
-                Ty::BsdfSample | Ty::Void | Ty::Array(..) | Ty::Error => return None,
+                Ty::Void | Ty::Array(..) | Ty::Error => return None,
             })
         };
         match ty {
@@ -126,7 +130,7 @@ impl ParamValue {
             ParamType::Vec2 => 2,
             ParamType::Matrix => 12,
             ParamType::Color => model.lanes(),
-            ParamType::String | ParamType::Material => return None,
+            ParamType::BsdfSample | ParamType::String | ParamType::Material => return None,
         };
         if words.len() != want {
             return None;
@@ -141,7 +145,7 @@ impl ParamValue {
             ParamType::Vec2 => ParamValue::Vec2([floats[0], floats[1]]),
             ParamType::Matrix => ParamValue::Matrix(floats.try_into().ok()?),
             ParamType::Color => ParamValue::Color(Color::from_lanes(model, &floats)),
-            ParamType::String | ParamType::Material => return None,
+            ParamType::BsdfSample | ParamType::String | ParamType::Material => return None,
         })
     }
 

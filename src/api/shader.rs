@@ -185,7 +185,7 @@ impl Program {
     fn default_value(&self, d: &Expr, checked_ty: &Ty, ty: ParamType, in_prelude: bool) -> Option<ParamValue> {
         match (&d.kind, ty) {
             (ExprKind::Str(s), ParamType::String) => return Some(ParamValue::String(s.clone())),
-            (_, ParamType::String | ParamType::Material) => return None,
+            (_, ParamType::String | ParamType::Material | ParamType::BsdfSample) => return None,
             _ if matches!(checked_ty, Ty::Array(..)) => return None,
             _ => {}
         }
@@ -364,7 +364,7 @@ impl Instance {
             let message = format!("{whose} is a `{}`, not {}", param.type_text(), value.describe());
             Err(shader.error(param.span, message, help))
         };
-        if param.array_len.is_some() || param.ty == ParamType::Matrix {
+        if param.array_len.is_some() || matches!(param.ty, ParamType::Matrix | ParamType::BsdfSample) {
             let message = format!("{whose} is a `{}`: set it in TSL source", param.type_text());
             return Err(shader.error(param.span, message, None));
         }

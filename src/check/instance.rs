@@ -36,7 +36,7 @@ impl CheckedExpr {
 /// let ok = tsl::check::check_material_expr(&checked.program, "<instance>", "phong(ns: 8)");
 /// assert!(ok.ok().is_some());
 /// let wrong = tsl::check::check_material_expr(&checked.program, "<instance>", "phong(ns: true)");
-/// assert!(wrong.diagnostics[0].message.contains("argument `ns`"));
+/// assert_eq!(wrong.diagnostics[0].message, "mismatched types: expected `float`, found `bool`");
 /// ```
 pub fn check_material_expr(program: &Program, name: &str, text: &str) -> CheckedExpr {
     let mut ext = program.clone();

@@ -348,3 +348,27 @@ fn refusals_are_told_apart_from_the_sources_own_syntax_errors() {
     let syntax = format_source("const float A = ;").unwrap_err();
     assert!(!syntax.is_empty() && !syntax.iter().any(super::is_refusal), "{syntax:?}");
 }
+
+#[test]
+fn parameter_options_and_doc_comments() {
+    let out = fmt("material m(/// the lobe\nstring d=\"a\"in(\"a\",\"b\"),string e in ( \"x\" )) = lambert;");
+    assert_eq!(
+        out,
+        "material m(\n    /// the lobe\n    string d = \"a\" in (\"a\", \"b\"),\n    string e in (\"x\"),\n) = lambert;\n"
+    );
+    // A list too long for its line breaks one option a line, as arguments do.
+    let long: Vec<String> = (0..12).map(|k| format!("\"option_number_{k}\"")).collect();
+    let out = fmt(&format!("float f(string s = \"option_number_0\" in ({})) {{ return 0; }}", long.join(", ")));
+    assert!(out.contains("in (\n        \"option_number_0\",\n        \"option_number_1\",\n"), "{out}");
+    assert!(out.lines().all(|l| l.len() <= 100), "{out}");
+}
+
+#[test]
+fn changed_options_are_a_refusal() {
+    // The verifier compares options: a printer that dropped one would be caught.
+    let a = crate::syntax::parse(crate::diag::FileId(0), "float f(string s in (\"a\", \"b\")) { return 0; }").0;
+    let b = crate::syntax::parse(crate::diag::FileId(0), "float f(string s in (\"a\")) { return 0; }").0;
+    let difference = super::same_tree::same_file(&a, &b).unwrap_err();
+    assert_eq!(difference.subject, "the options (\"a\", \"b\")");
+    assert_eq!(difference.change, "would become (\"a\")");
+}
