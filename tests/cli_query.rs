@@ -88,6 +88,12 @@ fn unknown_names_and_bad_files_are_errors() {
     let o = tslc(&["query", &path, "plain"]);
     assert!(stderr(&o).contains("`plain` is a material tree without parameters"), "{}", stderr(&o));
 
+    let none = write("query-none", "material plain = lambert;\n");
+    let o = tslc(&["query", &none]);
+    assert_eq!(o.status.code(), Some(0), "nothing to list is no error");
+    assert!(o.stdout.is_empty());
+    assert!(stderr(&o).contains("defines no material template (`--prelude` lists"), "{}", stderr(&o));
+
     let bad = write("query-bad", "material m(string d = \"x\" in (\"y\")) = lambert;\n");
     let o = tslc(&["query", &bad]);
     assert_eq!(o.status.code(), Some(1));

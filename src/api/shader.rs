@@ -359,7 +359,7 @@ impl Instance {
     /// float), or the error saying why it does not fit.
     fn checked(&self, param: &ParamInfo, value: ParamValue) -> Result<ParamValue, Error> {
         let shader = &self.shader;
-        let whose = format!("`{}` of `{}`", param.name, shader.name());
+        let whose = Whose(&param.name, shader.name());
         let wrong = |help: Option<String>| {
             let message = format!("{whose} is a `{}`, not {}", param.type_text(), value.describe());
             Err(shader.error(param.span, message, help))
@@ -423,7 +423,7 @@ impl Instance {
         }
     }
 
-    fn checked_option(&self, param: &ParamInfo, whose: &str, s: &str) -> Result<(), Error> {
+    fn checked_option(&self, param: &ParamInfo, whose: &Whose<'_>, s: &str) -> Result<(), Error> {
         let shader = &self.shader;
         if s.contains(['"', '\n', '\r']) {
             let message = format!("{whose} cannot hold quotes or line breaks, as TSL strings cannot");
@@ -502,6 +502,16 @@ impl Instance {
             methods.push(Function::new(part.clone(), index, native));
         }
         Ok(Material::new(program.clone(), methods))
+    }
+}
+
+/// `` `alpha` of `rough_conductor` ``: written only into an error, so a
+/// value that fits costs no allocation.
+struct Whose<'a>(&'a str, &'a str);
+
+impl fmt::Display for Whose<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{}` of `{}`", self.0, self.1)
     }
 }
 

@@ -57,6 +57,10 @@ pub fn query(args: QueryArgs) -> ExitCode {
         },
         None => program.shaders().into_iter().filter(|s| args.prelude || !s.in_prelude()).collect(),
     };
+    if shaders.is_empty() {
+        let file = args.file.display();
+        eprintln!("note: {file} defines no material template (`--prelude` lists the standard library's)");
+    }
     let mut out = std::io::stdout().lock();
     for (k, shader) in shaders.iter().enumerate() {
         // A closed stdout (piped into `head`) is not our error.
