@@ -385,6 +385,12 @@ fn hover_on_a_named_argument_shows_the_parameter_doc_comment_and_options() {
     let amount = hover(&mut client, "amount:");
     assert!(amount.contains("float amount = 0.5"), "{amount}");
     assert!(amount.contains("parameter of `tinted`: How much of the tint shows."), "{amount}");
+    // On the declaration itself, too.
+    let declared = text_of(&client.result(
+        "textDocument/hover",
+        json!({ "textDocument": { "uri": doc }, "position": at(text, "float", "amount") }),
+    ));
+    assert!(declared.contains("parameter: How much of the tint shows."), "{declared}");
     let tone = hover(&mut client, "tone:");
     assert!(tone.contains("string tone = \"warm\" in (\"warm\", \"cold\")"), "{tone}");
     client.shutdown();

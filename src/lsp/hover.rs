@@ -84,7 +84,13 @@ fn target_hover(analysis: &Analysis, target: Target, node: &Node<'_>) -> Option<
                     (ty.unwrap_or_default(), "local")
                 }
             };
-            format!("{}\n\n{kind}", code(&format!("{ty} {}", analysis.snippet(decl))))
+            let mut out = format!("{}\n\n{kind}", code(&format!("{ty} {}", analysis.snippet(decl))));
+            if let Node::Param(p) = node
+                && let Some(doc) = param_doc_comment(analysis, p)
+            {
+                out.push_str(&format!(": {doc}"));
+            }
+            out
         }
         Target::Param(sym, k) => {
             let param = item_params(analysis.item(sym)?)?.get(k)?;
@@ -95,8 +101,7 @@ fn target_hover(analysis: &Analysis, target: Target, node: &Node<'_>) -> Option<
             }
             let mut out = format!("{}\n\nparameter of `{owner}`", code(&declared));
             // Its `///` comment, else its row in a stdlib file's table.
-            let before = analysis.snippet(crate::diag::Span { start: 0, end: param.span.start, ..param.span });
-            let meaning = crate::syntax::doc_comment(before, before.len())
+            let meaning = param_doc_comment(analysis, param)
                 .or_else(|| analysis.doc(sym).and_then(|d| docs::param_doc(&d, &param.name.name)));
             if let Some(meaning) = meaning {
                 out.push_str(&format!(": {meaning}"));
@@ -118,6 +123,12 @@ fn target_hover(analysis: &Analysis, target: Target, node: &Node<'_>) -> Option<
             format!("{}\n\ninterface method: {meaning}default: `{}`", code(&m.signature()), m.default)
         }
     })
+}
+
+/// The `///` comment above a parameter's declaration.
+fn param_doc_comment(analysis: &Analysis, p: &crate::syntax::ast::Param) -> Option<String> {
+    let before = analysis.snippet(crate::diag::Span { start: 0, end: p.span.start, ..p.span });
+    crate::syntax::doc_comment(before, before.len())
 }
 
 /// A builtin's parameters with their defaults, its typing synopsis and
