@@ -33,10 +33,11 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
 mod material;
+mod outputs;
 mod prepared;
 
-use material::SAMPLE_WORDS;
-pub use material::{BsdfSample, Material, SampledDir};
+pub use material::{Material, SampledDir};
+pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
 
 /// A compile error: the diagnostics and the sources they point into.

@@ -42,8 +42,8 @@ mod test_support;
 pub mod texture;
 
 pub use api::{
-    Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
-    SampledDir, WHITTED_METHODS, worth_preparing,
+    Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitMaterial, Lanes,
+    Material, PATH_METHODS, PreparedHit, Program, SampledDir, WHITTED_METHODS, worth_preparing,
 };
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;

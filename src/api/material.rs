@@ -1,7 +1,9 @@
 //! `Material`: the generic material interface of a compiled program, as
 //! native calls with their argument words packed on the stack.
 
+use super::outputs::{BsdfSample, MAX_RESULT_WORDS};
 use super::{Color, Function, Program};
+use crate::check::Method;
 use crate::color::{ColorModel, MAX_SAMPLES};
 use crate::globals::ShadingGlobals;
 use std::fmt;
@@ -31,8 +33,8 @@ struct Facts {
 
 impl Facts {
     fn of(methods: &[Function]) -> Facts {
-        let constant = |k: usize| methods[k].ir().constant_results();
-        let zero = |k: usize| constant(k).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
+        let constant = |m: Method| methods[m as usize].ir().constant_results();
+        let zero = |m: Method| constant(m).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
         let mut globals_read = 0u64;
         for m in methods {
             crate::ir::for_each_op(&m.ir().body, &mut |op| {
@@ -42,7 +44,7 @@ impl Facts {
             });
         }
         // absorption(light, d) writing its light words straight back.
-        let absorption = methods[7].ir();
+        let absorption = methods[Method::Absorption as usize].ir();
         let lanes = absorption.results.len();
         let mut outputs = vec![None; lanes];
         let mut params = std::collections::HashMap::new();
@@ -63,10 +65,10 @@ impl Facts {
         let clear = plain && outputs.iter().enumerate().all(|(k, p)| *p == Some(k as u32));
         Facts {
             clear,
-            may_emit: !zero(5),
-            always_opaque: constant(10).is_some_and(|w| w.first() == Some(&1)),
-            may_reflect_dir: !zero(3),
-            may_refract: !zero(4),
+            may_emit: !zero(Method::Emission),
+            always_opaque: constant(Method::Opaque).is_some_and(|w| w.first() == Some(&1)),
+            may_reflect_dir: !zero(Method::ReflectionDir),
+            may_refract: !zero(Method::RefractionDir),
             globals_read,
         }
     }
@@ -74,32 +76,12 @@ impl Facts {
 
 impl fmt::Debug for Material {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Material").field("name", &self.methods[0].ir().name).finish()
+        f.debug_struct("Material").field("name", &self.methods[Method::Reflection as usize].ir().name).finish()
     }
 }
 
 /// The most argument words a method takes: `refraction(wi, light, eta, wo)`.
 const MAX_ARG_WORDS: usize = 3 + 2 * MAX_SAMPLES + 3;
-
-/// The most result words a method gives: a `bsdf_sample` (`wi`, `weight`,
-/// `pdf`, `delta`).
-pub(super) const SAMPLE_WORDS: usize = 5 + MAX_SAMPLES;
-
-/// A direction drawn by [`Material::sample`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BsdfSample {
-    /// The incident direction, unit, pointing away from the surface; the
-    /// zero vector when the material drew nothing (the path ends).
-    pub wi: [f32; 3],
-    /// `f · cos / pdf` for a smooth lobe; for a delta lobe, the response to
-    /// unit light along `wi` over the probability of choosing that lobe.
-    pub weight: Color,
-    /// The solid-angle density of `wi` (0 for a delta lobe).
-    pub pdf: f32,
-    /// Whether `wi` is a perfect (delta) direction: no light sample can
-    /// find it, so multiple importance sampling gives it weight 1.
-    pub delta: bool,
-}
 
 /// The direction part of a sample from [`Material::sample_into`], whose
 /// weight goes to a lane slice.
@@ -154,13 +136,12 @@ impl Material {
     /// hosts that pack argument words themselves and reuse their buffers
     /// ([`Function::call_words`]); `None` for a name not in the interface.
     pub fn method(&self, name: &str) -> Option<&Function> {
-        let k = crate::check::INTERFACE.iter().position(|m| m.name == name)?;
-        self.methods.get(k)
+        self.methods.get(Method::from_name(name)? as usize)
     }
 
-    /// The `sample` entry (method 11 of `check::INTERFACE`).
+    /// The `sample` entry.
     pub(crate) fn sample_entry(&self) -> &Function {
-        &self.methods[11]
+        &self.methods[Method::Sample as usize]
     }
 
     /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]
@@ -171,8 +152,8 @@ impl Material {
     }
 
     /// Calls method `k`, writing its result words into `out`.
-    fn call_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: *mut u32) {
-        let f = &self.methods[k];
+    fn call_into(&self, method: Method, g: &ShadingGlobals, args: &Args, out: *mut u32) {
+        let f = &self.methods[method as usize];
         debug_assert_eq!(args.len, f.ir().params.len());
         // SAFETY: `args` holds exactly the words method `k` of the material
         // interface takes (the wrappers below build them from the
@@ -182,21 +163,21 @@ impl Material {
         unsafe { (f.native)((g as *const ShadingGlobals).cast(), args.words.as_ptr().cast(), out) }
     }
 
-    fn color(&self, k: usize, g: &ShadingGlobals, args: &Args) -> Color {
+    fn color(&self, method: Method, g: &ShadingGlobals, args: &Args) -> Color {
         let mut c = Color::black(self.program.color_model());
-        self.call_into(k, g, args, c.lanes.as_mut_ptr().cast());
+        self.call_into(method, g, args, c.lanes.as_mut_ptr().cast());
         c
     }
 
-    fn vector(&self, k: usize, g: &ShadingGlobals, args: &Args) -> [f32; 3] {
+    fn vector(&self, method: Method, g: &ShadingGlobals, args: &Args) -> [f32; 3] {
         let mut v = [0.0f32; 3];
-        self.call_into(k, g, args, v.as_mut_ptr().cast());
+        self.call_into(method, g, args, v.as_mut_ptr().cast());
         v
     }
 
     /// Light arriving from `wi` reflected toward `wo`.
     pub fn reflection(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, wo: [f32; 3]) -> Color {
-        self.color(0, g, Args::new().v(wi).c(light).v(wo))
+        self.color(Method::Reflection, g, Args::new().v(wi).c(light).v(wo))
     }
 
     /// [`Material::reflection`] without a [`Color`] by value, for hot loops:
@@ -222,15 +203,15 @@ impl Material {
         args.v(wi);
         args.extend(&light[..lanes]);
         args.v(wo);
-        self.call_into(0, g, &args, out.as_mut_ptr().cast());
+        self.call_into(Method::Reflection, g, &args, out.as_mut_ptr().cast());
     }
 
     /// Calls a color method with `args` words, writing the model's lanes
     /// to `out`.
-    fn color_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: &mut [f32]) {
+    fn color_into(&self, method: Method, g: &ShadingGlobals, args: &Args, out: &mut [f32]) {
         let lanes = self.program.color_model().lanes();
         assert!(out.len() >= lanes, "out needs {lanes} lanes");
-        self.call_into(k, g, args, out.as_mut_ptr().cast());
+        self.call_into(method, g, args, out.as_mut_ptr().cast());
     }
 
     /// [`Material::refraction`] on lane slices (see [`Material::reflection_into`]).
@@ -250,12 +231,12 @@ impl Material {
         args.extend(&light[..lanes]);
         args.extend(&eta[..lanes]);
         args.v(wo);
-        self.color_into(1, g, &args, out);
+        self.color_into(Method::Refraction, g, &args, out);
     }
 
     /// [`Material::refraction_index`] into a lane slice.
     pub fn refraction_index_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
-        self.color_into(2, g, &Args::new(), out);
+        self.color_into(Method::RefractionIndex, g, &Args::new(), out);
     }
 
     /// [`Material::refraction_dir`] with `eta` as a lane slice.
@@ -265,12 +246,12 @@ impl Material {
         let mut args = Args::new();
         args.v(wo);
         args.extend(&eta[..lanes]);
-        self.vector(4, g, &args)
+        self.vector(Method::RefractionDir, g, &args)
     }
 
     /// [`Material::emission`] into a lane slice.
     pub fn emission_into(&self, g: &ShadingGlobals, wo: [f32; 3], out: &mut [f32]) {
-        self.color_into(5, g, Args::new().v(wo), out);
+        self.color_into(Method::Emission, g, Args::new().v(wo), out);
     }
 
     /// [`Material::absorption`] on lane slices.
@@ -280,12 +261,12 @@ impl Material {
         let mut args = Args::new();
         args.extend(&light[..lanes]);
         args.f(distance);
-        self.color_into(7, g, &args, out);
+        self.color_into(Method::Absorption, g, &args, out);
     }
 
     /// [`Material::diffuse`] into a lane slice.
     pub fn diffuse_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
-        self.color_into(9, g, &Args::new(), out);
+        self.color_into(Method::Diffuse, g, &Args::new(), out);
     }
 
     /// False when `emission` is the interface default (black everywhere),
@@ -314,7 +295,10 @@ impl Material {
     /// The refraction index when it is the same everywhere (a constant),
     /// in the color model's lanes.
     pub fn constant_refraction_index(&self) -> Option<Vec<f32>> {
-        self.methods[2].ir().constant_results().map(|w| w.into_iter().map(f32::from_bits).collect())
+        self.methods[Method::RefractionIndex as usize]
+            .ir()
+            .constant_results()
+            .map(|w| w.into_iter().map(f32::from_bits).collect())
     }
 
     /// True when `opaque` is the constant `true`: shadow rays need not ask.
@@ -329,47 +313,47 @@ impl Material {
 
     /// Light arriving from `wi` transmitted toward `wo`.
     pub fn refraction(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, eta: &Color, wo: [f32; 3]) -> Color {
-        self.color(1, g, Args::new().v(wi).c(light).c(eta).v(wo))
+        self.color(Method::Refraction, g, Args::new().v(wi).c(light).c(eta).v(wo))
     }
 
     pub fn refraction_index(&self, g: &ShadingGlobals) -> Color {
-        self.color(2, g, &Args::new())
+        self.color(Method::RefractionIndex, g, &Args::new())
     }
 
     /// The mirror direction for an outgoing `wo`; zero when there is none.
     pub fn reflection_dir(&self, g: &ShadingGlobals, wo: [f32; 3]) -> [f32; 3] {
-        self.vector(3, g, Args::new().v(wo))
+        self.vector(Method::ReflectionDir, g, Args::new().v(wo))
     }
 
     /// The refracted direction; zero on total internal reflection or none.
     pub fn refraction_dir(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color) -> [f32; 3] {
-        self.vector(4, g, Args::new().v(wo).c(eta))
+        self.vector(Method::RefractionDir, g, Args::new().v(wo).c(eta))
     }
 
     pub fn emission(&self, g: &ShadingGlobals, wo: [f32; 3]) -> Color {
-        self.color(5, g, Args::new().v(wo))
+        self.color(Method::Emission, g, Args::new().v(wo))
     }
 
     pub fn ambient(&self, g: &ShadingGlobals, light: &Color) -> Color {
-        self.color(6, g, Args::new().c(light))
+        self.color(Method::Ambient, g, Args::new().c(light))
     }
 
     /// The light left of `light` after `distance` inside the material.
     pub fn absorption(&self, g: &ShadingGlobals, light: &Color, distance: f32) -> Color {
-        self.color(7, g, Args::new().c(light).f(distance))
+        self.color(Method::Absorption, g, Args::new().c(light).f(distance))
     }
 
     pub fn normal(&self, g: &ShadingGlobals) -> [f32; 3] {
-        self.vector(8, g, &Args::new())
+        self.vector(Method::Normal, g, &Args::new())
     }
 
     pub fn diffuse(&self, g: &ShadingGlobals) -> Color {
-        self.color(9, g, &Args::new())
+        self.color(Method::Diffuse, g, &Args::new())
     }
 
     pub fn opaque(&self, g: &ShadingGlobals) -> bool {
         let mut word = 0u32;
-        self.call_into(10, g, &Args::new(), &mut word);
+        self.call_into(Method::Opaque, g, &Args::new(), &mut word);
         word != 0
     }
 
@@ -416,13 +400,11 @@ impl Material {
         args.extend(&eta[..lanes]);
         args.f(uc);
         args.extend(&u);
-        let mut out = [0u32; SAMPLE_WORDS];
-        self.call_into(11, g, &args, out.as_mut_ptr());
-        let word = |k: usize| f32::from_bits(out[k]);
-        for (k, w) in weight[..lanes].iter_mut().enumerate() {
-            *w = word(3 + k);
-        }
-        SampledDir { wi: [word(0), word(1), word(2)], pdf: word(3 + lanes), delta: word(4 + lanes) > 0.0 }
+        let mut out = [0u32; MAX_RESULT_WORDS];
+        self.call_into(Method::Sample, g, &args, out.as_mut_ptr());
+        let s: BsdfSample = BsdfSample::from_words(self.color_model(), &out);
+        weight[..lanes].copy_from_slice(s.weight.lanes());
+        SampledDir { wi: s.wi, pdf: s.pdf, delta: s.delta }
     }
 
     /// The solid-angle density with which [`Material::sample`] draws `wi`
@@ -439,7 +421,7 @@ impl Material {
         args.v(wi).v(wo);
         args.extend(&eta[..lanes]);
         let mut word = 0u32;
-        self.call_into(12, g, &args, &mut word);
+        self.call_into(Method::Pdf, g, &args, &mut word);
         f32::from_bits(word)
     }
 }

@@ -8,8 +8,9 @@
 //! answers every method from that. The hit borrows its material, so it can
 //! be used with no other and cannot outlive the compiled code.
 
-use super::{Backend, BsdfSample, Color, Entry, Error, Function, Program, SAMPLE_WORDS};
-use crate::check::{MaterialRef, Ty};
+use super::outputs::{BsdfSample, EvalPdf, MAX_RESULT_WORDS};
+use super::{Backend, Color, Entry, Error, Function, Program};
+use crate::check::{MaterialRef, Method, Ty};
 use crate::globals::ShadingGlobals;
 use crate::ir::Module as IrModule;
 use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with};
@@ -18,11 +19,12 @@ use crate::syntax::ast::{Expr, ExprKind};
 /// What a path tracer calls at a hit after `prepare`: the hit group the
 /// renderer compiles (`emission`, needed only by emitters, stays a call of
 /// its own).
-pub const PATH_METHODS: &[HitMethod] = &[HitMethod::Interface("sample"), HitMethod::EvalPdf, HitMethod::DeltaLobes];
+pub const PATH_METHODS: &[HitMethod] =
+    &[HitMethod::Interface(Method::Sample), HitMethod::EvalPdf, HitMethod::DeltaLobes];
 
 /// What a Whitted ray tracer calls at a hit after `prepare`: `reflection`
 /// once per light sample and the perfect directions.
-pub const WHITTED_METHODS: &[HitMethod] = &[HitMethod::Interface("reflection"), HitMethod::DeltaLobes];
+pub const WHITTED_METHODS: &[HitMethod] = &[HitMethod::Interface(Method::Reflection), HitMethod::DeltaLobes];
 
 /// A material compiled for prepared hits: its `prepare` stage and the
 /// methods of one hit group.
@@ -308,39 +310,28 @@ impl PreparedHit<'_> {
     /// `reflection(wi, light, wo)` at this hit.
     pub fn reflection(&mut self, wi: [f32; 3], light: &Color) -> Result<Color, String> {
         let own: Vec<u32> = wi.iter().chain(light.lanes()).map(|x| x.to_bits()).collect();
-        self.color(HitMethod::Interface("reflection"), &own)
+        self.color(HitMethod::Interface(Method::Reflection), &own)
     }
 
     /// `emission(wo)` at this hit.
     pub fn emission(&mut self) -> Result<Color, String> {
-        self.color(HitMethod::Interface("emission"), &[])
+        self.color(HitMethod::Interface(Method::Emission), &[])
     }
 
     /// `sample(wo, eta, u1, u2)` at this hit.
     pub fn sample(&mut self, u1: f32, u2: [f32; 2]) -> Result<BsdfSample, String> {
-        let mut out = [0u32; SAMPLE_WORDS];
+        let mut out = [0u32; MAX_RESULT_WORDS];
         let own = [u1, u2[0], u2[1]].map(f32::to_bits);
-        self.call_words(HitMethod::Interface("sample"), &own, &mut out)?;
-        let model = self.material.program.color_model();
-        let lanes = model.lanes();
-        let word = |k: usize| f32::from_bits(out[k]);
-        let weight: Vec<f32> = (0..lanes).map(|k| word(3 + k)).collect();
-        Ok(BsdfSample {
-            wi: [word(0), word(1), word(2)],
-            weight: Color::from_lanes(model, &weight),
-            pdf: word(3 + lanes),
-            delta: word(4 + lanes) > 0.0,
-        })
+        self.call_words(HitMethod::Interface(Method::Sample), &own, &mut out)?;
+        Ok(BsdfSample::from_words(self.material.program.color_model(), &out))
     }
 
     /// `f · cos` for unit light from `wi` and the pdf of sampling `wi`, in
     /// one call (Mitsuba's `eval_pdf`).
     pub fn eval_pdf(&mut self, wi: [f32; 3]) -> Result<(Color, f32), String> {
-        let model = self.material.program.color_model();
-        let lanes = model.lanes();
-        let mut out = vec![0u32; lanes + 1];
+        let mut out = [0u32; MAX_RESULT_WORDS];
         self.call_words(HitMethod::EvalPdf, &wi.map(f32::to_bits), &mut out)?;
-        let f: Vec<f32> = out[..lanes].iter().map(|w| f32::from_bits(*w)).collect();
-        Ok((Color::from_lanes(model, &f), f32::from_bits(out[lanes])))
+        let e: EvalPdf = EvalPdf::from_words(self.material.program.color_model(), &out);
+        Ok((e.value, e.pdf))
     }
 }

@@ -180,11 +180,6 @@ fn spawn(p: Vec3, ng: Vec3, dir: Vec3) -> Ray {
     Ray::new(p + side * eps, dir)
 }
 
-/// Whether a vector is the "none" direction of the interface.
-fn is_zero(v: [f32; 3]) -> bool {
-    v == [0.0; 3] || !v.iter().all(|x| x.is_finite())
-}
-
 impl<'s, const N: usize> Tracer<'s, N> {
     pub fn new(scene: &'s Scene, want_aov: bool) -> Self {
         let lanes = scene.model.lanes();

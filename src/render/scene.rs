@@ -150,10 +150,10 @@ impl PreparedMaterial {
         use crate::ir::lower::HitMethod;
         let at = |m| material.method_index(m);
         PreparedMaterial {
-            sample: at(HitMethod::Interface("sample")),
+            sample: at(HitMethod::Interface(crate::check::Method::Sample)),
             eval_pdf: at(HitMethod::EvalPdf),
             delta_lobes: at(HitMethod::DeltaLobes),
-            reflection: at(HitMethod::Interface("reflection")),
+            reflection: at(HitMethod::Interface(crate::check::Method::Reflection)),
             material,
         }
     }

@@ -128,3 +128,17 @@ mod tests {
         assert!(!(c * f32::NAN).is_finite());
     }
 }
+
+/// Material calls write radiance straight into a spectrum: its `N` lanes
+/// hold the model's (the scene picks `N` at least the model's count).
+impl<const N: usize> crate::Lanes for Spectrum<N> {
+    fn zero(_: crate::ColorModel) -> Self {
+        Spectrum::ZERO
+    }
+    fn lanes(&self) -> &[f32] {
+        &self.0
+    }
+    fn lanes_mut(&mut self) -> &mut [f32] {
+        &mut self.0
+    }
+}

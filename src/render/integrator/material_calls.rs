@@ -2,7 +2,7 @@
 //! record where the object has a hit group (`prepare` once per vertex,
 //! then each method by its index), else through each method on its own.
 
-use super::{Drawn, JIT, Lobes, Refraction, Shading, Tracer, is_zero, push_words, v3};
+use super::{Drawn, JIT, Lobes, Refraction, Shading, Tracer, push_words, v3};
 use crate::ShadingGlobals;
 use crate::render::Vec3;
 use crate::render::scene::Object;
@@ -128,17 +128,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 return lobes;
             }
         }
-        let (out, lanes) = (&self.lobe_out, self.lanes);
-        let dir = |at: usize| [0, 1, 2].map(|k| f32::from_bits(out[at + k]));
-        let weight =
-            |at: usize| Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[at + k]) } else { 0.0 }));
-        let (dr, dt) = (dir(0), dir(3 + lanes));
-        if !is_zero(dr) {
-            lobes.reflect = Some((Vec3::from(dr), weight(3)));
-        }
-        if !is_zero(dt) {
-            lobes.refract = Some(Refraction { dir: Vec3::from(dt), weight: weight(6 + lanes), entering });
-        }
+        let decoded: crate::DeltaLobes<Spectrum<N>> = crate::DeltaLobes::from_words(self.scene.model, &self.lobe_out);
+        lobes.reflect = decoded.reflect.map(|l| (Vec3::from(l.dir), l.weight));
+        lobes.refract = decoded.refract.map(|l| Refraction { dir: Vec3::from(l.dir), weight: l.weight, entering });
         lobes
     }
 
