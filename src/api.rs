@@ -35,10 +35,12 @@ use std::sync::{Arc, Mutex, RwLock};
 mod material;
 mod outputs;
 mod prepared;
+mod typed;
 
 pub use material::{Material, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
+pub use typed::{TslParams, TslType, TypedFunction};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]

@@ -43,7 +43,8 @@ pub mod texture;
 
 pub use api::{
     Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitMaterial, Lanes,
-    Material, PATH_METHODS, PreparedHit, Program, SampledDir, WHITTED_METHODS, worth_preparing,
+    Material, PATH_METHODS, PreparedHit, Program, SampledDir, TslParams, TslType, TypedFunction, WHITTED_METHODS,
+    worth_preparing,
 };
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;
