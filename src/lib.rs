@@ -42,9 +42,9 @@ mod test_support;
 pub mod texture;
 
 pub use api::{
-    Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitMaterial, Lanes,
-    Material, PATH_METHODS, PreparedHit, Program, SampledDir, TslParams, TslType, TypedFunction, WHITTED_METHODS,
-    worth_preparing,
+    Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
+    Lanes, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit, Program, SampledDir, Surface,
+    SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS, worth_preparing,
 };
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;

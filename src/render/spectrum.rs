@@ -111,6 +111,20 @@ impl<const N: usize> Div<f32> for Spectrum<N> {
     }
 }
 
+/// Material calls write radiance straight into a spectrum: its `N` lanes
+/// hold the model's (the scene picks `N` at least the model's count).
+impl<const N: usize> crate::Lanes for Spectrum<N> {
+    fn zero(_: crate::ColorModel) -> Self {
+        Spectrum::ZERO
+    }
+    fn lanes(&self) -> &[f32] {
+        &self.0
+    }
+    fn lanes_mut(&mut self) -> &mut [f32] {
+        &mut self.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,19 +140,5 @@ mod tests {
         assert!((c.mean(3) - 5.0 / 3.0).abs() < 1e-6);
         assert!(!c.is_black() && Spectrum::<8>::ZERO.is_black());
         assert!(!(c * f32::NAN).is_finite());
-    }
-}
-
-/// Material calls write radiance straight into a spectrum: its `N` lanes
-/// hold the model's (the scene picks `N` at least the model's count).
-impl<const N: usize> crate::Lanes for Spectrum<N> {
-    fn zero(_: crate::ColorModel) -> Self {
-        Spectrum::ZERO
-    }
-    fn lanes(&self) -> &[f32] {
-        &self.0
-    }
-    fn lanes_mut(&mut self) -> &mut [f32] {
-        &mut self.0
     }
 }

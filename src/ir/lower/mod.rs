@@ -185,11 +185,22 @@ pub fn lower_material_exprs(
     model: ColorModel,
     materials: &[(String, &Expr)],
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    lower_material_methods(program, model, materials, |_, _| true)
+}
+
+/// [`lower_material_exprs`] for the methods `keep(k, method)` accepts of
+/// material `k`: a renderer leaves out those a hit group serves.
+pub fn lower_material_methods(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+    keep: impl Fn(usize, Method) -> bool,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    for (name, expr) in materials {
-        for im in INTERFACE {
+    for (k, (name, expr)) in materials.iter().enumerate() {
+        for im in Method::ALL.into_iter().filter(|m| keep(k, *m)).map(Method::interface) {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
