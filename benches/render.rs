@@ -79,20 +79,24 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
             let (wi, u) = (words(&g.n), words(&[0.37, 0.61, 0.29]));
             let mut c = Counts::default();
             let lights = scene.lights.len();
-            match &o.hit {
+            let [eval_pdf, delta_lobes, reflection_sum] = o.material.combined_functions();
+            let facts = o.material.facts();
+            match o.material.hit_group() {
                 Some(h) => {
-                    let mut record = vec![0u32; h.material.record_words()];
-                    run_counting(h.material.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
+                    let mut record = vec![0u32; h.record_words()];
+                    run_counting(h.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
                     let own = |m| match m {
                         tsl::ir::lower::HitMethod::EvalPdf => (wi.clone(), lights),
-                        tsl::ir::lower::HitMethod::DeltaLobes => (Vec::new(), usize::from(o.reflects || o.refracts)),
+                        tsl::ir::lower::HitMethod::DeltaLobes => {
+                            (Vec::new(), usize::from(facts.reflects || facts.refracts))
+                        }
                         _ => (u.clone(), 1),
                     };
                     for m in tsl::PATH_METHODS {
                         let (args, times) = own(*m);
                         let args = [&record[..], &args[..]].concat();
                         for _ in 0..times {
-                            if let Some(f) = h.material.method_function(*m) {
+                            if let Some(f) = h.method_function(*m) {
                                 run_counting(f.ir(), &globals, &args, &mut out, &mut c);
                             }
                         }
@@ -100,12 +104,14 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                 }
                 None => {
                     let sample_args = [&hit_inputs[..], &u[..]].concat();
-                    run_counting(o.sample.ir(), &globals, &sample_args, &mut out, &mut c);
-                    if let Some(f) = &o.delta_lobes {
+                    if let Some(f) = o.material.method(tsl::check::Method::Sample) {
+                        run_counting(f.ir(), &globals, &sample_args, &mut out, &mut c);
+                    }
+                    if let Some(f) = delta_lobes {
                         run_counting(f.ir(), &globals, &hit_inputs, &mut out, &mut c);
                     }
                     let delta = scene.lights.iter().filter(|l| l.is_delta()).count();
-                    let summed = o.reflection_sum.as_ref().filter(|_| delta > 0);
+                    let summed = reflection_sum.filter(|_| delta > 0);
                     if let Some(f) = summed {
                         let mut args = Vec::new();
                         for _ in 0..delta {
@@ -116,7 +122,7 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                         run_counting(f.ir(), &globals, &args, &mut out, &mut c);
                     }
                     let unsummed = if summed.is_some() { lights - delta } else { lights };
-                    if let Some(f) = &o.eval_pdf {
+                    if let Some(f) = eval_pdf {
                         let args = [&wi[..], &hit_inputs[..]].concat();
                         for _ in 0..unsummed {
                             run_counting(f.ir(), &globals, &args, &mut out, &mut c);
@@ -178,7 +184,7 @@ fn bench_split(name: &str, file: &Path) {
     }
     figure(&format!("{label} split speed-up"), medians[0] / medians[1], "x");
     figure(&format!("{label} split optimised speed-up"), medians[0] / medians[2], "x");
-    let prepared = scenes[1].objects.iter().filter(|o| o.hit.is_some()).count();
+    let prepared = scenes[1].objects.iter().filter(|o| o.material.is_prepared()).count();
     figure(&format!("{label} objects prepared (of {})", scenes[1].objects.len()), prepared as f64, "");
     // Noise run at the camera hits of textured objects, counted by the interpreter.
     for (unsplit, scene) in [true, false].into_iter().zip(&scenes) {

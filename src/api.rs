@@ -33,15 +33,22 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
 mod material;
+mod outputs;
 mod param_value;
 mod prepared;
 mod shader;
+mod surface;
+mod surfaces;
+mod typed;
 
-use material::SAMPLE_WORDS;
-pub use material::{BsdfSample, Material, SampledDir};
+pub use material::{Material, MaterialFacts, SampledDir};
+pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use param_value::{ParamType, ParamValue};
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
 pub use shader::{Instance, ParamInfo, Shader};
+pub use surface::{Surface, SurfaceRecord};
+pub use surfaces::{HitCalls, MaterialSource, SurfaceOptions};
+pub use typed::{TslParams, TslType, TypedFunction};
 
 /// A compile error: the diagnostics and the sources they point into.
 #[derive(Debug, Clone)]
@@ -440,40 +447,11 @@ impl Program {
             .collect()
     }
 
-    /// Compiles materials of the program (scene objects' `material`
-    /// values) together, one [`Material`] per reference. `name`s must be
-    /// unique and not TSL identifiers (for example `@object3`).
-    pub(crate) fn compile_material_exprs(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Material>, Error> {
-        let exprs = self.material_exprs(materials)?;
-        let (ir, entries, diags) =
-            crate::ir::lower::lower_material_exprs(&self.inner.program, self.inner.model, &exprs);
-        self.lowering_errors(diags)?;
-        let part = self.jit_part(ir, entries)?;
-        let mut out = Vec::with_capacity(materials.len());
-        for (name, _) in materials {
-            let mut methods = Vec::with_capacity(crate::check::INTERFACE.len());
-            for im in crate::check::INTERFACE {
-                let fname = format!("{name}.{}", im.name);
-                let index = part.ir.functions.iter().position(|f| f.name == fname);
-                let native = part.jit.function(&fname);
-                let (Some(index), Some(native)) = (index, native) else {
-                    return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
-                };
-                methods.push(Function::new(part.clone(), index, native));
-            }
-            out.push(Material::new(self.clone(), methods));
-        }
-        if let Ok(mut parts) = self.inner.parts.write() {
-            parts.push(part);
-        }
-        Ok(out)
-    }
-
     /// Compiles, for each material expression of the root program, the
     /// entry `NAME.reflection_sum{lights}`: the sum of `reflection` over
     /// `lights` lights in one call, with the texture evaluated once
     /// (parameters `wi_1, light_1, ..., wi_K, light_K, wo`).
-    pub(crate) fn compile_reflection_sums(
+    fn compile_reflection_sums(
         &self,
         materials: &[(String, MaterialRef)],
         lights: usize,
@@ -490,7 +468,7 @@ impl Program {
     /// Compiles, for each material expression of the root program, the
     /// entry `NAME.delta_lobes`: both perfect directions and their weights
     /// in one call (see `ir::lower::lower_delta_lobes`).
-    pub(crate) fn compile_delta_lobes(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
+    fn compile_delta_lobes(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
         let exprs = self.material_exprs(materials)?;
         self.compile_lowered(crate::ir::lower::lower_delta_lobes(&self.inner.program, self.inner.model, &exprs))
     }
@@ -526,7 +504,7 @@ impl Program {
     /// Compiles, for each material expression of the root program, the
     /// entry `NAME.eval_pdf`: `f · cos` and `pdf` of a light direction in
     /// one call (see `ir::lower::lower_eval_pdf`).
-    pub(crate) fn compile_eval_pdf(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
+    fn compile_eval_pdf(&self, materials: &[(String, MaterialRef)]) -> Result<Vec<Function>, Error> {
         let exprs = self.material_exprs(materials)?;
         self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, &exprs))
     }
@@ -577,10 +555,17 @@ impl Program {
         if is_material {
             self.compile_name(name)?;
         }
-        let methods: Option<Vec<Function>> =
-            crate::check::INTERFACE.iter().map(|im| self.find(&format!("{name}.{}", im.name))).collect();
-        if let Some(methods) = methods {
-            return Ok(Material::new(self.clone(), methods));
+        let methods = crate::check::Method::ALL.map(|m| self.find(&format!("{name}.{}", m.name())));
+        if methods.iter().all(Option::is_some) {
+            let code = material::Code {
+                name: name.to_string(),
+                methods,
+                eval_pdf: None,
+                delta_lobes: None,
+                reflection_sum: None,
+                hit: None,
+            };
+            return Ok(Material::new(self.clone(), code));
         }
         let known: Vec<&str> = self
             .inner

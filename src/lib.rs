@@ -42,8 +42,9 @@ mod test_support;
 pub mod texture;
 
 pub use api::{
-    Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
-    SampledDir, WHITTED_METHODS, worth_preparing,
+    Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
+    Lanes, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit, Program, SampledDir, Surface,
+    SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS, worth_preparing,
 };
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;

@@ -163,17 +163,17 @@ fn methods_no_child_defines_skip_the_weights() {
     let f = ir(&p, "half_glass.refraction_dir");
     assert_eq!(noise3_evaluations(&f), 1, "{f}");
     let m = p.material("marble").unwrap();
-    assert!(!m.may_refract() && m.always_opaque() && !m.may_emit());
+    assert!(!m.facts().refracts && m.facts().always_opaque && !m.facts().may_emit);
 }
 
 #[test]
 fn clear_glass_absorbs_nothing_and_its_index_is_a_constant() {
     let p = compile("material clear = glass(ior: gray(1.5)); material smoky = glass(transmittance: gray(0.5));");
     let clear = p.material("clear").unwrap();
-    assert!(clear.clear(), "{}", ir(&p, "clear.absorption"));
-    assert_eq!(clear.constant_refraction_index(), Some(vec![1.5; 3]));
+    assert!(clear.facts().clear, "{}", ir(&p, "clear.absorption"));
+    assert_eq!(clear.facts().constant_ior.clone(), Some(vec![1.5; 3]));
     let smoky = p.material("smoky").unwrap();
-    assert!(!smoky.clear());
+    assert!(!smoky.facts().clear);
 }
 
 #[test]
@@ -422,7 +422,7 @@ fn methods_that_ignore_the_normal_run_no_generator() {
     assert!(calls(&ir(&p, "hammered.normal"), "tsl_cellnoise3") > 0);
     // So the renderer sees what they are: opaque, and not refracting.
     let m = p.material("hammered").unwrap();
-    assert!(m.always_opaque() && !m.may_refract());
+    assert!(m.facts().always_opaque && !m.facts().refracts);
 }
 
 /// The interpreter's counts (for `cargo bench --bench render -- split`):

@@ -22,11 +22,11 @@ const POINTS: usize = 200;
 const EXAMPLE_POINTS: usize = 40;
 
 const METHODS: [HitMethod; 8] = [
-    HitMethod::Interface("reflection"),
-    HitMethod::Interface("refraction"),
-    HitMethod::Interface("emission"),
-    HitMethod::Interface("sample"),
-    HitMethod::Interface("pdf"),
+    HitMethod::Interface(tsl::check::Method::Reflection),
+    HitMethod::Interface(tsl::check::Method::Refraction),
+    HitMethod::Interface(tsl::check::Method::Emission),
+    HitMethod::Interface(tsl::check::Method::Sample),
+    HitMethod::Interface(tsl::check::Method::Pdf),
     HitMethod::EvalPdf,
     HitMethod::DeltaLobes,
     HitMethod::ReflectionSum(2),
@@ -76,11 +76,11 @@ fn args(rng: &mut Rng, params: &[(String, Ty)], model: ColorModel) -> Vec<u32> {
 /// its own arguments (the order of the interface, or of the fused entries).
 fn alone_args(method: HitMethod, wo: &[u32], eta: &[u32], own: &[u32]) -> Vec<u32> {
     match method {
-        HitMethod::Interface("reflection") => [own, wo].concat(),
-        HitMethod::Interface("refraction") => [own, eta, wo].concat(),
-        HitMethod::Interface("emission") => wo.to_vec(),
-        HitMethod::Interface("sample") => [wo, eta, own].concat(),
-        HitMethod::Interface("pdf") | HitMethod::EvalPdf => [own, wo, eta].concat(),
+        HitMethod::Interface(tsl::check::Method::Reflection) => [own, wo].concat(),
+        HitMethod::Interface(tsl::check::Method::Refraction) => [own, eta, wo].concat(),
+        HitMethod::Interface(tsl::check::Method::Emission) => wo.to_vec(),
+        HitMethod::Interface(tsl::check::Method::Sample) => [wo, eta, own].concat(),
+        HitMethod::Interface(tsl::check::Method::Pdf) | HitMethod::EvalPdf => [own, wo, eta].concat(),
         HitMethod::DeltaLobes => [wo, eta].concat(),
         HitMethod::ReflectionSum(_) => [own, wo].concat(),
         other => panic!("{other:?}"),
@@ -147,7 +147,7 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
             for (HitEntry { method, params, .. }, f) in entries.iter().zip(&split.methods) {
                 let own = args(&mut rng, params, model);
                 let reference = match method {
-                    HitMethod::Interface(m) => alone.function(&format!("{name}.{m}")),
+                    HitMethod::Interface(m) => alone.function(&format!("{name}.{}", m.name())),
                     HitMethod::EvalPdf => eval_pdf.function(&format!("{name}.eval_pdf")),
                     HitMethod::DeltaLobes => delta.function(&format!("{name}.delta_lobes")),
                     HitMethod::ReflectionSum(_) => sums.function(&format!("{name}.reflection_sum2")),
@@ -367,7 +367,7 @@ fn a_method_looked_up_once_answers_as_by_name() {
         .compile()
         .unwrap();
     let hit = &program.hit_materials(&["m"], tsl::PATH_METHODS).unwrap()[0];
-    assert_eq!(hit.method_index(HitMethod::Interface("reflection")), None, "not in the path group");
+    assert_eq!(hit.method_index(HitMethod::Interface(tsl::check::Method::Reflection)), None, "not in the path group");
     let index = hit.method_index(HitMethod::EvalPdf).expect("eval_pdf is in the path group");
     let mut rng = Rng(5);
     for _ in 0..20 {

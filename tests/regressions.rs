@@ -207,7 +207,10 @@ fn material_array_parameters() {
     let call = |name: &str, method: &str, backend: Backend, g: &ShadingGlobals| {
         let m = p.material(name).unwrap();
         let mut out = [0u32; 3];
-        m.method(method).unwrap().call_words(backend, g, &[], &mut out).unwrap();
+        m.method(tsl::check::Method::from_name(method).unwrap())
+            .unwrap()
+            .call_words(backend, g, &[], &mut out)
+            .unwrap();
         out
     };
     for backend in [Backend::Jit, Backend::Interpreter] {

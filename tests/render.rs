@@ -754,7 +754,7 @@ fn prepared_hits_render_what_per_method_calls_render() {
                 ..Default::default()
             };
             let scene = Scene::build(&program, &overrides).unwrap_or_else(|e| panic!("{e}"));
-            let prepared = scene.objects.iter().filter(|o| o.hit.is_some()).count();
+            let prepared = scene.objects.iter().filter(|o| o.material.is_prepared()).count();
             (render::render(&scene, &RenderOptions::default()).unwrap().0, prepared)
         };
         let ((split, prepared), (alone, none)) = (render(false), render(true));

@@ -1,105 +1,165 @@
-//! `Material`: the generic material interface of a compiled program, as
-//! native calls with their argument words packed on the stack.
+//! `Material`: a compiled material, what its code shows about it
+//! ([`MaterialFacts`]), and the calls a host makes without a [`Surface`]
+//! (`material.reflection(&g, ...)`, each a surface of one call).
+//!
+//! A material holds the interface methods compiled one by one, the
+//! combined entries (`eval_pdf`, `delta_lobes`, a reflection sum) and, when
+//! the compiler split it, its prepared hit group; [`Material::at`] hands out
+//! the [`Surface`] that chooses between them.
 
-use super::{Color, Function, Program};
+use super::outputs::{BsdfSample, MAX_RESULT_WORDS};
+use super::surface::{Surface, SurfaceRecord};
+use super::{Color, Function, HitMaterial, Program};
+use crate::check::Method;
 use crate::color::{ColorModel, MAX_SAMPLES};
 use crate::globals::ShadingGlobals;
+use crate::ir::lower::HitMethod;
 use std::fmt;
+use std::sync::Arc;
 
 /// A compiled material: the generic material interface, as native calls.
-/// Cheap to clone (the objects of a scene that name one material share it).
+/// Cheap to clone (the objects of a scene that name one material share it),
+/// `Send + Sync`.
 #[derive(Clone)]
 pub struct Material {
-    program: Program,
-    /// In the order of `check::INTERFACE`.
-    methods: std::sync::Arc<[Function]>,
-    facts: Facts,
+    pub(super) program: Program,
+    pub(super) code: Arc<Code>,
+    facts: MaterialFacts,
 }
 
-/// What a material's compiled code shows about it, found once.
-#[derive(Debug, Clone, Copy)]
-struct Facts {
-    may_emit: bool,
-    always_opaque: bool,
-    may_reflect_dir: bool,
-    may_refract: bool,
-    /// Bit `k` is set when some method reads word `k` of the globals.
-    globals_read: u64,
-    /// `absorption` returns its light unchanged (a clear medium).
-    clear: bool,
+/// The compiled entries of a material.
+pub(super) struct Code {
+    pub name: String,
+    /// By [`Method`]; `None` for a method its hit group serves.
+    pub methods: [Option<Function>; Method::ALL.len()],
+    pub eval_pdf: Option<Function>,
+    pub delta_lobes: Option<Function>,
+    /// `reflection` summed over this many lights.
+    pub reflection_sum: Option<(usize, Function)>,
+    pub hit: Option<Prepared>,
 }
 
-impl Facts {
-    fn of(methods: &[Function]) -> Facts {
-        let constant = |k: usize| methods[k].ir().constant_results();
-        let zero = |k: usize| constant(k).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
+/// A hit group with the positions of the methods a surface calls through
+/// it, looked up once (comparing at every call cost 2.7% of a textured
+/// render).
+pub(super) struct Prepared {
+    pub material: HitMaterial,
+    /// By [`Method`]: the group's index of the interface method, if any.
+    pub methods: [Option<usize>; Method::ALL.len()],
+    pub eval_pdf: Option<usize>,
+    pub delta_lobes: Option<usize>,
+}
+
+impl Prepared {
+    pub fn new(material: HitMaterial) -> Prepared {
+        Prepared {
+            methods: Method::ALL.map(|m| material.method_index(HitMethod::Interface(m))),
+            eval_pdf: material.method_index(HitMethod::EvalPdf),
+            delta_lobes: material.method_index(HitMethod::DeltaLobes),
+            material,
+        }
+    }
+}
+
+/// What a material's compiled code shows about it, found once when it is
+/// compiled: a renderer skips the calls whose answers are known.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialFacts {
+    /// `emission` is not the constant black: the material may be a light.
+    pub may_emit: bool,
+    /// `opaque` is the constant `true`: shadow rays need not ask.
+    pub always_opaque: bool,
+    /// `reflection_dir` is not the default zero (a mirror direction).
+    pub reflects: bool,
+    /// `refraction_dir` is not the default zero (light passes through).
+    pub refracts: bool,
+    /// `absorption` gives back the light it is given (a clear medium).
+    pub clear: bool,
+    /// `refraction_index` when it is a constant, in the model's lanes.
+    pub constant_ior: Option<Vec<f32>>,
+    /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]
+    /// (see `globals::word_of`).
+    pub globals_read: u64,
+}
+
+impl MaterialFacts {
+    /// Light may cross the surface: it refracts, or is not always opaque
+    /// (a rough dielectric has no perfect direction but lets paths through).
+    pub fn transmits(&self) -> bool {
+        self.refracts || !self.always_opaque
+    }
+
+    /// Some method reads the pixel footprint (dPdx .. dvdy).
+    pub fn reads_footprint(&self) -> bool {
+        self.globals_read & globals_words("dPdx", "dvdy") != 0
+    }
+
+    /// Some method reads u, v, dPdu or dPdv (or the footprint, which needs them).
+    pub fn reads_uv(&self) -> bool {
+        self.reads_footprint() || self.globals_read & globals_words("u", "dPdv") != 0
+    }
+
+    fn of(methods: &[Option<Function>], others: &[&Function]) -> MaterialFacts {
+        let ir = |m: Method| methods[m as usize].as_ref().map(Function::ir);
+        let constant = |m: Method| ir(m).and_then(|f| f.constant_results());
+        let zero = |m: Method| constant(m).is_some_and(|w| w.iter().all(|x| f32::from_bits(*x) == 0.0));
         let mut globals_read = 0u64;
-        for m in methods {
-            crate::ir::for_each_op(&m.ir().body, &mut |op| {
+        for f in methods.iter().flatten().chain(others.iter().copied()) {
+            crate::ir::for_each_op(&f.ir().body, &mut |op| {
                 if let crate::ir::Op::Global(w) = op {
                     globals_read |= 1u64.checked_shl(*w).unwrap_or(0);
                 }
             });
         }
-        // absorption(light, d) writing its light words straight back.
-        let absorption = methods[7].ir();
-        let lanes = absorption.results.len();
-        let mut outputs = vec![None; lanes];
-        let mut params = std::collections::HashMap::new();
-        let mut plain = true;
-        for inst in &absorption.body {
-            match inst {
-                crate::ir::Inst::Def(v, crate::ir::Op::Param(k)) => {
-                    params.insert(*v, *k);
-                }
-                crate::ir::Inst::Output(k, v) => {
-                    if let Some(slot) = outputs.get_mut(*k as usize) {
-                        *slot = params.get(v).copied();
-                    }
-                }
-                _ => plain = false,
-            }
-        }
-        let clear = plain && outputs.iter().enumerate().all(|(k, p)| *p == Some(k as u32));
-        Facts {
-            clear,
-            may_emit: !zero(5),
-            always_opaque: constant(10).is_some_and(|w| w.first() == Some(&1)),
-            may_reflect_dir: !zero(3),
-            may_refract: !zero(4),
+        MaterialFacts {
+            clear: ir(Method::Absorption).is_some_and(returns_its_light),
+            may_emit: !zero(Method::Emission),
+            always_opaque: constant(Method::Opaque).is_some_and(|w| w.first() == Some(&1)),
+            reflects: !zero(Method::ReflectionDir),
+            refracts: !zero(Method::RefractionDir),
+            constant_ior: constant(Method::RefractionIndex).map(|w| w.into_iter().map(f32::from_bits).collect()),
             globals_read,
         }
     }
 }
 
+/// The words of the globals from `first` to `last`, as bits.
+fn globals_words(first: &str, last: &str) -> u64 {
+    let ends = |name: &str| {
+        crate::globals::word_of(name).map_or((0, 0), |(w, ty)| (w, w + if ty.is_triple() { 3 } else { 1 }))
+    };
+    (!0u64 << ends(first).0) & !(!0u64 << ends(last).1)
+}
+
+/// `absorption(light, d)` writing its light words straight back.
+fn returns_its_light(absorption: &crate::ir::Function) -> bool {
+    let lanes = absorption.results.len();
+    let mut outputs = vec![None; lanes];
+    let mut params = std::collections::HashMap::new();
+    for inst in &absorption.body {
+        match inst {
+            crate::ir::Inst::Def(v, crate::ir::Op::Param(k)) => {
+                params.insert(*v, *k);
+            }
+            crate::ir::Inst::Output(k, v) => {
+                if let Some(slot) = outputs.get_mut(*k as usize) {
+                    *slot = params.get(v).copied();
+                }
+            }
+            _ => return false,
+        }
+    }
+    outputs.iter().enumerate().all(|(k, p)| *p == Some(k as u32))
+}
+
 impl fmt::Debug for Material {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Material").field("name", &self.methods[0].ir().name).finish()
+        f.debug_struct("Material").field("name", &self.code.name).field("prepared", &self.is_prepared()).finish()
     }
 }
 
 /// The most argument words a method takes: `refraction(wi, light, eta, wo)`.
-const MAX_ARG_WORDS: usize = 3 + 2 * MAX_SAMPLES + 3;
-
-/// The most result words a method gives: a `bsdf_sample` (`wi`, `weight`,
-/// `pdf`, `delta`).
-pub(super) const SAMPLE_WORDS: usize = 5 + MAX_SAMPLES;
-
-/// A direction drawn by [`Material::sample`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BsdfSample {
-    /// The incident direction, unit, pointing away from the surface; the
-    /// zero vector when the material drew nothing (the path ends).
-    pub wi: [f32; 3],
-    /// `f · cos / pdf` for a smooth lobe; for a delta lobe, the response to
-    /// unit light along `wi` over the probability of choosing that lobe.
-    pub weight: Color,
-    /// The solid-angle density of `wi` (0 for a delta lobe).
-    pub pdf: f32,
-    /// Whether `wi` is a perfect (delta) direction: no light sample can
-    /// find it, so multiple importance sampling gives it weight 1.
-    pub delta: bool,
-}
+pub(super) const MAX_ARG_WORDS: usize = 3 + 2 * MAX_SAMPLES + 3;
 
 /// The direction part of a sample from [`Material::sample_into`], whose
 /// weight goes to a lane slice.
@@ -110,93 +170,137 @@ pub struct SampledDir {
     pub delta: bool,
 }
 
-/// Argument words for a method call, filled front to back.
-struct Args {
-    words: [std::mem::MaybeUninit<u32>; MAX_ARG_WORDS],
-    len: usize,
-}
-
-impl Args {
-    fn new() -> Args {
-        // No zeroing: only the first `len` words are ever read. (A `const`
-        // block: `[MaybeUninit::uninit(); N]` compiles to a memset.)
-        Args { words: [const { std::mem::MaybeUninit::uninit() }; MAX_ARG_WORDS], len: 0 }
-    }
-    /// Appends words with one bounds check and one length update.
-    fn extend(&mut self, xs: &[f32]) {
-        let end = self.len + xs.len();
-        for (w, x) in self.words[self.len..end].iter_mut().zip(xs) {
-            *w = std::mem::MaybeUninit::new(x.to_bits());
-        }
-        self.len = end;
-    }
-    fn v(&mut self, v: [f32; 3]) -> &mut Args {
-        self.extend(&v);
-        self
-    }
-    fn f(&mut self, x: f32) -> &mut Args {
-        self.extend(&[x]);
-        self
-    }
-    fn c(&mut self, c: &Color) -> &mut Args {
-        self.extend(c.lanes());
-        self
-    }
-}
-
 impl Material {
-    pub(super) fn new(program: Program, methods: Vec<Function>) -> Material {
-        let facts = Facts::of(&methods);
-        Material { program, methods: methods.into(), facts }
+    pub(super) fn new(program: Program, code: Code) -> Material {
+        let others: Vec<&Function> = code
+            .hit
+            .iter()
+            .flat_map(|h| std::iter::once(h.material.prepare_function()).chain(h.material.functions()))
+            .collect();
+        let facts = MaterialFacts::of(&code.methods, &others);
+        Material { program, code: Arc::new(code), facts }
     }
 
-    /// The compiled entry of one interface method (`"sample"`, ...), for
-    /// hosts that pack argument words themselves and reuse their buffers
-    /// ([`Function::call_words`]); `None` for a name not in the interface.
-    pub fn method(&self, name: &str) -> Option<&Function> {
-        let k = crate::check::INTERFACE.iter().position(|m| m.name == name)?;
-        self.methods.get(k)
+    /// The surface at a hit, seen from `wo` (unit, toward the viewer), with
+    /// the relative index of refraction `eta` across it: every method of
+    /// the interface, with typed results. Whether the compiler split the
+    /// material into a per-hit stage is decided here: if so, the stage runs
+    /// once, at the first call that needs it, into `record` (a buffer to
+    /// reuse from hit to hit, one per thread).
+    ///
+    /// ```
+    /// use tsl::{Compiler, ShadingGlobals, SurfaceRecord};
+    /// let program = Compiler::new().source("m.tsl", "material m = lambert(kd: gray(0.5));").compile()?;
+    /// let m = program.material("m")?;
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+    /// let eta = program.rgb(1.0, 1.0, 1.0);
+    /// let mut record = SurfaceRecord::new();
+    /// let mut surface = m.at(&g, [0.0, 0.0, 1.0], &eta, &mut record);
+    /// let s = surface.sample(0.5, [0.3, 0.7]);
+    /// let e = surface.eval_pdf(s.wi);
+    /// assert!((e.pdf - s.pdf).abs() < 1e-5 && !s.delta);
+    /// // Cosine sampling of a Lambertian surface: weight = albedo.
+    /// assert!((s.weight.lanes()[0] - 0.5).abs() < 1e-5);
+    /// assert!(surface.opaque() && surface.emission().brightness() == 0.0);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    ///
+    /// # Panics
+    /// When `C` holds fewer lanes than the color model has.
+    pub fn at<'a, C: super::Lanes>(
+        &'a self,
+        g: &'a ShadingGlobals,
+        wo: [f32; 3],
+        eta: &'a C,
+        record: &'a mut SurfaceRecord,
+    ) -> Surface<'a, C> {
+        record.new_hit();
+        self.resume(g, wo, eta, record)
     }
 
-    /// The `sample` entry (method 11 of `check::INTERFACE`).
-    pub(crate) fn sample_entry(&self) -> &Function {
-        &self.methods[11]
+    /// [`Material::at`] for the hit `record` was last given to `at` with
+    /// the same `g`, `wo` and `eta`: for a caller whose calls at one hit are
+    /// interleaved with other work that needs `&mut` (a renderer tracing
+    /// shadow rays), so the per-hit stage runs once. Given another hit's
+    /// record, results are wrong but memory stays safe.
+    #[inline]
+    pub fn resume<'a, C: super::Lanes>(
+        &'a self,
+        g: &'a ShadingGlobals,
+        wo: [f32; 3],
+        eta: &'a C,
+        record: &'a mut SurfaceRecord,
+    ) -> Surface<'a, C> {
+        let lanes = self.color_model().lanes();
+        assert!(eta.lanes().len() >= lanes, "a color of {lanes} lanes at least");
+        Surface::new(self, g, wo, eta, record)
     }
 
-    /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`]
-    /// (see `globals::word_of`): a renderer can skip computing what no
-    /// method reads, such as the pixel footprint.
+    /// The number of lights [`Surface::reflection_sum`] sums over, when
+    /// the material was compiled with a sum.
+    pub fn summed_lights(&self) -> Option<usize> {
+        self.code.reflection_sum.as_ref().map(|(n, _)| *n)
+    }
+
+    /// What the material's code shows about it.
+    pub fn facts(&self) -> &MaterialFacts {
+        &self.facts
+    }
+
+    /// Whether the compiler split the material into a per-hit stage and
+    /// per-direction calls (a textured material compiled for a renderer).
+    pub fn is_prepared(&self) -> bool {
+        self.code.hit.is_some()
+    }
+
+    /// The compiled entry of one interface method, for hosts that pack
+    /// argument words themselves ([`Function::call_words`]); `None` when
+    /// its hit group serves it (see [`Material::is_prepared`]).
+    pub fn method(&self, method: Method) -> Option<&Function> {
+        self.code.methods[method as usize].as_ref()
+    }
+
+    /// The hit group of a prepared material (for benchmarks that count
+    /// what each entry computes).
+    #[doc(hidden)]
+    pub fn hit_group(&self) -> Option<&HitMaterial> {
+        self.code.hit.as_ref().map(|h| &h.material)
+    }
+
+    /// The combined entries the material was compiled with: `eval_pdf`,
+    /// `delta_lobes` and the reflection sum (for benchmarks).
+    #[doc(hidden)]
+    pub fn combined_functions(&self) -> [Option<&Function>; 3] {
+        let code = &self.code;
+        [code.eval_pdf.as_ref(), code.delta_lobes.as_ref(), code.reflection_sum.as_ref().map(|(_, f)| f)]
+    }
+
+    /// Bit `k` is set when some method reads word `k` of [`ShadingGlobals`].
     pub fn globals_read(&self) -> u64 {
         self.facts.globals_read
     }
 
-    /// Calls method `k`, writing its result words into `out`.
-    fn call_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: *mut u32) {
-        let f = &self.methods[k];
-        debug_assert_eq!(args.len, f.ir().params.len());
-        // SAFETY: `args` holds exactly the words method `k` of the material
-        // interface takes (the wrappers below build them from the
-        // interface signature, checked in debug builds), all initialised;
-        // `out` has room for its results (at most SAMPLE_WORDS words); the
-        // code lives as long as the method's part.
-        unsafe { (f.native)((g as *const ShadingGlobals).cast(), args.words.as_ptr().cast(), out) }
+    /// The color model the material was compiled for.
+    pub fn color_model(&self) -> ColorModel {
+        self.program.color_model()
     }
 
-    fn color(&self, k: usize, g: &ShadingGlobals, args: &Args) -> Color {
-        let mut c = Color::black(self.program.color_model());
-        self.call_into(k, g, args, c.lanes.as_mut_ptr().cast());
-        c
-    }
-
-    fn vector(&self, k: usize, g: &ShadingGlobals, args: &Args) -> [f32; 3] {
-        let mut v = [0.0f32; 3];
-        self.call_into(k, g, args, v.as_mut_ptr().cast());
-        v
+    /// One call on a surface of its own, for the methods below.
+    fn once<R>(
+        &self,
+        g: &ShadingGlobals,
+        wo: [f32; 3],
+        eta: Option<&Color>,
+        f: impl FnOnce(&mut Surface<Color>) -> R,
+    ) -> R {
+        let ones = self.program.rgb(1.0, 1.0, 1.0);
+        let mut record = SurfaceRecord::new();
+        f(&mut self.at(g, wo, eta.unwrap_or(&ones), &mut record))
     }
 
     /// Light arriving from `wi` reflected toward `wo`.
     pub fn reflection(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, wo: [f32; 3]) -> Color {
-        self.color(0, g, Args::new().v(wi).c(light).v(wo))
+        self.once(g, wo, None, |s| s.reflection(wi, light))
     }
 
     /// [`Material::reflection`] without a [`Color`] by value, for hot loops:
@@ -216,183 +320,62 @@ impl Material {
     /// # Panics
     /// When `light` or `out` is shorter than the color model's lane count.
     pub fn reflection_into(&self, g: &ShadingGlobals, wi: [f32; 3], light: &[f32], wo: [f32; 3], out: &mut [f32]) {
-        let lanes = self.program.color_model().lanes();
+        let lanes = self.color_model().lanes();
         assert!(light.len() >= lanes && out.len() >= lanes, "light and out need {lanes} lanes");
-        let mut args = Args::new();
-        args.v(wi);
-        args.extend(&light[..lanes]);
-        args.v(wo);
-        self.call_into(0, g, &args, out.as_mut_ptr().cast());
-    }
-
-    /// Calls a color method with `args` words, writing the model's lanes
-    /// to `out`.
-    fn color_into(&self, k: usize, g: &ShadingGlobals, args: &Args, out: &mut [f32]) {
-        let lanes = self.program.color_model().lanes();
-        assert!(out.len() >= lanes, "out needs {lanes} lanes");
-        self.call_into(k, g, args, out.as_mut_ptr().cast());
-    }
-
-    /// [`Material::refraction`] on lane slices (see [`Material::reflection_into`]).
-    pub fn refraction_into(
-        &self,
-        g: &ShadingGlobals,
-        wi: [f32; 3],
-        light: &[f32],
-        eta: &[f32],
-        wo: [f32; 3],
-        out: &mut [f32],
-    ) {
-        let lanes = self.program.color_model().lanes();
-        assert!(light.len() >= lanes && eta.len() >= lanes, "light and eta need {lanes} lanes");
-        let mut args = Args::new();
-        args.v(wi);
-        args.extend(&light[..lanes]);
-        args.extend(&eta[..lanes]);
-        args.v(wo);
-        self.color_into(1, g, &args, out);
-    }
-
-    /// [`Material::refraction_index`] into a lane slice.
-    pub fn refraction_index_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
-        self.color_into(2, g, &Args::new(), out);
-    }
-
-    /// [`Material::refraction_dir`] with `eta` as a lane slice.
-    pub fn refraction_dir_lanes(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &[f32]) -> [f32; 3] {
-        let lanes = self.program.color_model().lanes();
-        assert!(eta.len() >= lanes, "eta needs {lanes} lanes");
-        let mut args = Args::new();
-        args.v(wo);
-        args.extend(&eta[..lanes]);
-        self.vector(4, g, &args)
-    }
-
-    /// [`Material::emission`] into a lane slice.
-    pub fn emission_into(&self, g: &ShadingGlobals, wo: [f32; 3], out: &mut [f32]) {
-        self.color_into(5, g, Args::new().v(wo), out);
-    }
-
-    /// [`Material::absorption`] on lane slices.
-    pub fn absorption_into(&self, g: &ShadingGlobals, light: &[f32], distance: f32, out: &mut [f32]) {
-        let lanes = self.program.color_model().lanes();
-        assert!(light.len() >= lanes, "light needs {lanes} lanes");
-        let mut args = Args::new();
-        args.extend(&light[..lanes]);
-        args.f(distance);
-        self.color_into(7, g, &args, out);
-    }
-
-    /// [`Material::diffuse`] into a lane slice.
-    pub fn diffuse_into(&self, g: &ShadingGlobals, out: &mut [f32]) {
-        self.color_into(9, g, &Args::new(), out);
-    }
-
-    /// False when `emission` is the interface default (black everywhere),
-    /// known from the compiled code: renderers skip such materials when
-    /// they look for light sources.
-    pub fn may_emit(&self) -> bool {
-        self.facts.may_emit
-    }
-
-    /// False when `reflection_dir` is the default (no mirror direction).
-    pub fn may_reflect_dir(&self) -> bool {
-        self.facts.may_reflect_dir
-    }
-
-    /// False when `refraction_dir` is the default (nothing passes through).
-    pub fn may_refract(&self) -> bool {
-        self.facts.may_refract
-    }
-
-    /// True when `absorption` gives back the light it is given: light
-    /// crosses the material's inside unchanged.
-    pub fn clear(&self) -> bool {
-        self.facts.clear
-    }
-
-    /// The refraction index when it is the same everywhere (a constant),
-    /// in the color model's lanes.
-    pub fn constant_refraction_index(&self) -> Option<Vec<f32>> {
-        self.methods[2].ir().constant_results().map(|w| w.into_iter().map(f32::from_bits).collect())
-    }
-
-    /// True when `opaque` is the constant `true`: shadow rays need not ask.
-    pub fn always_opaque(&self) -> bool {
-        self.facts.always_opaque
-    }
-
-    /// The color model the material was compiled for.
-    pub fn color_model(&self) -> ColorModel {
-        self.program.color_model()
+        let light = Color::from_lanes(self.color_model(), light);
+        let c = self.reflection(g, wi, &light, wo);
+        out[..lanes].copy_from_slice(c.lanes());
     }
 
     /// Light arriving from `wi` transmitted toward `wo`.
     pub fn refraction(&self, g: &ShadingGlobals, wi: [f32; 3], light: &Color, eta: &Color, wo: [f32; 3]) -> Color {
-        self.color(1, g, Args::new().v(wi).c(light).c(eta).v(wo))
+        self.once(g, wo, Some(eta), |s| s.refraction(wi, light))
     }
 
     pub fn refraction_index(&self, g: &ShadingGlobals) -> Color {
-        self.color(2, g, &Args::new())
+        self.once(g, [0.0; 3], None, |s| s.refraction_index())
     }
 
     /// The mirror direction for an outgoing `wo`; zero when there is none.
     pub fn reflection_dir(&self, g: &ShadingGlobals, wo: [f32; 3]) -> [f32; 3] {
-        self.vector(3, g, Args::new().v(wo))
+        self.once(g, wo, None, |s| s.reflection_dir())
     }
 
     /// The refracted direction; zero on total internal reflection or none.
     pub fn refraction_dir(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color) -> [f32; 3] {
-        self.vector(4, g, Args::new().v(wo).c(eta))
+        self.once(g, wo, Some(eta), |s| s.refraction_dir())
     }
 
     pub fn emission(&self, g: &ShadingGlobals, wo: [f32; 3]) -> Color {
-        self.color(5, g, Args::new().v(wo))
+        self.once(g, wo, None, |s| s.emission())
     }
 
     pub fn ambient(&self, g: &ShadingGlobals, light: &Color) -> Color {
-        self.color(6, g, Args::new().c(light))
+        self.once(g, [0.0; 3], None, |s| s.ambient(light))
     }
 
     /// The light left of `light` after `distance` inside the material.
     pub fn absorption(&self, g: &ShadingGlobals, light: &Color, distance: f32) -> Color {
-        self.color(7, g, Args::new().c(light).f(distance))
+        self.once(g, [0.0; 3], None, |s| s.absorption(light, distance))
     }
 
     pub fn normal(&self, g: &ShadingGlobals) -> [f32; 3] {
-        self.vector(8, g, &Args::new())
+        self.once(g, [0.0; 3], None, |s| s.normal())
     }
 
     pub fn diffuse(&self, g: &ShadingGlobals) -> Color {
-        self.color(9, g, &Args::new())
+        self.once(g, [0.0; 3], None, |s| s.diffuse())
     }
 
     pub fn opaque(&self, g: &ShadingGlobals) -> bool {
-        let mut word = 0u32;
-        self.call_into(10, g, &Args::new(), &mut word);
-        word != 0
+        self.once(g, [0.0; 3], None, |s| s.opaque())
     }
 
     /// Draws an incident direction for light leaving toward `wo`, from the
     /// uniform random numbers `uc` (which lobe) and `u` (where in it); `eta`
     /// is the relative index of refraction, as for [`Material::refraction`].
-    ///
-    /// ```
-    /// # use tsl::{Compiler, ShadingGlobals};
-    /// let program = Compiler::new().source("m.tsl", "material m = lambert(kd: gray(0.5));").compile()?;
-    /// let m = program.material("m")?;
-    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
-    /// let s = m.sample(&g, [0.0, 0.0, 1.0], &program.rgb(1.0, 1.0, 1.0), 0.5, [0.3, 0.7]);
-    /// assert!(s.wi[2] > 0.0 && !s.delta);
-    /// // Cosine sampling of a Lambertian surface: weight = albedo, pdf = cos / pi.
-    /// assert!((s.weight.lanes()[0] - 0.5).abs() < 1e-5);
-    /// assert!((s.pdf - s.wi[2] / std::f32::consts::PI).abs() < 1e-5);
-    /// # Ok::<(), tsl::Error>(())
-    /// ```
     pub fn sample(&self, g: &ShadingGlobals, wo: [f32; 3], eta: &Color, uc: f32, u: [f32; 2]) -> BsdfSample {
-        let mut weight = Color::black(self.program.color_model());
-        let d = self.sample_into(g, wo, eta.lanes(), uc, u, &mut weight.lanes);
-        BsdfSample { wi: d.wi, weight, pdf: d.pdf, delta: d.delta }
+        self.once(g, wo, Some(eta), |s| s.sample(uc, u))
     }
 
     /// [`Material::sample`] on lane slices: `eta` and `weight` hold the
@@ -409,37 +392,18 @@ impl Material {
         u: [f32; 2],
         weight: &mut [f32],
     ) -> SampledDir {
-        let lanes = self.program.color_model().lanes();
+        let lanes = self.color_model().lanes();
         assert!(eta.len() >= lanes && weight.len() >= lanes, "eta and weight need {lanes} lanes");
-        let mut args = Args::new();
-        args.v(wo);
-        args.extend(&eta[..lanes]);
-        args.f(uc);
-        args.extend(&u);
-        let mut out = [0u32; SAMPLE_WORDS];
-        self.call_into(11, g, &args, out.as_mut_ptr());
-        let word = |k: usize| f32::from_bits(out[k]);
-        for (k, w) in weight[..lanes].iter_mut().enumerate() {
-            *w = word(3 + k);
-        }
-        SampledDir { wi: [word(0), word(1), word(2)], pdf: word(3 + lanes), delta: word(4 + lanes) > 0.0 }
+        let s = self.sample(g, wo, &Color::from_lanes(self.color_model(), eta), uc, u);
+        weight[..lanes].copy_from_slice(s.weight.lanes());
+        SampledDir { wi: s.wi, pdf: s.pdf, delta: s.delta }
     }
 
     /// The solid-angle density with which [`Material::sample`] draws `wi`
     /// for `wo` (0 for directions only a delta lobe gives).
     pub fn pdf(&self, g: &ShadingGlobals, wi: [f32; 3], wo: [f32; 3], eta: &Color) -> f32 {
-        self.pdf_lanes(g, wi, wo, eta.lanes())
-    }
-
-    /// [`Material::pdf`] with `eta` as a lane slice.
-    pub fn pdf_lanes(&self, g: &ShadingGlobals, wi: [f32; 3], wo: [f32; 3], eta: &[f32]) -> f32 {
-        let lanes = self.program.color_model().lanes();
-        assert!(eta.len() >= lanes, "eta needs {lanes} lanes");
-        let mut args = Args::new();
-        args.v(wi).v(wo);
-        args.extend(&eta[..lanes]);
-        let mut word = 0u32;
-        self.call_into(12, g, &args, &mut word);
-        f32::from_bits(word)
+        self.once(g, wo, Some(eta), |s| s.pdf(wi))
     }
 }
+
+const _: () = assert!(MAX_RESULT_WORDS >= MAX_SAMPLES);

@@ -8,21 +8,24 @@
 //! answers every method from that. The hit borrows its material, so it can
 //! be used with no other and cannot outlive the compiled code.
 
-use super::{Backend, BsdfSample, Color, Entry, Error, Function, Program, SAMPLE_WORDS};
-use crate::check::{MaterialRef, Ty};
+use super::outputs::{BsdfSample, EvalPdf, MAX_RESULT_WORDS};
+use super::{Backend, Color, Entry, Error, Function, Part, Program};
+use crate::check::{Method, Ty};
 use crate::globals::ShadingGlobals;
 use crate::ir::Module as IrModule;
-use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with};
+use crate::ir::lower::{EntryKind, HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups};
 use crate::syntax::ast::{Expr, ExprKind};
+use std::sync::Arc;
 
 /// What a path tracer calls at a hit after `prepare`: the hit group the
 /// renderer compiles (`emission`, needed only by emitters, stays a call of
 /// its own).
-pub const PATH_METHODS: &[HitMethod] = &[HitMethod::Interface("sample"), HitMethod::EvalPdf, HitMethod::DeltaLobes];
+pub const PATH_METHODS: &[HitMethod] =
+    &[HitMethod::Interface(Method::Sample), HitMethod::EvalPdf, HitMethod::DeltaLobes];
 
 /// What a Whitted ray tracer calls at a hit after `prepare`: `reflection`
 /// once per light sample and the perfect directions.
-pub const WHITTED_METHODS: &[HitMethod] = &[HitMethod::Interface("reflection"), HitMethod::DeltaLobes];
+pub const WHITTED_METHODS: &[HitMethod] = &[HitMethod::Interface(Method::Reflection), HitMethod::DeltaLobes];
 
 /// A material compiled for prepared hits: its `prepare` stage and the
 /// methods of one hit group.
@@ -75,31 +78,6 @@ impl Program {
         self.compile_hit_groups(&materials, methods)
     }
 
-    /// Compiles materials of the program (scene objects' `material`
-    /// values) for prepared hits, one [`HitMaterial`] per reference.
-    /// Only materials whose `prepare` saves work are compiled
-    /// ([`worth_preparing`]); the others get `None`. `optimize_large`
-    /// gives large functions the optimising tier whatever the program's
-    /// own setting ([`crate::Compiler::optimize_large`]), and lowers root
-    /// `mix` nodes' cases ([`lower_hit_groups_with`]).
-    pub(crate) fn compile_hit_group_refs(
-        &self,
-        materials: &[(String, MaterialRef)],
-        methods: &[HitMethod],
-        optimize_large: bool,
-    ) -> Result<Vec<Option<HitMaterial>>, Error> {
-        let exprs = self.material_exprs(materials)?;
-        // Long renders (the optimising tier's) also choose between a root
-        // `mix`'s children per hit.
-        let (groups, diags) =
-            lower_hit_groups_with(&self.inner.program, self.inner.model, &exprs, methods, optimize_large);
-        self.lowering_errors(diags)?;
-        let worth: Vec<bool> = groups.iter().map(|g| worth_preparing(&g.split.prepare)).collect();
-        let chosen: Vec<HitGroup> = groups.into_iter().zip(&worth).filter(|(_, w)| **w).map(|(g, _)| g).collect();
-        let mut compiled = self.compile_split_groups(chosen, optimize_large)?.into_iter();
-        Ok(worth.iter().map(|w| if *w { compiled.next() } else { None }).collect())
-    }
-
     /// Compiles material expressions of the root program for prepared hits.
     pub(crate) fn compile_hit_groups(
         &self,
@@ -115,7 +93,49 @@ impl Program {
     fn compile_split_groups(&self, groups: Vec<HitGroup>, optimize_large: bool) -> Result<Vec<HitMaterial>, Error> {
         let mut ir = IrModule::default();
         let mut entries = Vec::new();
-        for HitGroup { split, entries: methods, .. } in &groups {
+        add_split_groups(&groups, &mut ir, &mut entries);
+        let mut options = self.inner.jit_options.clone();
+        options.optimize_large |= optimize_large;
+        let part = self.jit_part_with(ir, entries, &options)?;
+        let out = self.hit_materials_in(&part, &groups)?;
+        if let Ok(mut parts) = self.inner.parts.write() {
+            parts.push(part);
+        }
+        Ok(out)
+    }
+
+    /// The [`HitMaterial`]s of `groups`, compiled into `part` by
+    /// [`add_split_groups`].
+    pub(super) fn hit_materials_in(&self, part: &Arc<Part>, groups: &[HitGroup]) -> Result<Vec<HitMaterial>, Error> {
+        let handle = |name: &str| -> Result<Function, Error> {
+            let index = part.ir.functions.iter().position(|f| f.name == name);
+            match (index, part.jit.function(name)) {
+                (Some(index), Some(native)) => Ok(Function::new(part.clone(), index, native)),
+                _ => Err(Error::plain(format!("internal error: `{name}` was not compiled"))),
+            }
+        };
+        let mut out = Vec::with_capacity(groups.len());
+        for HitGroup { split, entries: methods, .. } in groups {
+            let prepare = handle(&split.prepare.name)?;
+            let mut compiled = Vec::with_capacity(methods.len());
+            for (e, f) in methods.iter().zip(&split.methods) {
+                compiled.push((e.method, handle(&f.name)?));
+            }
+            out.push(HitMaterial {
+                program: self.clone(),
+                prepare,
+                methods: compiled,
+                record_words: split.record_words(),
+            });
+        }
+        Ok(out)
+    }
+}
+
+/// Adds the functions and entries of split hit groups to a module.
+pub(super) fn add_split_groups(groups: &[HitGroup], ir: &mut IrModule, entries: &mut Vec<Entry>) {
+    {
+        for HitGroup { split, entries: methods, .. } in groups {
             let record = ("hit".to_string(), Ty::Array(Box::new(Ty::Int), split.record_words() as u32));
             ir.functions.push(split.prepare.clone());
             entries.push(Entry {
@@ -130,37 +150,6 @@ impl Program {
                 entries.push(Entry { name: f.name.clone(), kind: EntryKind::Hit(*method), params, ret: ret.clone() });
             }
         }
-        let mut options = self.inner.jit_options.clone();
-        options.optimize_large |= optimize_large;
-        let part = self.jit_part_with(ir, entries, &options)?;
-        let mut out = Vec::with_capacity(groups.len());
-        let mut index = 0;
-        let handle = |index: &mut usize| -> Result<Function, Error> {
-            let f = &part.ir.functions[*index];
-            let native = part
-                .jit
-                .function(&f.name)
-                .ok_or_else(|| Error::plain(format!("internal error: `{}` was not compiled", f.name)))?;
-            *index += 1;
-            Ok(Function::new(part.clone(), *index - 1, native))
-        };
-        for HitGroup { split, entries: methods, .. } in &groups {
-            let prepare = handle(&mut index)?;
-            let mut compiled = Vec::with_capacity(methods.len());
-            for e in methods {
-                compiled.push((e.method, handle(&mut index)?));
-            }
-            out.push(HitMaterial {
-                program: self.clone(),
-                prepare,
-                methods: compiled,
-                record_words: split.record_words(),
-            });
-        }
-        if let Ok(mut parts) = self.inner.parts.write() {
-            parts.push(part);
-        }
-        Ok(out)
     }
 }
 
@@ -178,6 +167,11 @@ impl HitMaterial {
     /// The words of this material's hit record.
     pub fn record_words(&self) -> usize {
         self.record_words
+    }
+
+    /// The compiled methods of the group, in order.
+    pub(crate) fn functions(&self) -> impl Iterator<Item = &Function> {
+        self.methods.iter().map(|(_, f)| f)
     }
 
     /// The compiled `prepare` stage (arguments `wo`, `eta`; results the record).
@@ -308,39 +302,28 @@ impl PreparedHit<'_> {
     /// `reflection(wi, light, wo)` at this hit.
     pub fn reflection(&mut self, wi: [f32; 3], light: &Color) -> Result<Color, String> {
         let own: Vec<u32> = wi.iter().chain(light.lanes()).map(|x| x.to_bits()).collect();
-        self.color(HitMethod::Interface("reflection"), &own)
+        self.color(HitMethod::Interface(Method::Reflection), &own)
     }
 
     /// `emission(wo)` at this hit.
     pub fn emission(&mut self) -> Result<Color, String> {
-        self.color(HitMethod::Interface("emission"), &[])
+        self.color(HitMethod::Interface(Method::Emission), &[])
     }
 
     /// `sample(wo, eta, u1, u2)` at this hit.
     pub fn sample(&mut self, u1: f32, u2: [f32; 2]) -> Result<BsdfSample, String> {
-        let mut out = [0u32; SAMPLE_WORDS];
+        let mut out = [0u32; MAX_RESULT_WORDS];
         let own = [u1, u2[0], u2[1]].map(f32::to_bits);
-        self.call_words(HitMethod::Interface("sample"), &own, &mut out)?;
-        let model = self.material.program.color_model();
-        let lanes = model.lanes();
-        let word = |k: usize| f32::from_bits(out[k]);
-        let weight: Vec<f32> = (0..lanes).map(|k| word(3 + k)).collect();
-        Ok(BsdfSample {
-            wi: [word(0), word(1), word(2)],
-            weight: Color::from_lanes(model, &weight),
-            pdf: word(3 + lanes),
-            delta: word(4 + lanes) > 0.0,
-        })
+        self.call_words(HitMethod::Interface(Method::Sample), &own, &mut out)?;
+        Ok(BsdfSample::from_words(self.material.program.color_model(), &out))
     }
 
     /// `f · cos` for unit light from `wi` and the pdf of sampling `wi`, in
     /// one call (Mitsuba's `eval_pdf`).
     pub fn eval_pdf(&mut self, wi: [f32; 3]) -> Result<(Color, f32), String> {
-        let model = self.material.program.color_model();
-        let lanes = model.lanes();
-        let mut out = vec![0u32; lanes + 1];
+        let mut out = [0u32; MAX_RESULT_WORDS];
         self.call_words(HitMethod::EvalPdf, &wi.map(f32::to_bits), &mut out)?;
-        let f: Vec<f32> = out[..lanes].iter().map(|w| f32::from_bits(*w)).collect();
-        Ok((Color::from_lanes(model, &f), f32::from_bits(out[lanes])))
+        let e: EvalPdf = EvalPdf::from_words(self.material.program.color_model(), &out);
+        Ok((e.value, e.pdf))
     }
 }

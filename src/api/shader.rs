@@ -492,16 +492,24 @@ impl Instance {
             return Err(to_error(diags));
         }
         let part = program.jit_part(ir, entries)?;
-        let mut methods = Vec::with_capacity(check::INTERFACE.len());
-        for im in check::INTERFACE {
-            let fname = format!("{entry}.{}", im.name);
+        let mut methods = check::Method::ALL.map(|_| None);
+        for (slot, method) in methods.iter_mut().zip(check::Method::ALL) {
+            let fname = format!("{entry}.{}", method.name());
             let index = part.ir.functions.iter().position(|f| f.name == fname);
             let (Some(index), Some(native)) = (index, part.jit.function(&fname)) else {
                 return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
             };
-            methods.push(Function::new(part.clone(), index, native));
+            *slot = Some(Function::new(part.clone(), index, native));
         }
-        Ok(Material::new(program.clone(), methods))
+        let code = super::material::Code {
+            name: entry,
+            methods,
+            eval_pdf: None,
+            delta_lobes: None,
+            reflection_sum: None,
+            hit: None,
+        };
+        Ok(Material::new(program.clone(), code))
     }
 }
 

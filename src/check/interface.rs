@@ -67,6 +67,109 @@ pub const INTERFACE: &[InterfaceMethod] = &[
     },
 ];
 
+/// An interface method by name in Rust: the index of its row in
+/// [`INTERFACE`] (`Method::Sample as usize`), so hosts, lowering and the
+/// renderer never count positions. Its order is checked against
+/// `INTERFACE` at compile time (below), so inserting a method in one and
+/// not the other does not build.
+///
+/// ```
+/// use tsl::check::{INTERFACE, Method};
+/// assert_eq!(Method::Sample.name(), "sample");
+/// assert_eq!(Method::Sample.interface().signature(), INTERFACE[Method::Sample as usize].signature());
+/// assert_eq!(Method::from_name("pdf"), Some(Method::Pdf));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Method {
+    Reflection,
+    Refraction,
+    RefractionIndex,
+    ReflectionDir,
+    RefractionDir,
+    Emission,
+    Ambient,
+    Absorption,
+    Normal,
+    Diffuse,
+    Opaque,
+    Sample,
+    Pdf,
+}
+
+impl Method {
+    /// Every method, in the order of [`INTERFACE`].
+    pub const ALL: [Method; 13] = [
+        Method::Reflection,
+        Method::Refraction,
+        Method::RefractionIndex,
+        Method::ReflectionDir,
+        Method::RefractionDir,
+        Method::Emission,
+        Method::Ambient,
+        Method::Absorption,
+        Method::Normal,
+        Method::Diffuse,
+        Method::Opaque,
+        Method::Sample,
+        Method::Pdf,
+    ];
+
+    /// The method's name in TSL (`reflection_dir`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Method::Reflection => "reflection",
+            Method::Refraction => "refraction",
+            Method::RefractionIndex => "refraction_index",
+            Method::ReflectionDir => "reflection_dir",
+            Method::RefractionDir => "refraction_dir",
+            Method::Emission => "emission",
+            Method::Ambient => "ambient",
+            Method::Absorption => "absorption",
+            Method::Normal => "normal",
+            Method::Diffuse => "diffuse",
+            Method::Opaque => "opaque",
+            Method::Sample => "sample",
+            Method::Pdf => "pdf",
+        }
+    }
+
+    /// Its signature and default: its row of [`INTERFACE`].
+    pub fn interface(self) -> &'static InterfaceMethod {
+        &INTERFACE[self as usize]
+    }
+
+    /// The method named `name`, if the interface has one.
+    pub fn from_name(name: &str) -> Option<Method> {
+        Method::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// `Method` and `INTERFACE` agree row by row: checked when the crate
+/// builds, so the enum cannot drift from the table.
+const _: () = {
+    const fn same(a: &str, b: &str) -> bool {
+        let (a, b) = (a.as_bytes(), b.as_bytes());
+        if a.len() != b.len() {
+            return false;
+        }
+        let mut k = 0;
+        while k < a.len() {
+            if a[k] != b[k] {
+                return false;
+            }
+            k += 1;
+        }
+        true
+    }
+    assert!(Method::ALL.len() == INTERFACE.len(), "one Method per INTERFACE row");
+    let mut k = 0;
+    while k < INTERFACE.len() {
+        assert!(Method::ALL[k] as usize == k, "Method::ALL is in declaration order");
+        assert!(same(Method::ALL[k].name(), INTERFACE[k].name), "Method and INTERFACE in the same order");
+        k += 1;
+    }
+};
+
 pub fn interface_method(name: &str) -> Option<&'static InterfaceMethod> {
     INTERFACE.iter().find(|m| m.name == name)
 }

@@ -30,7 +30,7 @@ mod types;
 
 pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
 pub use instance::{CheckedExpr, check_material_expr};
-pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, interface_method};
+pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, Method, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
 pub use span_map::SpanMap;
 pub use ty::{SAMPLE_FIELDS, Ty};

@@ -109,16 +109,17 @@ pub struct Tracer<'s, const N: usize> {
     spread: f32,
     /// Whether camera samples compute AOVs (they cost material calls).
     want_aov: bool,
-    /// Argument words of a reflection sum (`wi, light` per delta light,
-    /// then `wo`), kept to reuse its allocation.
-    gathered: Vec<u32>,
-    /// Argument and result words of `delta_lobes` and `eval_pdf` calls,
-    /// kept likewise.
-    lobe_args: Vec<u32>,
-    lobe_out: Vec<u32>,
-    /// The hit record of the current path vertex (its material's
-    /// `prepare`), then each call's own words after it.
-    hit_words: Vec<u32>,
+    /// The delta lights of a reflection sum (`wi`, light), kept to reuse
+    /// its allocation.
+    gathered: Vec<([f32; 3], Spectrum<N>)>,
+    /// The buffers of the surface at the current path vertex: its
+    /// per-hit stage's record (see `material_calls`).
+    record: crate::SurfaceRecord,
+    /// The relative index at the current vertex, which its stage was
+    /// prepared with.
+    vertex_eta: Spectrum<N>,
+    /// The buffers of calls elsewhere (shadow rays, emitters, media).
+    scratch: crate::SurfaceRecord,
     /// The globals where the current camera sample's rays entered media.
     entered: Vec<ShadingGlobals>,
     /// With hero wavelength sampling, the current camera sample's
@@ -165,9 +166,6 @@ struct Depth {
 /// changes by less than this fraction of the light.
 pub const BAILOUT: f32 = 1e-6;
 
-/// Renders call compiled code.
-const JIT: crate::Backend = crate::Backend::Jit;
-
 fn v3(v: Vec3) -> [f32; 3] {
     v.to_array()
 }
@@ -180,11 +178,6 @@ fn spawn(p: Vec3, ng: Vec3, dir: Vec3) -> Ray {
     Ray::new(p + side * eps, dir)
 }
 
-/// Whether a vector is the "none" direction of the interface.
-fn is_zero(v: [f32; 3]) -> bool {
-    v == [0.0; 3] || !v.iter().all(|x| x.is_finite())
-}
-
 impl<'s, const N: usize> Tracer<'s, N> {
     pub fn new(scene: &'s Scene, want_aov: bool) -> Self {
         let lanes = scene.model.lanes();
@@ -195,9 +188,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
             spread: scene.camera.pixel_spread(),
             want_aov,
             gathered: Vec::new(),
-            lobe_args: Vec::new(),
-            lobe_out: vec![0; 2 * (3 + lanes)],
-            hit_words: Vec::new(),
+            record: crate::SurfaceRecord::new(),
+            vertex_eta: Spectrum::splat(1.0, lanes),
+            scratch: crate::SurfaceRecord::new(),
             entered: Vec::new(),
             hero: None,
             counters: Counters::default(),
@@ -215,12 +208,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
     #[inline(always)]
     fn shade<'g>(&self, ray: &Ray, hit: Hit, distance: f32, g: &'g mut ShadingGlobals) -> Shading<'s, 'g> {
         let object = self.scene.object(hit.object);
-        let s = self.scene.geometry.surface(ray, &hit, object.reads_uv);
+        let s = self.scene.geometry.surface(ray, &hit, object.material.facts().reads_uv());
         let len = ray.dir.length();
         let wo = -ray.dir / len;
         globals_into(g, &s, hit.t * len, self.scene.settings.frame);
         self.wavelengths_into(g);
-        if object.reads_footprint {
+        if object.material.facts().reads_footprint() {
             footprint(g, &s, -wo, distance + hit.t * len, self.spread);
         }
         Shading { object, surface: s, g, wo, hit }
@@ -279,20 +272,21 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let scene = self.scene;
         let blocked = scene.geometry.occluded(&ray, 0.0, t_max, |hit| {
             let object = scene.object(hit.object);
-            if object.always_opaque {
+            if object.material.facts().always_opaque {
                 return true;
             }
             let mut g = ZERO_GLOBALS;
             let sh = self.shade(&ray, hit, 0.0, &mut g);
-            if object.material.opaque(sh.g) {
+            let ones = self.ones;
+            if object.material.at(sh.g, v3(sh.wo), &ones, &mut self.scratch).opaque() {
                 return true;
             }
             let (eta, _) = self.eta(&sh, &NO_MEDIA);
-            let dt = object.material.refraction_dir_lanes(sh.g, v3(sh.wo), &eta.0);
+            let dt = object.material.at(sh.g, v3(sh.wo), &eta, &mut self.scratch).refraction_dir();
             if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE {
                 return true;
             }
-            through *= self.refraction(&sh, Vec3::from(dt), &self.ones, &eta);
+            through *= self.refraction(&sh, Vec3::from(dt), &ones, &eta);
             through.is_black()
         });
         if blocked { Spectrum::ZERO } else { through }
@@ -310,11 +304,11 @@ impl<'s, const N: usize> Tracer<'s, N> {
     }
 
     /// Emission of a sampled light point toward `-wi`.
-    fn surface_emission(&self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
+    fn surface_emission(&mut self, light_object: u32, surface: &SurfaceHit, wi: Vec3, distance: f32) -> Spectrum<N> {
         let object = self.scene.object(light_object);
         let mut g = globals_of(surface, distance, self.scene.settings.frame);
         self.wavelengths_into(&mut g);
-        if object.reads_footprint {
+        if object.material.facts().reads_footprint() {
             footprint(&mut g, surface, wi, distance, self.spread);
         }
         self.emission(object, &g, -wi)
@@ -345,19 +339,16 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut sum = Spectrum::ZERO;
         // With a reflection sum, delta lights are gathered (black where
         // they cannot reach) and shaded in one call after the loop.
-        let summed = sh.object.reflection_sum.as_ref();
+        let summed = sh.object.material.summed_lights().is_some();
         let mut gathered = std::mem::take(&mut self.gathered);
         gathered.clear();
-        let push = |words: &mut Vec<u32>, v: Vec3, lanes: &[f32]| {
-            words.extend(v.to_array().iter().chain(lanes).map(|x| x.to_bits()));
-        };
         for light in &scene.lights {
             if mis.is_none() && matches!(light.kind, LightKind::Environment(_)) {
                 continue;
             }
             let u = sampler.next_2d();
             let u3 = sampler.next_1d();
-            if summed.is_some() && light.is_delta() {
+            if summed && light.is_delta() {
                 let mut li = Spectrum::ZERO;
                 let mut dir = sh.surface.n;
                 if let Some(LightSample::Delta { wi, distance, scale }) =
@@ -373,19 +364,15 @@ impl<'s, const N: usize> Tracer<'s, N> {
                         li *= self.transmittance(sh.surface.p, sh.surface.ng, wi, distance);
                     }
                 }
-                push(&mut gathered, dir, &li.0[..self.lanes]);
+                gathered.push((v3(dir), li));
                 continue;
             }
             sum += self.light_sample(sh, light, 1.0, u, u3, mis, deltas);
         }
-        if let Some(f) = summed {
-            push(&mut gathered, sh.wo, &[]);
-            let mut out = Spectrum::<N>::ZERO;
-            let mut words = [0u32; N];
-            if f.call_words(JIT, sh.g, &gathered, &mut words).is_ok() {
-                for (o, w) in out.0.iter_mut().zip(&words[..self.lanes]) {
-                    *o = f32::from_bits(*w);
-                }
+        if summed {
+            let eta = self.vertex_eta;
+            let mut surface = sh.object.material.resume(sh.g, v3(sh.wo), &eta, &mut self.record);
+            if let Some(out) = surface.reflection_sum(&gathered) {
                 sum += out;
             }
         }
@@ -481,8 +468,10 @@ impl<'s, const N: usize> Tracer<'s, N> {
     }
 
     /// The shading normal from the material, turned toward the viewer.
-    fn sampling_normal(&self, sh: &Shading) -> Vec3 {
-        let n = Vec3::from(sh.object.material.normal(sh.g)).normalize_or_zero();
+    fn sampling_normal(&mut self, sh: &Shading) -> Vec3 {
+        let ones = self.ones;
+        let n =
+            Vec3::from(sh.object.material.at(sh.g, v3(sh.wo), &ones, &mut self.scratch).normal()).normalize_or_zero();
         let n = if n == Vec3::ZERO { sh.surface.n } else { n };
         if n.dot(sh.wo) < 0.0 { -n } else { n }
     }
@@ -496,9 +485,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
         out
     }
 
-    fn aov(&self, sh: &Shading) -> Aov {
-        let mut albedo = Spectrum::<N>::ZERO;
-        sh.object.material.diffuse_into(sh.g, &mut albedo.0);
+    fn aov(&mut self, sh: &Shading) -> Aov {
+        let ones = self.ones;
+        let albedo = sh.object.material.at(sh.g, v3(sh.wo), &ones, &mut self.scratch).diffuse();
         let albedo = match &self.hero {
             Some(h) => h.shader.map(|row| (0..self.lanes).map(|i| row[i] * albedo.0[i]).sum()),
             None => crate::color::lanes_to_rgb(self.scene.model, &albedo.0[..self.lanes]),
@@ -544,7 +533,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let ends_companions = first && dispersed;
         // The record serves this hit's calls, all made before the recursion.
         self.prepare(&sh, &eta);
-        let lobes = self.lobes(&sh, &eta, entering);
+        let lobes = self.lobes(&sh, entering);
         let deltas = [lobes.reflect.map(|r| r.0), lobes.refract.as_ref().map(|r| r.dir)];
         let mut l = self.emission(sh.object, sh.g, sh.wo);
         l += self.direct(&sh, sampler, None, &deltas);
@@ -640,10 +629,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
             // The per-hit stage once; every call below reads its record.
             self.prepare(&sh, &eta);
             // Light samples near a perfect direction are not the smooth part.
-            let deltas = if sh.object.delta_lobes.is_some()
-                || (sh.object.hit.is_some() && (sh.object.reflects || sh.object.refracts))
-            {
-                let lobes = self.lobes(&sh, &eta, entering);
+            let facts = sh.object.material.facts();
+            let deltas = if facts.reflects || facts.refracts {
+                let lobes = self.lobes(&sh, entering);
                 [lobes.reflect.map(|r| r.0), lobes.refract.map(|r| r.dir)]
             } else {
                 [None, None]
@@ -653,13 +641,13 @@ impl<'s, const N: usize> Tracer<'s, N> {
             // The material chooses how the path goes on.
             let u1 = sampler.next_1d();
             let u2 = sampler.next_2d();
-            let Some(s) = self.sample(&sh, &eta, u1, u2) else { break };
+            let Some(s) = self.sample(&sh, u1, u2) else { break };
             let (wi, weight) = (s.wi, s.weight);
             if wi == Vec3::ZERO || !(s.delta || s.pdf > 0.0) || weight.is_black() || !weight.is_finite() {
                 break;
             }
             if sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) < 0.0 {
-                if !sh.object.transmits {
+                if !sh.object.material.facts().transmits() {
                     break;
                 }
                 let straight = wi.dot(-sh.wo) >= DELTA_CONE;
@@ -682,13 +670,6 @@ impl<'s, const N: usize> Tracer<'s, N> {
             depth += 1;
         }
         (l, aov)
-    }
-}
-
-/// Appends floats to argument words.
-fn push_words(words: &mut Vec<u32>, xs: &[f32]) {
-    for x in xs {
-        words.push(x.to_bits());
     }
 }
 
@@ -769,10 +750,10 @@ pub fn camera_hit(scene: &Scene, px: u32, py: u32) -> Option<(usize, ShadingGlob
     let ray = scene.camera.ray(px as f32 + 0.5, py as f32 + 0.5, [0.5, 0.5]);
     let hit = scene.geometry.intersect(&ray, 0.0, f32::INFINITY)?;
     let object = scene.object(hit.object);
-    let s = scene.geometry.surface(&ray, &hit, object.reads_uv);
+    let s = scene.geometry.surface(&ray, &hit, object.material.facts().reads_uv());
     let len = ray.dir.length();
     let mut g = globals_of(&s, hit.t * len, scene.settings.frame);
-    if object.reads_footprint {
+    if object.material.facts().reads_footprint() {
         footprint(&mut g, &s, ray.dir / len, hit.t * len, scene.camera.pixel_spread());
     }
     Some((scene.surface_of_object[hit.object as usize] as usize, g, v3(-ray.dir / len)))

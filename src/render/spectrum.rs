@@ -111,6 +111,20 @@ impl<const N: usize> Div<f32> for Spectrum<N> {
     }
 }
 
+/// Material calls write radiance straight into a spectrum: its `N` lanes
+/// hold the model's (the scene picks `N` at least the model's count).
+impl<const N: usize> crate::Lanes for Spectrum<N> {
+    fn zero(_: crate::ColorModel) -> Self {
+        Spectrum::ZERO
+    }
+    fn lanes(&self) -> &[f32] {
+        &self.0
+    }
+    fn lanes_mut(&mut self) -> &mut [f32] {
+        &mut self.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,7 +19,7 @@ impl<'p> Lowerer<'p> {
             && args.is_empty()
             && let Some(inst) = fr.material.clone()
         {
-            let im = interface_method("normal").expect("normal is an interface method");
+            let im = Method::Normal.interface();
             return Val::Lanes(self.instance_method(b, &inst, im, &[], ctx));
         }
         let vals: Vec<(Val<'p>, Ty)> =
@@ -37,13 +37,15 @@ impl<'p> Lowerer<'p> {
             B::Matrix if vals.is_empty() => Val::Lanes(identity(b)),
             B::BsdfSample => {
                 // bsdf_sample(wi, weight, pdf): not a delta lobe.
-                let mut lanes = Vec::new();
+                let mut parts = Vec::new();
                 for ((v, t), want) in vals.into_iter().zip([Ty::Vector, Ty::Color, Ty::Float]) {
                     let n = self.lanes_of(&want);
-                    lanes.extend(self.float_lanes(b, v, &t, n));
+                    parts.push(self.float_lanes(b, v, &t, n));
                 }
-                lanes.push(b.f(0.0));
-                Val::Lanes(lanes)
+                let zero = b.f(0.0);
+                let [wi, weight, pdf] = <[Vec<Value>; 3]>::try_from(parts).unwrap_or_default();
+                let layout = SampleLayout { lanes: self.lanes };
+                Val::Lanes(layout.assemble(&wi, &weight, pdf.first().copied().unwrap_or(zero), zero))
             }
             B::Matrix if vals.len() == 1 => {
                 let (v, t) = only_arg(vals);

@@ -48,23 +48,17 @@ impl<'p> Lowerer<'p> {
             Ty::Vector | Ty::Point | Ty::Normal => 3,
             Ty::Color => self.lanes,
             Ty::Matrix => 12,
-            // wi, weight, pdf, and delta as 0 or 1.
-            Ty::BsdfSample => 5 + self.lanes,
+            Ty::BsdfSample => SampleLayout { lanes: self.lanes }.words(),
             _ => 0,
         }
     }
 
     /// Which lanes of a value of type `ty` member `field` is.
     pub(super) fn field_lanes(&self, ty: &Ty, field: &str) -> std::ops::Range<usize> {
-        if *ty == Ty::BsdfSample {
-            let mut start = 0;
-            for (name, t) in crate::check::SAMPLE_FIELDS {
-                let n = self.lanes_of(t);
-                if *name == field {
-                    return start..start + n;
-                }
-                start += n;
-            }
+        if *ty == Ty::BsdfSample
+            && let Some(range) = (SampleLayout { lanes: self.lanes }).field(field)
+        {
+            return range;
         }
         let k = match field {
             "x" => 0,

@@ -25,8 +25,8 @@ pub const HIT_MIX_COPIES: usize = 8;
 /// where the interface method takes them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum HitMethod {
-    /// An interface method by name (`reflection`, `sample`, `emission`, ...).
-    Interface(&'static str),
+    /// An interface method (`reflection`, `sample`, `emission`, ...).
+    Interface(Method),
     /// `f · cos` for unit light from `wi` and the material's pdf
     /// (see [`lower_eval_pdf`]): argument `wi`.
     EvalPdf,
@@ -124,7 +124,7 @@ impl<'p> Lowerer<'p> {
             let first_param = b.func.params.len() as u32;
             let (own, args) = match method {
                 HitMethod::Interface(m) => {
-                    let Some(im) = interface_method(m) else { continue };
+                    let im = m.interface();
                     let own: Vec<(String, Ty)> = im
                         .params
                         .iter()
@@ -191,10 +191,11 @@ impl<'p> Lowerer<'p> {
     /// The result type of a method in a group.
     fn hit_ret(&self, method: HitMethod) -> Ty {
         match method {
-            HitMethod::Interface(m) => interface_method(m).map_or(Ty::Float, |im| im.ret.clone()),
-            HitMethod::EvalPdf => Ty::Array(Box::new(Ty::Float), self.lanes as u32 + 1),
-            // Both directions and their responses.
-            HitMethod::DeltaLobes => Ty::Array(Box::new(Ty::Float), 6 + 2 * self.lanes as u32),
+            HitMethod::Interface(m) => m.interface().ret.clone(),
+            HitMethod::EvalPdf => Ty::Array(Box::new(Ty::Float), EvalPdfLayout { lanes: self.lanes }.words() as u32),
+            HitMethod::DeltaLobes => {
+                Ty::Array(Box::new(Ty::Float), DeltaLobesLayout { lanes: self.lanes }.words() as u32)
+            }
             HitMethod::ReflectionSum(_) => Ty::Color,
         }
     }
@@ -226,7 +227,7 @@ impl<'p> Lowerer<'p> {
             let words = self.hit_words_of(call.method, &self.hit_ret(call.method)).len();
             let mut result = match call.method {
                 HitMethod::Interface(m) => {
-                    let Some(im) = interface_method(m) else { continue };
+                    let im = m.interface();
                     let mut own_args = call.args.iter();
                     let args: Vec<Vec<Value>> = im
                         .params
@@ -480,7 +481,7 @@ struct HitCall {
 /// The name of a method's function in a group (`NAME.hit.sample`).
 pub fn method_name(method: HitMethod) -> String {
     match method {
-        HitMethod::Interface(m) => m.to_string(),
+        HitMethod::Interface(m) => m.name().to_string(),
         HitMethod::EvalPdf => "eval_pdf".into(),
         HitMethod::DeltaLobes => "delta_lobes".into(),
         HitMethod::ReflectionSum(k) => format!("reflection_sum{k}"),

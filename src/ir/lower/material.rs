@@ -110,7 +110,7 @@ impl<'p> Lowerer<'p> {
                 vec![one; self.lanes]
             }
             "ambient" => {
-                let diffuse = interface_method("diffuse").expect("diffuse is an interface method");
+                let diffuse = Method::Diffuse.interface();
                 let d = self.instance_method(b, inst, diffuse, &[], ctx);
                 b.map2(BinOp::FMul, &args[0], &d)
             }

@@ -25,6 +25,7 @@ mod constants;
 mod context;
 mod expr;
 mod hit;
+mod layout;
 mod material;
 mod noise;
 mod sampling;
@@ -39,12 +40,14 @@ use stmt::assigned_names;
 use tree::empty_def;
 
 pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with, method_name};
+pub use layout::{DeltaLobesLayout, EvalPdfLayout, SampleLayout};
 pub use spectral::curve_table_name;
 
 use super::builder::{Builder, Const, MemoKey};
 use super::*;
 use crate::check::{
-    BuiltinFn, INTERFACE, InterfaceMethod, Program, Symbol, SymbolKind, TextureCall, TreeNode, Ty, interface_method,
+    BuiltinFn, INTERFACE, InterfaceMethod, Method, Program, Symbol, SymbolKind, TextureCall, TreeNode, Ty,
+    interface_method,
 };
 use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};
@@ -182,11 +185,22 @@ pub fn lower_material_exprs(
     model: ColorModel,
     materials: &[(String, &Expr)],
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    lower_material_methods(program, model, materials, |_, _| true)
+}
+
+/// [`lower_material_exprs`] for the methods `keep(k, method)` accepts of
+/// material `k`: a renderer leaves out those a hit group serves.
+pub fn lower_material_methods(
+    program: &Program,
+    model: ColorModel,
+    materials: &[(String, &Expr)],
+    keep: impl Fn(usize, Method) -> bool,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
     let mut lw = Lowerer::new(program, model);
     let mut module = Module::default();
     let mut entries = Vec::new();
-    for (name, expr) in materials {
-        for im in INTERFACE {
+    for (k, (name, expr)) in materials.iter().enumerate() {
+        for im in Method::ALL.into_iter().filter(|m| keep(k, *m)).map(Method::interface) {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
@@ -313,7 +327,7 @@ impl<'p> Lowerer<'p> {
         wo: &[Value],
         ctx: &Ctx,
     ) -> Vec<Value> {
-        let reflection = interface("reflection");
+        let reflection = Method::Reflection.interface();
         let mut sum: Option<Vec<Value>> = None;
         for pair in pairs.chunks(2) {
             let one = self.mat_method(b, mat, reflection, &[pair[0].clone(), pair[1].clone(), wo.to_vec()], ctx);
@@ -331,11 +345,11 @@ impl<'p> Lowerer<'p> {
         let one = b.f(1.0);
         let ones = vec![one; self.lanes];
         let (wo, eta) = (wo.to_vec(), eta.to_vec());
-        let dr = self.mat_method(b, mat, interface("reflection_dir"), std::slice::from_ref(&wo), ctx);
-        let wr = self.mat_method(b, mat, interface("reflection"), &[dr.clone(), ones.clone(), wo.clone()], ctx);
-        let dt = self.mat_method(b, mat, interface("refraction_dir"), &[wo.clone(), eta.clone()], ctx);
-        let wt = self.mat_method(b, mat, interface("refraction"), &[dt.clone(), ones, eta, wo], ctx);
-        [dr, wr, dt, wt].concat()
+        let dr = self.mat_method(b, mat, Method::ReflectionDir.interface(), std::slice::from_ref(&wo), ctx);
+        let wr = self.mat_method(b, mat, Method::Reflection.interface(), &[dr.clone(), ones.clone(), wo.clone()], ctx);
+        let dt = self.mat_method(b, mat, Method::RefractionDir.interface(), &[wo.clone(), eta.clone()], ctx);
+        let wt = self.mat_method(b, mat, Method::Refraction.interface(), &[dt.clone(), ones, eta, wo], ctx);
+        DeltaLobesLayout { lanes: self.lanes }.assemble(&dr, &wr, &dt, &wt)
     }
 
     /// `f · cos` for unit light from `wi` and the pdf, as [`lower_eval_pdf`]
@@ -349,16 +363,11 @@ impl<'p> Lowerer<'p> {
         eta: &[Value],
         ctx: &Ctx,
     ) -> Vec<Value> {
-        let mut results = self.eval_at(b, mat, wi, wo, eta, ctx);
+        let value = self.eval_at(b, mat, wi, wo, eta, ctx);
         let args = [wi.to_vec(), wo.to_vec(), eta.to_vec()];
-        results.extend(self.mat_method(b, mat, interface("pdf"), &args, ctx));
-        results
+        let pdf = self.mat_method(b, mat, Method::Pdf.interface(), &args, ctx);
+        EvalPdfLayout { lanes: self.lanes }.assemble(&value, pdf[0])
     }
-}
-
-/// An interface method the lowering needs, by name.
-fn interface(name: &str) -> &'static InterfaceMethod {
-    interface_method(name).unwrap_or_else(|| unreachable!("`{name}` is an interface method"))
 }
 
 /// Finishes an entry for the material at `at` that returns `results` as

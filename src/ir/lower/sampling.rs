@@ -4,8 +4,7 @@
 //! "Sampling").
 //!
 //! A `bsdf_sample` value is `5 + lanes` words: `wi` (3), `weight` (the
-//! color model's lanes), `pdf`, and `delta` as 0 or 1 (see
-//! `Lowerer::field_lanes`).
+//! color model's lanes), `pdf`, and `delta` as 0 or 1 ([`SampleLayout`]).
 //!
 //! The rule every node keeps: a sample's weight is the node's own
 //! `f · cos / pdf` at the sampled direction, with the node's own pdf. So a
@@ -34,20 +33,17 @@ struct Sample {
 
 impl Sample {
     fn split(lanes: &[Value], model_lanes: usize) -> Sample {
+        let layout = SampleLayout { lanes: model_lanes };
         Sample {
-            wi: lanes[..3].to_vec(),
-            weight: lanes[3..3 + model_lanes].to_vec(),
-            pdf: lanes[3 + model_lanes],
-            delta: lanes[4 + model_lanes],
+            wi: lanes[SampleLayout::WI].to_vec(),
+            weight: lanes[layout.weight()].to_vec(),
+            pdf: lanes[layout.pdf()],
+            delta: lanes[layout.delta()],
         }
     }
 
     fn lanes(&self) -> Vec<Value> {
-        let mut out = self.wi.clone();
-        out.extend(&self.weight);
-        out.push(self.pdf);
-        out.push(self.delta);
-        out
+        SampleLayout { lanes: self.weight.len() }.assemble(&self.wi, &self.weight, self.pdf, self.delta)
     }
 }
 
@@ -66,10 +62,6 @@ struct DeltaLobes {
     /// The probability of the smooth (cosine-sampled) part: the mean of
     /// `diffuse()`, clamped to [0.05, 1], against the delta weights.
     p_smooth: Value,
-}
-
-fn method(name: &str) -> &'static InterfaceMethod {
-    interface_method(name).expect("sampling names only interface methods")
 }
 
 impl Builder {
@@ -156,7 +148,7 @@ impl<'p> Lowerer<'p> {
     /// `normal()` of the instance, unit and turned toward `wo`; the shading
     /// normal `N` when `normal()` is degenerate.
     fn sampling_normal(&mut self, b: &mut Builder, inst: &Rc<Instance<'p>>, wo: &[Value], ctx: &Ctx) -> Vec<Value> {
-        let own = self.instance_method(b, inst, method("normal"), &[], ctx);
+        let own = self.instance_method(b, inst, Method::Normal.interface(), &[], ctx);
         let own = b.normalize(&own);
         let n = self.shading_global(b, ctx, "N");
         let zero = b.f(0.0);
@@ -189,8 +181,8 @@ impl<'p> Lowerer<'p> {
         }
         let ones = self.ones(b);
         let zero = b.f(0.0);
-        let dr = self.instance_method(b, inst, method("reflection_dir"), &[wo.to_vec()], ctx);
-        let dt = self.instance_method(b, inst, method("refraction_dir"), &[wo.to_vec(), eta.to_vec()], ctx);
+        let dr = self.instance_method(b, inst, Method::ReflectionDir.interface(), &[wo.to_vec()], ctx);
+        let dt = self.instance_method(b, inst, Method::RefractionDir.interface(), &[wo.to_vec(), eta.to_vec()], ctx);
         let mut weights = [Vec::new(), Vec::new()];
         let mut means = [zero, zero];
         for (k, dir) in [&dr, &dt].into_iter().enumerate() {
@@ -206,13 +198,13 @@ impl<'p> Lowerer<'p> {
                         me.instance_method(
                             b,
                             inst,
-                            method("reflection"),
+                            Method::Reflection.interface(),
                             &[dir.clone(), ones.clone(), wo.to_vec()],
                             ctx,
                         )
                     } else {
                         let args = [dir.clone(), ones.clone(), eta.to_vec(), wo.to_vec()];
-                        me.instance_method(b, inst, method("refraction"), &args, ctx)
+                        me.instance_method(b, inst, Method::Refraction.interface(), &args, ctx)
                     }
                 },
                 |_, _| zeros,
@@ -223,7 +215,7 @@ impl<'p> Lowerer<'p> {
             weights[k] = w;
         }
         let total = b.fadd(means[0], means[1]);
-        let diffuse = self.instance_method(b, inst, method("diffuse"), &[], ctx);
+        let diffuse = self.instance_method(b, inst, Method::Diffuse.interface(), &[], ctx);
         let hint = b.mean(&diffuse);
         let (lo, one) = (b.f(0.05), b.f(1.0));
         let hint = b.clamp(hint, lo, one);
@@ -333,8 +325,8 @@ impl<'p> Lowerer<'p> {
     ) -> Vec<Value> {
         let ones = self.ones(b);
         let same = self.same_side(b, wi, wo, ctx);
-        let reflection = method("reflection");
-        if self.uses_default(mat, method("refraction"), 0) {
+        let reflection = Method::Reflection.interface();
+        if self.uses_default(mat, Method::Refraction.interface(), 0) {
             let f = self.mat_method(b, mat, reflection, &[wi.to_vec(), ones, wo.to_vec()], ctx);
             let zeros = b.zeros(self.lanes);
             return b.select_lanes(same, &f, &zeros);
@@ -347,7 +339,7 @@ impl<'p> Lowerer<'p> {
             |b, me| me.mat_method(b, mat, reflection, &[wi.to_vec(), ones.clone(), wo.to_vec()], ctx),
             |b, me| {
                 let args = [wi.to_vec(), ones.clone(), eta.to_vec(), wo.to_vec()];
-                me.mat_method(b, mat, method("refraction"), &args, ctx)
+                me.mat_method(b, mat, Method::Refraction.interface(), &args, ctx)
             },
         )
     }
@@ -364,13 +356,24 @@ impl<'p> Lowerer<'p> {
     ) -> Vec<Value> {
         let ones = self.ones(b);
         let same = self.same_side(b, wi, wo, ctx);
-        let f = self.instance_method(b, inst, method("reflection"), &[wi.to_vec(), ones.clone(), wo.to_vec()], ctx);
+        let f = self.instance_method(
+            b,
+            inst,
+            Method::Reflection.interface(),
+            &[wi.to_vec(), ones.clone(), wo.to_vec()],
+            ctx,
+        );
         if !inst.def.methods.iter().any(|m| m.name.name == "refraction") {
             let zeros = b.zeros(self.lanes);
             return b.select_lanes(same, &f, &zeros);
         }
-        let t =
-            self.instance_method(b, inst, method("refraction"), &[wi.to_vec(), ones, eta.to_vec(), wo.to_vec()], ctx);
+        let t = self.instance_method(
+            b,
+            inst,
+            Method::Refraction.interface(),
+            &[wi.to_vec(), ones, eta.to_vec(), wo.to_vec()],
+            ctx,
+        );
         b.select_lanes(same, &f, &t)
     }
 
@@ -425,7 +428,9 @@ impl<'p> Lowerer<'p> {
                 None => vec![zero],
                 Some(used) => {
                     let item = &items[group[0]];
-                    b.guarded(self, used, vec![zero], |b, me| me.mat_method(b, item, method("pdf"), args, ctx))
+                    b.guarded(self, used, vec![zero], |b, me| {
+                        me.mat_method(b, item, Method::Pdf.interface(), args, ctx)
+                    })
                 }
             };
             for k in group {
@@ -500,7 +505,8 @@ impl<'p> Lowerer<'p> {
             &tys,
             |b, me| {
                 let f = me.eval_at(b, node, &wi, wo, eta, ctx);
-                let pdf = me.mat_method(b, node, method("pdf"), &[wi.clone(), wo.clone(), eta.clone()], ctx)[0];
+                let pdf =
+                    me.mat_method(b, node, Method::Pdf.interface(), &[wi.clone(), wo.clone(), eta.clone()], ctx)[0];
                 let weight = f.iter().map(|x| b.safe_div(*x, pdf)).collect();
                 let flag = b.f(0.0);
                 Sample { wi: wi.clone(), weight, pdf, delta: flag }.lanes()
@@ -534,7 +540,7 @@ impl<'p> Lowerer<'p> {
             let (zero, top) = (b.f(0.0), b.f(ONE_MINUS_EPSILON));
             let remapped = b.clamp(remapped, zero, top);
             let child_args = [args[0].clone(), args[1].clone(), vec![remapped], args[3].clone()];
-            let mut s = me.mat_method(b, &items[k], method("sample"), &child_args, ctx);
+            let mut s = me.mat_method(b, &items[k], Method::Sample.interface(), &child_args, ctx);
             s.push(b.safe_div(weights[k], sel[k]));
             s
         };
@@ -627,7 +633,7 @@ impl<'p> Lowerer<'p> {
         let here = |b: &mut Builder, me: &mut Self| -> Vec<Value> {
             let (_, remapped, ratio) = picks[0];
             let child_args = [args[0].clone(), args[1].clone(), vec![remapped], args[3].clone()];
-            let mut s = me.mat_method(b, &items[groups[0][0]], method("sample"), &child_args, ctx);
+            let mut s = me.mat_method(b, &items[groups[0][0]], Method::Sample.interface(), &child_args, ctx);
             s.push(ratio);
             s
         };
@@ -650,7 +656,7 @@ impl<'p> Lowerer<'p> {
         args: &[Vec<Value>],
         ctx: &Ctx,
     ) -> Vec<Value> {
-        let s = self.mat_method(b, first, method("sample"), args, ctx);
+        let s = self.mat_method(b, first, Method::Sample.interface(), args, ctx);
         if self.direction_only {
             return s;
         }

@@ -26,10 +26,8 @@ impl<'p> Lowerer<'p> {
             }
             // The default ambient, light * diffuse(), is linear: blending the
             // children's is the node's own, from the node's diffuse.
-            if im.name == "ambient"
-                && let Some(diffuse) = interface_method("diffuse")
-            {
-                let d = self.mat_method(b, mat, diffuse, &[], ctx);
+            if im.name == "ambient" {
+                let d = self.mat_method(b, mat, Method::Diffuse.interface(), &[], ctx);
                 return b.map2(BinOp::FMul, &args[0], &d);
             }
         }

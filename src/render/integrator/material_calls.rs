@@ -1,204 +1,68 @@
-//! The integrators' calls of material methods: through a prepared hit's
-//! record where the object has a hit group (`prepare` once per vertex,
-//! then each method by its index), else through each method on its own.
+//! The integrators' calls of material methods, all through the material's
+//! [`Surface`](crate::Surface): the calls at a path vertex resume the
+//! vertex's record (its per-hit stage, when the material has one, runs once
+//! from [`Tracer::prepare`]); calls at other points (shadow rays, light
+//! samples on emitters, media) use a scratch record, so they never disturb
+//! the vertex's.
 
-use super::{Drawn, JIT, Lobes, Refraction, Shading, Tracer, is_zero, push_words, v3};
+use super::{Drawn, Lobes, Refraction, Shading, Tracer, v3};
 use crate::ShadingGlobals;
 use crate::render::Vec3;
 use crate::render::scene::Object;
 use crate::render::spectrum::Spectrum;
 
 impl<'s, const N: usize> Tracer<'s, N> {
-    pub(super) fn reflection(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
-        if let Some(hit) = &sh.object.hit
-            && let Some(index) = hit.reflection
-        {
-            return self.prepared_reflection(&hit.material, index, sh.g, wi, light);
-        }
-        let mut out = Spectrum::ZERO;
-        sh.object.material.reflection_into(sh.g, v3(wi), &light.0, v3(sh.wo), &mut out.0);
-        out
-    }
-
-    /// [`Self::reflection`] from a prepared hit's record; out of line for
-    /// the same reason as [`Self::call_prepared`].
-    #[inline(never)]
-    fn prepared_reflection(
-        &mut self,
-        hit: &crate::HitMaterial,
-        index: usize,
-        g: &ShadingGlobals,
-        wi: Vec3,
-        light: &Spectrum<N>,
-    ) -> Spectrum<N> {
-        let mut out = Spectrum::ZERO;
-        let lanes = self.lanes;
-        let args = self.own_args(hit);
-        push_words(args, &v3(wi));
-        push_words(args, &light.0[..lanes]);
-        if self.call_prepared(hit, index, g) {
-            for (o, w) in out.0.iter_mut().zip(&self.lobe_out[..self.lanes]) {
-                *o = f32::from_bits(*w);
-            }
-        }
-        out
-    }
-
-    /// The words of a call on the prepared hit, its record, to which the
-    /// caller pushes the method's own argument words.
-    fn own_args(&mut self, hit: &crate::HitMaterial) -> &mut Vec<u32> {
-        self.hit_words.truncate(hit.record_words());
-        &mut self.hit_words
-    }
-
-    /// Calls the method at `index` of a prepared hit with the words of
-    /// [`Self::own_args`], into `lobe_out`. Out of line, as
-    /// [`Self::prepare`]: the integrator's hot functions stay as small as
-    /// without prepared hits, and so are inlined as before (5-9% of
-    /// cornell's time otherwise).
-    #[inline(never)]
-    fn call_prepared(&mut self, hit: &crate::HitMaterial, index: usize, g: &ShadingGlobals) -> bool {
-        hit.call_at(JIT, index, g, &self.hit_words, &mut self.lobe_out).is_ok()
-    }
-
-    /// Runs the per-hit stage of a prepared material: every call below,
-    /// until the next hit, reads its record. Only the test is inline: most
-    /// hits of most scenes have nothing to prepare.
+    /// Starts the calls at a vertex: the material's per-hit stage (if it
+    /// has one) runs here, for the index `eta` the crossing gives, and
+    /// every call below until the next vertex reads its record.
     pub(super) fn prepare(&mut self, sh: &Shading, eta: &Spectrum<N>) {
-        if let Some(hit) = &sh.object.hit {
-            self.prepare_hit(&hit.material, sh.g, sh.wo, eta);
-        }
+        self.vertex_eta = *eta;
+        sh.object.material.at(sh.g, v3(sh.wo), eta, &mut self.record).prepare();
     }
 
-    #[inline(never)]
-    fn prepare_hit(&mut self, hit: &crate::HitMaterial, g: &ShadingGlobals, wo: Vec3, eta: &Spectrum<N>) {
-        self.lobe_args.clear();
-        push_words(&mut self.lobe_args, &v3(wo));
-        push_words(&mut self.lobe_args, &eta.0[..self.lanes]);
-        hit.prepare_words(JIT, g, &self.lobe_args, &mut self.hit_words);
+    pub(super) fn reflection(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>) -> Spectrum<N> {
+        let eta = self.vertex_eta;
+        sh.object.material.resume(sh.g, v3(sh.wo), &eta, &mut self.record).reflection(v3(wi), light)
     }
 
-    pub(super) fn refraction(&self, sh: &Shading, wi: Vec3, light: &Spectrum<N>, eta: &Spectrum<N>) -> Spectrum<N> {
-        let mut out = Spectrum::ZERO;
-        sh.object.material.refraction_into(sh.g, v3(wi), &light.0, &eta.0, v3(sh.wo), &mut out.0);
-        out
+    pub(super) fn refraction(&mut self, sh: &Shading, wi: Vec3, light: &Spectrum<N>, eta: &Spectrum<N>) -> Spectrum<N> {
+        sh.object.material.at(sh.g, v3(sh.wo), eta, &mut self.scratch).refraction(v3(wi), light)
     }
 
-    pub(super) fn emission(&self, object: &Object, g: &ShadingGlobals, wo: Vec3) -> Spectrum<N> {
-        if !object.emissive {
+    pub(super) fn emission(&mut self, object: &Object, g: &ShadingGlobals, wo: Vec3) -> Spectrum<N> {
+        if !object.emissive() {
             return Spectrum::ZERO;
         }
-        let mut out = Spectrum::ZERO;
-        object.material.emission_into(g, v3(wo), &mut out.0);
+        let ones = self.ones;
+        let mut out = object.material.at(g, v3(wo), &ones, &mut self.scratch).emission();
         if let Some(scale) = &object.emission_scale {
             out *= self.scene_color(scale);
         }
         out
     }
 
-    pub(super) fn refraction_index(&self, object: &Object, g: &ShadingGlobals) -> Spectrum<N> {
-        if !object.refracts {
-            return self.ones;
-        }
-        if let Some(ior) = &object.constant_ior {
-            return Spectrum::from_lanes(ior);
-        }
-        let mut out = Spectrum::ZERO;
-        object.material.refraction_index_into(g, &mut out.0);
-        out
-    }
-
     /// The perfect directions of the material at `sh` with their weights,
-    /// from one `delta_lobes` call; `eta` and `entering` from [`Self::crossing`].
-    pub(super) fn lobes(&mut self, sh: &Shading, eta: &Spectrum<N>, entering: bool) -> Lobes<N> {
-        let mut lobes = Lobes { reflect: None, refract: None };
-        if let Some(hit) = &sh.object.hit {
-            let Some(index) = hit.delta_lobes.filter(|_| sh.object.reflects || sh.object.refracts) else {
-                return lobes;
-            };
-            // `delta_lobes` takes no words of its own: the record is all.
-            if !self.call_prepared(&hit.material, index, sh.g) {
-                return lobes;
-            }
-        } else {
-            let Some(f) = &sh.object.delta_lobes else { return lobes };
-            self.lobe_args.clear();
-            self.lobe_args.extend(v3(sh.wo).iter().chain(&eta.0[..self.lanes]).map(|x| x.to_bits()));
-            if f.call_words(JIT, sh.g, &self.lobe_args, &mut self.lobe_out).is_err() {
-                return lobes;
-            }
+    /// from one `delta_lobes` call; `entering` from [`Self::crossing`].
+    pub(super) fn lobes(&mut self, sh: &Shading, entering: bool) -> Lobes<N> {
+        let eta = self.vertex_eta;
+        let lobes = sh.object.material.resume(sh.g, v3(sh.wo), &eta, &mut self.record).delta_lobes();
+        Lobes {
+            reflect: lobes.reflect.map(|l| (Vec3::from(l.dir), l.weight)),
+            refract: lobes.refract.map(|l| Refraction { dir: Vec3::from(l.dir), weight: l.weight, entering }),
         }
-        let (out, lanes) = (&self.lobe_out, self.lanes);
-        let dir = |at: usize| [0, 1, 2].map(|k| f32::from_bits(out[at + k]));
-        let weight =
-            |at: usize| Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[at + k]) } else { 0.0 }));
-        let (dr, dt) = (dir(0), dir(3 + lanes));
-        if !is_zero(dr) {
-            lobes.reflect = Some((Vec3::from(dr), weight(3)));
-        }
-        if !is_zero(dt) {
-            lobes.refract = Some(Refraction { dir: Vec3::from(dt), weight: weight(6 + lanes), entering });
-        }
-        lobes
     }
 
     /// `f · cos` toward the viewer for unit light from `wi`, and the
     /// material's pdf of drawing `wi`, from one `eval_pdf` call.
     pub(super) fn eval_pdf(&mut self, sh: &Shading, wi: Vec3, eta: &Spectrum<N>) -> (Spectrum<N>, f32) {
-        let lanes = self.lanes;
-        if let Some(hit) = &sh.object.hit {
-            let Some(index) = hit.eval_pdf else { return (Spectrum::ZERO, 0.0) };
-            push_words(self.own_args(&hit.material), &v3(wi));
-            if !self.call_prepared(&hit.material, index, sh.g) {
-                return (Spectrum::ZERO, 0.0);
-            }
-            let out = &self.lobe_out;
-            let f = Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[k]) } else { 0.0 }));
-            return (f, f32::from_bits(out[lanes]));
-        }
-        let Some(f) = &sh.object.eval_pdf else {
-            // An emitter of `light rect`/`light sphere`: the interface itself.
-            let same_side = sh.surface.ng.dot(wi) * sh.surface.ng.dot(sh.wo) > 0.0;
-            let ones = self.ones;
-            let f = if same_side { self.reflection(sh, wi, &ones) } else { Spectrum::ZERO };
-            return (f, sh.object.material.pdf_lanes(sh.g, v3(wi), v3(sh.wo), &eta.0));
-        };
-        let args = &mut self.lobe_args;
-        args.clear();
-        push_words(args, &v3(wi));
-        push_words(args, &v3(sh.wo));
-        push_words(args, &eta.0[..lanes]);
-        if f.call_words(JIT, sh.g, args, &mut self.lobe_out).is_err() {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let out = &self.lobe_out;
-        let f = Spectrum(std::array::from_fn(|k| if k < lanes { f32::from_bits(out[k]) } else { 0.0 }));
-        (f, f32::from_bits(out[lanes]))
+        let e = sh.object.material.resume(sh.g, v3(sh.wo), eta, &mut self.record).eval_pdf(v3(wi));
+        (e.value, e.pdf)
     }
 
-    /// The material's `sample` at `sh`, through the tracer's buffers.
-    pub(super) fn sample(&mut self, sh: &Shading, eta: &Spectrum<N>, u1: f32, u2: [f32; 2]) -> Option<Drawn<N>> {
-        let lanes = self.lanes;
-        if let Some(hit) = &sh.object.hit {
-            let index = hit.sample?;
-            push_words(self.own_args(&hit.material), &[u1, u2[0], u2[1]]);
-            if !self.call_prepared(&hit.material, index, sh.g) {
-                return None;
-            }
-        } else {
-            let args = &mut self.lobe_args;
-            args.clear();
-            push_words(args, &v3(sh.wo));
-            push_words(args, &eta.0[..lanes]);
-            push_words(args, &[u1, u2[0], u2[1]]);
-            sh.object.sample.call_words(JIT, sh.g, args, &mut self.lobe_out).ok()?;
-        }
-        let word = |k: usize| f32::from_bits(self.lobe_out[k]);
-        Some(Drawn {
-            wi: Vec3::new(word(0), word(1), word(2)).normalize_or_zero(),
-            weight: Spectrum(std::array::from_fn(|k| if k < lanes { word(3 + k) } else { 0.0 })),
-            pdf: word(3 + lanes),
-            delta: word(4 + lanes) > 0.0,
-        })
+    /// The material's `sample` at `sh`.
+    pub(super) fn sample(&mut self, sh: &Shading, u1: f32, u2: [f32; 2]) -> Option<Drawn<N>> {
+        let eta = self.vertex_eta;
+        let s = sh.object.material.resume(sh.g, v3(sh.wo), &eta, &mut self.record).sample(u1, u2);
+        Some(Drawn { wi: Vec3::from(s.wi).normalize_or_zero(), weight: s.weight, pdf: s.pdf, delta: s.delta })
     }
 }

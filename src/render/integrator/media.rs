@@ -3,7 +3,6 @@
 //! and the relative index of refraction at a crossing.
 
 use super::{Shading, Tracer, ZERO_GLOBALS};
-use crate::ShadingGlobals;
 use crate::render::spectrum::Spectrum;
 
 /// A medium the ray is inside: the object entered, and where the globals
@@ -47,33 +46,26 @@ impl Media {
 
 impl<'s, const N: usize> Tracer<'s, N> {
     /// Light left after `distance` inside `medium`.
-    pub(super) fn absorb(&self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
+    pub(super) fn absorb(&mut self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
         let Some(m) = medium else { return light };
         let object = self.scene.object(m.object);
-        if object.clear {
-            return light;
-        }
-        let mut out = Spectrum::ZERO;
-        object.material.absorption_into(self.entry_globals(m), &light.0, distance, &mut out.0);
-        out
-    }
-
-    /// The globals where a medium was entered.
-    pub(super) fn entry_globals(&self, m: &Medium) -> &ShadingGlobals {
-        // Media whose material reads them always have them.
-        self.entered.get(m.g as usize).unwrap_or(&ZERO_GLOBALS)
+        let g = self.entered.get(m.g as usize).unwrap_or(&ZERO_GLOBALS);
+        object.material.at(g, [0.0; 3], &self.ones, &mut self.scratch).absorption(&light, distance)
     }
 
     /// The relative index `n_entered / n_left` for light crossing the
     /// surface from the `wo` side, and whether crossing enters the object.
-    pub(super) fn eta(&self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
+    pub(super) fn eta(&mut self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
         let entering = sh.surface.ng.dot(sh.wo) > 0.0;
         let inside = |m: &&Medium| m.object != sh.hit.object;
         let other = match media.as_slice().iter().rev().find(inside) {
-            Some(m) => self.refraction_index(self.scene.object(m.object), self.entry_globals(m)),
+            Some(m) => {
+                let g = self.entered.get(m.g as usize).unwrap_or(&ZERO_GLOBALS);
+                refraction_index(self.scene.object(m.object), g, &self.ones, &mut self.scratch)
+            }
             None => self.ones,
         };
-        let own = self.refraction_index(sh.object, sh.g);
+        let own = refraction_index(sh.object, sh.g, &self.ones, &mut self.scratch);
         if entering { (own.safe_div(&other), true) } else { (other.safe_div(&own), false) }
     }
 
@@ -88,7 +80,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if entering {
             if out.len < MAX_MEDIA {
                 let o = sh.object;
-                let g = if o.clear && (!o.refracts || o.constant_ior.is_some()) {
+                let facts = o.material.facts();
+                let g = if facts.clear && (!facts.refracts || facts.constant_ior.is_some()) {
                     NO_GLOBALS
                 } else {
                     self.entered.push(*sh.g);
@@ -107,7 +100,21 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// The relative index of refraction at `sh` (reached through `media`)
     /// and whether crossing the surface enters the object; 1 and false for
     /// materials light cannot cross.
-    pub(super) fn crossing(&self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
-        if sh.object.transmits { self.eta(sh, media) } else { (self.ones, false) }
+    pub(super) fn crossing(&mut self, sh: &Shading, media: &Media) -> (Spectrum<N>, bool) {
+        if sh.object.material.facts().transmits() { self.eta(sh, media) } else { (self.ones, false) }
     }
+}
+
+/// The index of refraction of `object`'s material at `g` (1, with no call,
+/// for one light cannot cross).
+fn refraction_index<const N: usize>(
+    object: &crate::render::scene::Object,
+    g: &crate::ShadingGlobals,
+    ones: &Spectrum<N>,
+    scratch: &mut crate::SurfaceRecord,
+) -> Spectrum<N> {
+    if !object.material.facts().refracts {
+        return *ones;
+    }
+    object.material.at(g, [0.0; 3], ones, scratch).refraction_index()
 }
