@@ -19,7 +19,7 @@
 
 use crate::check::{self, MaterialRef, SymbolKind};
 use crate::color::{self, ColorModel, MAX_SAMPLES};
-use crate::diag::{Colors, Diagnostic, SourceMap, render_text};
+use crate::diag::Diagnostic;
 use crate::globals::ShadingGlobals;
 use crate::ir::lower::{Entry, lower_entries};
 use crate::ir::{Function as IrFunction, Module as IrModule};
@@ -32,35 +32,14 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
+mod error;
 mod material;
 mod prepared;
 
+pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 use material::SAMPLE_WORDS;
 pub use material::{BsdfSample, Material, SampledDir};
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
-
-/// A compile error: the diagnostics and the sources they point into.
-#[derive(Debug, Clone)]
-pub struct Error {
-    pub diagnostics: Vec<Diagnostic>,
-    sources: SourceMap,
-}
-
-impl Error {
-    pub(crate) fn plain(message: String) -> Error {
-        let mut sources = SourceMap::new();
-        let file = sources.add(crate::diag::UNLOCATED, "");
-        Error { diagnostics: vec![Diagnostic::error(crate::diag::Span::new(file, 0, 0), message)], sources }
-    }
-}
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&render_text(&self.sources, &self.diagnostics, Colors::Never))
-    }
-}
-
-impl std::error::Error for Error {}
 
 /// Builds a [`Program`] from TSL source.
 #[derive(Debug, Clone, Default)]

@@ -42,8 +42,8 @@ mod test_support;
 pub mod texture;
 
 pub use api::{
-    Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, Material, PATH_METHODS, PreparedHit, Program,
-    SampledDir, WHITTED_METHODS, worth_preparing,
+    Backend, BsdfSample, Color, Compiler, Error, Function, HitMaterial, MAX_DEBUG_DIAGNOSTICS, Material, PATH_METHODS,
+    PreparedHit, Program, SampledDir, WHITTED_METHODS, worth_preparing,
 };
 pub use color::ColorModel;
 pub use globals::ShadingGlobals;
