@@ -704,17 +704,23 @@ impl fmt::Debug for Color {
 }
 
 impl Color {
+    /// The color of `model` whose lanes are `lanes` (RGB, or spectral
+    /// samples at [`ColorModel::wavelengths`]): missing lanes are 0, extra
+    /// ones are dropped, and a model of more than [`MAX_SAMPLES`] lanes
+    /// (not [`ColorModel::is_valid`]) keeps its first `MAX_SAMPLES`.
     pub fn from_lanes(model: ColorModel, lanes: &[f32]) -> Color {
         let mut c = Color { model, lanes: [0.0; MAX_SAMPLES] };
-        let n = model.lanes().min(lanes.len());
+        let n = model.lanes().min(lanes.len()).min(MAX_SAMPLES);
         c.lanes[..n].copy_from_slice(&lanes[..n]);
         c
     }
 
+    /// All lanes 0.
     pub fn black(model: ColorModel) -> Color {
         Color { model, lanes: [0.0; MAX_SAMPLES] }
     }
 
+    /// The model the lanes are in.
     pub fn model(&self) -> ColorModel {
         self.model
     }
@@ -728,16 +734,24 @@ impl Color {
 
     /// RGB values, or spectral samples at the model's wavelengths.
     pub fn lanes(&self) -> &[f32] {
-        &self.lanes[..self.model.lanes()]
+        &self.lanes[..self.model.lanes().min(MAX_SAMPLES)]
     }
 
-    /// Linear sRGB.
+    /// Linear sRGB, with the model's weights computed once per process
+    /// ([`color::reduction_weights`]): tens of nanoseconds.
+    ///
+    /// ```
+    /// use tsl::{Color, ColorModel};
+    /// let grey = Color::from_lanes(ColorModel::Spectral { samples: 64 }, &[0.5; 64]);
+    /// assert!(grey.to_rgb().iter().all(|c| (c - 0.5).abs() < 1e-5));
+    /// ```
     pub fn to_rgb(&self) -> [f32; 3] {
-        color::lanes_to_rgb(self.model, self.lanes())
+        color::reduction_weights(self.model).rgb(self.lanes())
     }
 
-    /// CIE Y.
+    /// CIE Y (D65-relative, 1 for white), with the model's weights
+    /// computed once per process, as [`Color::to_rgb`].
     pub fn brightness(&self) -> f32 {
-        color::luminance_weights(self.model).iter().zip(self.lanes()).map(|(w, x)| w * x).sum()
+        color::reduction_weights(self.model).brightness(self.lanes())
     }
 }
