@@ -19,7 +19,7 @@
 
 use crate::check::{self, MaterialRef, SymbolKind};
 use crate::color::{self, ColorModel, MAX_SAMPLES};
-use crate::diag::{Colors, Diagnostic, SourceMap, render_text};
+use crate::diag::Diagnostic;
 use crate::globals::ShadingGlobals;
 use crate::ir::lower::{Entry, lower_entries};
 use crate::ir::{Function as IrFunction, Module as IrModule};
@@ -32,6 +32,7 @@ use std::fmt;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 
+mod error;
 mod material;
 mod outputs;
 mod param_value;
@@ -41,6 +42,7 @@ mod surface;
 mod surfaces;
 mod typed;
 
+pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use param_value::{ParamType, ParamValue};
@@ -49,29 +51,6 @@ pub use shader::{Instance, ParamInfo, Shader};
 pub use surface::{Surface, SurfaceRecord};
 pub use surfaces::{HitCalls, MaterialSource, SurfaceOptions};
 pub use typed::{TslParams, TslType, TypedFunction};
-
-/// A compile error: the diagnostics and the sources they point into.
-#[derive(Debug, Clone)]
-pub struct Error {
-    pub diagnostics: Vec<Diagnostic>,
-    sources: SourceMap,
-}
-
-impl Error {
-    pub(crate) fn plain(message: String) -> Error {
-        let mut sources = SourceMap::new();
-        let file = sources.add(crate::diag::UNLOCATED, "");
-        Error { diagnostics: vec![Diagnostic::error(crate::diag::Span::new(file, 0, 0), message)], sources }
-    }
-}
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&render_text(&self.sources, &self.diagnostics, Colors::Never))
-    }
-}
-
-impl std::error::Error for Error {}
 
 /// Builds a [`Program`] from TSL source.
 #[derive(Debug, Clone, Default)]
@@ -714,17 +693,23 @@ impl fmt::Debug for Color {
 }
 
 impl Color {
+    /// The color of `model` whose lanes are `lanes` (RGB, or spectral
+    /// samples at [`ColorModel::wavelengths`]): missing lanes are 0, extra
+    /// ones are dropped, and a model of more than [`MAX_SAMPLES`] lanes
+    /// (not [`ColorModel::is_valid`]) keeps its first `MAX_SAMPLES`.
     pub fn from_lanes(model: ColorModel, lanes: &[f32]) -> Color {
         let mut c = Color { model, lanes: [0.0; MAX_SAMPLES] };
-        let n = model.lanes().min(lanes.len());
+        let n = model.lanes().min(lanes.len()).min(MAX_SAMPLES);
         c.lanes[..n].copy_from_slice(&lanes[..n]);
         c
     }
 
+    /// All lanes 0.
     pub fn black(model: ColorModel) -> Color {
         Color { model, lanes: [0.0; MAX_SAMPLES] }
     }
 
+    /// The model the lanes are in.
     pub fn model(&self) -> ColorModel {
         self.model
     }
@@ -738,16 +723,24 @@ impl Color {
 
     /// RGB values, or spectral samples at the model's wavelengths.
     pub fn lanes(&self) -> &[f32] {
-        &self.lanes[..self.model.lanes()]
+        &self.lanes[..self.model.lanes().min(MAX_SAMPLES)]
     }
 
-    /// Linear sRGB.
+    /// Linear sRGB, with the model's weights computed once per process
+    /// ([`color::reduction_weights`]): tens of nanoseconds.
+    ///
+    /// ```
+    /// use tsl::{Color, ColorModel};
+    /// let grey = Color::from_lanes(ColorModel::Spectral { samples: 64 }, &[0.5; 64]);
+    /// assert!(grey.to_rgb().iter().all(|c| (c - 0.5).abs() < 1e-5));
+    /// ```
     pub fn to_rgb(&self) -> [f32; 3] {
-        color::lanes_to_rgb(self.model, self.lanes())
+        color::reduction_weights(self.model).rgb(self.lanes())
     }
 
-    /// CIE Y.
+    /// CIE Y (D65-relative, 1 for white), with the model's weights
+    /// computed once per process, as [`Color::to_rgb`].
     pub fn brightness(&self) -> f32 {
-        color::luminance_weights(self.model).iter().zip(self.lanes()).map(|(w, x)| w * x).sum()
+        color::reduction_weights(self.model).brightness(self.lanes())
     }
 }

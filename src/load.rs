@@ -1,8 +1,10 @@
 //! Loading a program: the root source, everything it imports, and the
 //! prelude (the standard library in `stdlib/`, embedded in the binary).
 //!
-//! All file-system access of the front end happens here (the scene's
-//! meshes and environment images are read by `crate::scene`). Every failure (a
+//! The front end's source files are read here, and images are looked for
+//! here (`find_file`; the images stage after checking loads them through
+//! the texture manager, and `crate::scene` reads the scene's meshes and
+//! environment images). This module knows nothing of checking. Every failure (a
 //! missing or unreadable file, a directory, a FIFO or device, a file over
 //! [`MAX_SOURCE_BYTES`], invalid UTF-8, an empty file, an import cycle)
 //! becomes a located diagnostic; loading itself never fails.
@@ -337,7 +339,7 @@ impl Loader<'_> {
 /// `path` as given when absolute, else the first of `base` and then the
 /// search directories holding it (the current directory when there is no
 /// base).
-fn find_file(base: Option<&Path>, path: &str, search: &[PathBuf]) -> Option<PathBuf> {
+pub(crate) fn find_file(base: Option<&Path>, path: &str, search: &[PathBuf]) -> Option<PathBuf> {
     let direct = Path::new(path);
     if direct.is_absolute() {
         return direct.is_file().then(|| direct.to_path_buf());
@@ -349,46 +351,11 @@ fn find_file(base: Option<&Path>, path: &str, search: &[PathBuf]) -> Option<Path
         .or_else(|| (base.is_none() && direct.is_file()).then(|| direct.to_path_buf()))
 }
 
-fn searched(base: Option<&Path>, search: &[PathBuf]) -> String {
+/// The directories `find_file` searched, for a message.
+pub(crate) fn searched(base: Option<&Path>, search: &[PathBuf]) -> String {
     let mut dirs: Vec<String> = base.iter().map(|b| format!("`{}`", display_dir(b))).collect();
     dirs.extend(search.iter().map(|d| format!("`{}`", display_dir(d))));
     if dirs.is_empty() { "the current directory".into() } else { dirs.join(", ") }
-}
-
-/// Loads the images a checked program's `texture` calls name, through the
-/// options' texture manager. A path is looked up relative to the file that
-/// names it, then in the import directories. Each failure is an error at
-/// the string literal; an image with values that are not numbers (replaced
-/// by 0 when it was loaded) is a warning at the first literal naming it.
-pub fn load_images(program: &mut crate::check::Program, options: &LoadOptions) -> Vec<Diagnostic> {
-    let mut diags = Vec::new();
-    let mut warned: Vec<Arc<crate::texture::MipMap>> = Vec::new();
-    for use_ in &mut program.images {
-        let file = program.loaded.sources.name(use_.span.file);
-        let base = Path::new(file).parent();
-        let Some(found) = find_file(base, &use_.path, &options.import_paths) else {
-            diags.push(
-                Diagnostic::error(use_.span, format!("cannot find the image `{}`", use_.path))
-                    .with_help(format!("searched {}; add a directory with -I", searched(base, &options.import_paths))),
-            );
-            continue;
-        };
-        match options.textures.load(&found, use_.encoding) {
-            Ok(image) => {
-                // Once per image, at the first literal naming it.
-                if let Some(replaced) = image.non_finite.filter(|_| !warned.iter().any(|w| Arc::ptr_eq(w, &image))) {
-                    let what = format!("the image `{}`", found.display());
-                    diags.push(Diagnostic::warning(use_.span, replaced.warning(&what)));
-                    warned.push(image.clone());
-                }
-                use_.image = Some(image)
-            }
-            Err(e) => {
-                diags.push(Diagnostic::error(use_.span, format!("cannot read the image `{}`: {e}", found.display())))
-            }
-        }
-    }
-    diags
 }
 
 fn display_dir(p: &Path) -> String {

@@ -8,7 +8,10 @@
 //! constant vectors and matrices of `f32` for a given model: `brightness(c)`
 //! becomes `sum_i luminance_weights[i] * lane_i`, and so on. Nothing here
 //! panics or does I/O; all arithmetic is done in `f64` and rounded to `f32`
-//! at the end. This module is a leaf: it depends on nothing else in the crate.
+//! at the end. Weights that integrate the CIE tables are computed once per
+//! model and kept ([`reduction_weights`]), so a host converting colors
+//! pays a few dozen multiply-adds. This module is a leaf: it depends on
+//! nothing else in the crate.
 //!
 //! # The maths
 //!
@@ -106,6 +109,8 @@ mod tests;
 
 use cie1931::{CMF_1931, CMF_START_NM, CMF_STEP_NM};
 use smits1999::{SMITS_1999, SMITS_BINS, SMITS_END_NM, SMITS_START_NM};
+use std::borrow::Cow;
+use std::sync::OnceLock;
 
 /// The most lanes a spectral model may have.
 pub const MAX_SAMPLES: usize = 64;
@@ -265,35 +270,133 @@ impl ColorModel {
     }
 }
 
+/// A model's reductions of a color to a few numbers, each a row of one
+/// weight per lane: `to_rgb` (rows R, G, B), `to_xyz` (rows X, Y, Z) and
+/// `brightness` (the Y row). The binned models' weights integrate the CIE
+/// table, so they are computed once per model and kept
+/// ([`reduction_weights`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReductionWeights {
+    /// [`to_rgb_weights`].
+    pub to_rgb: [Vec<f32>; 3],
+    /// [`to_xyz_weights`].
+    pub to_xyz: [Vec<f32>; 3],
+    /// [`luminance_weights`].
+    pub luminance: Vec<f32>,
+    /// `to_rgb` by lane, `[r, g, b]` of lane `i`, widened to `f64` (as
+    /// [`weighted_rgb`] widens them): one pass over the lanes reads each
+    /// lane's three weights together.
+    rgb_by_lane: Vec<[f64; 3]>,
+}
+
+impl ReductionWeights {
+    /// The weights of `model`, computed (the integrals of the module
+    /// documentation; tens of microseconds for a binned model).
+    fn compute(model: ColorModel) -> ReductionWeights {
+        let (to_rgb, to_xyz, luminance) = match model {
+            ColorModel::Rgb => (
+                [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+                SRGB_TO_XYZ.map(|row| row.iter().map(|&w| to_f32(w)).collect()),
+                vec![0.2126, 0.7152, 0.0722],
+            ),
+            _ => {
+                let rgb = rgb_weights_f64(model);
+                let to_xyz = mat_times_rows(&SRGB_TO_XYZ, &rgb).map(|row| to_f32s(&row));
+                let luminance = to_xyz[1].clone();
+                (rgb.map(|row| to_f32s(&row)), to_xyz, luminance)
+            }
+        };
+        let [r, g, b] = &to_rgb;
+        let rgb_by_lane = r.iter().zip(g).zip(b).map(|((&r, &g), &b)| [r, g, b].map(f64::from)).collect();
+        ReductionWeights { to_rgb, to_xyz, luminance, rgb_by_lane }
+    }
+
+    /// The linear sRGB of `lanes`, `to_rgb · lanes`: the bits of
+    /// [`weighted_rgb`], in one pass over the lanes (each row summed lane
+    /// by lane from -0.0 in `f64`, as `Iterator::sum` does; the three sums
+    /// are independent, so they run side by side).
+    pub fn rgb(&self, lanes: &[f32]) -> [f32; 3] {
+        let mut sums = [-0.0f64; 3];
+        for (w, &l) in self.rgb_by_lane.iter().zip(lanes) {
+            let l = f64::from(l);
+            sums[0] += w[0] * l;
+            sums[1] += w[1] * l;
+            sums[2] += w[2] * l;
+        }
+        sums.map(|s| s as f32)
+    }
+
+    /// The brightness (CIE Y) of `lanes`, `luminance · lanes`, summed in
+    /// `f32` lane by lane.
+    pub fn brightness(&self, lanes: &[f32]) -> f32 {
+        self.luminance.iter().zip(lanes).map(|(w, x)| w * x).sum()
+    }
+}
+
+/// The [`ReductionWeights`] of `model`: computed on first use and kept for
+/// the life of the process for the valid models (`Rgb`, `Hero`, binned
+/// models of `1..=MAX_SAMPLES` lanes: at most 130 sets, 220 KB), after
+/// which a call is an atomic load, with no lock (`Color::to_rgb` and
+/// `brightness` call it per color); computed at every call for other
+/// models.
+///
+/// ```
+/// use tsl::{ColorModel, color::reduction_weights};
+/// let weights = reduction_weights(ColorModel::Spectral { samples: 16 });
+/// let flat = [1.0f32; 16];
+/// assert!((weights.brightness(&flat) - 1.0).abs() < 1e-5);
+/// assert!(weights.rgb(&flat).iter().all(|c| (c - 1.0).abs() < 1e-5));
+/// ```
+pub fn reduction_weights(model: ColorModel) -> Cow<'static, ReductionWeights> {
+    static RGB: OnceLock<ReductionWeights> = OnceLock::new();
+    static HERO: OnceLock<ReductionWeights> = OnceLock::new();
+    static SPECTRAL: PerLaneCount<ReductionWeights> = PerLaneCount::new();
+    static SMITS: PerLaneCount<ReductionWeights> = PerLaneCount::new();
+    let compute = || ReductionWeights::compute(model);
+    let cached = match model {
+        ColorModel::Rgb => Some(RGB.get_or_init(compute)),
+        ColorModel::Hero => Some(HERO.get_or_init(compute)),
+        ColorModel::Spectral { samples } => SPECTRAL.get_or_init(samples, compute),
+        ColorModel::Smits { samples } => SMITS.get_or_init(samples, compute),
+    };
+    cached.map_or_else(|| Cow::Owned(compute()), Cow::Borrowed)
+}
+
+/// One value per lane count of a binned model (`1..=MAX_SAMPLES`), each
+/// computed on first use; reading one computed already is an atomic load.
+struct PerLaneCount<T>([OnceLock<T>; MAX_SAMPLES]);
+
+impl<T> PerLaneCount<T> {
+    const fn new() -> Self {
+        PerLaneCount([const { OnceLock::new() }; MAX_SAMPLES])
+    }
+
+    /// The value for `samples` lanes, or `None` outside `1..=MAX_SAMPLES`.
+    fn get_or_init(&self, samples: usize, compute: impl FnOnce() -> T) -> Option<&T> {
+        let cell = self.0.get(samples.checked_sub(1)?)?;
+        Some(cell.get_or_init(compute))
+    }
+}
+
 /// Weights of `brightness(c) = sum_i weights[i] * lane_i`: the CIE Y of
 /// [`to_xyz_weights`] (D65-relative Y of the displayed linear sRGB color).
 /// `Rgb`: exactly `[0.2126, 0.7152, 0.0722]` (Rec. 709 / IEC 61966-2-1).
 /// Spectral: the Y row of the spectral → XYZ weights described in the module
 /// documentation; they sum to 1, so a flat spectrum of 1 has brightness 1.
 /// `Hero`: the weights at [`HERO_DEFAULT_WAVELENGTHS`] (a render computes
-/// its own per camera sample, [`hero_rgb_weights`]).
+/// its own per camera sample, [`hero_rgb_weights`]). A copy of
+/// [`reduction_weights`]' row.
 pub fn luminance_weights(model: ColorModel) -> Vec<f32> {
-    match model {
-        ColorModel::Rgb => vec![0.2126, 0.7152, 0.0722],
-        _ => {
-            let [_, y, _] = to_xyz_weights(model);
-            y
-        }
-    }
+    reduction_weights(model).luminance.clone()
 }
 
 /// Weights of `to_xyz(c)`: rows X, Y, Z, each with one weight per lane, so
 /// `X = sum_i rows[0][i] * lane_i`. The result is the CIE XYZ (D65-relative)
 /// of the color's linear sRGB, `SRGB_TO_XYZ · to_rgb(c)`: for `Rgb` the rows
 /// of [`SRGB_TO_XYZ`]; otherwise those of [`to_rgb_weights`] mapped through it.
+/// A copy of [`reduction_weights`]' rows.
 pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
-    match model {
-        ColorModel::Rgb => SRGB_TO_XYZ.map(|row| row.iter().map(|&w| to_f32(w)).collect()),
-        _ => {
-            let rgb = rgb_weights_f64(model);
-            mat_times_rows(&SRGB_TO_XYZ, &rgb).map(|row| to_f32s(&row))
-        }
-    }
+    reduction_weights(model).to_xyz.clone()
 }
 
 /// Weights of `to_rgb(c)`: linear sRGB rows R, G, B, one weight per lane.
@@ -303,12 +406,9 @@ pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
 /// = 1, [`XYZ_TO_SRGB`], then a per-channel scale that makes the flat
 /// spectrum exactly `(1, 1, 1)`.
 /// `Hero`: [`hero_rgb_weights`] at [`HERO_DEFAULT_WAVELENGTHS`] drawn
-/// uniformly.
+/// uniformly. A copy of [`reduction_weights`]' rows.
 pub fn to_rgb_weights(model: ColorModel) -> [Vec<f32>; 3] {
-    match model {
-        ColorModel::Rgb => [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
-        _ => rgb_weights_f64(model).map(|row| to_f32s(&row)),
-    }
+    reduction_weights(model).to_rgb.clone()
 }
 
 fn rgb_weights_f64(model: ColorModel) -> [Vec<f64>; 3] {
@@ -405,7 +505,7 @@ pub fn smits_basis(model: ColorModel) -> SmitsBasis {
                 .collect()
         }),
         ColorModel::Spectral { samples } | ColorModel::Smits { samples } => {
-            SMITS_1999.map(|table| (0..samples).map(|i| to_f32(smits_bin_average(&table, samples, i))).collect())
+            smits_lane_averages(samples).each_ref().map(|lanes| to_f32s(lanes))
         }
     };
     let [white, cyan, magenta, yellow, red, green, blue] = spectra;
@@ -482,13 +582,14 @@ pub fn rgb_to_lanes(model: ColorModel, rgb: [f32; 3]) -> Vec<f32> {
         }
         ColorModel::Smits { samples } => {
             let coef = smits_coefficients(rgb);
+            let basis = smits_lane_averages(samples);
             let mut lanes = vec![0.0f64; samples];
-            for (table, &k) in SMITS_1999.iter().zip(&coef) {
+            for (spectrum, &k) in basis.iter().zip(&coef) {
                 if k == 0.0 {
                     continue;
                 }
-                for (i, lane) in lanes.iter_mut().enumerate() {
-                    *lane += f64::from(k) * smits_bin_average(table, samples, i);
+                for (lane, average) in lanes.iter_mut().zip(spectrum) {
+                    *lane += f64::from(k) * average;
                 }
             }
             to_f32s(&lanes)
@@ -594,15 +695,33 @@ fn resample_weights_over(model: ColorModel, wavelengths_nm: &[f32], absolute: bo
 }
 
 /// The linear sRGB of a color's lanes, `to_rgb_weights(model) · lanes`
-/// (identity for `Rgb`). Missing lanes count as 0, extra lanes are ignored.
+/// (identity for `Rgb`), with the model's cached weights
+/// ([`reduction_weights`]). Missing lanes count as 0, extra lanes are
+/// ignored.
 pub fn lanes_to_rgb(model: ColorModel, lanes: &[f32]) -> [f32; 3] {
-    weighted_rgb(&to_rgb_weights(model), lanes)
+    reduction_weights(model).rgb(lanes)
 }
 
-/// [`lanes_to_rgb`] with the model's [`to_rgb_weights`] computed once, for
-/// converting many colors (spectral weights integrate the CIE table).
+/// The linear sRGB of `lanes` under `weights` (rows R, G, B), summed in
+/// `f64` lane by lane.
 pub fn weighted_rgb(weights: &[Vec<f32>; 3], lanes: &[f32]) -> [f32; 3] {
-    weights.each_ref().map(|row| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32)
+    let dot = |row: &[f32]| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32;
+    let [r, g, b] = weights;
+    if r.len() != g.len() || g.len() != b.len() {
+        return [dot(r), dot(g), dot(b)];
+    }
+    // The three rows in one pass: three independent chains of additions
+    // instead of one three times as long. Each row
+    // is still summed lane by lane from -0.0, as `Iterator::sum` does, so
+    // the results are the bits of `dot`.
+    let mut sums = [-0.0f64; 3];
+    for (((&l, &r), &g), &b) in lanes.iter().zip(r).zip(g).zip(b) {
+        let l = f64::from(l);
+        sums[0] += f64::from(r) * l;
+        sums[1] += f64::from(g) * l;
+        sums[2] += f64::from(b) * l;
+    }
+    sums.map(|s| s as f32)
 }
 
 // ---------------------------------------------------------------------------
@@ -833,6 +952,16 @@ const fn invert3(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
         [c01 * d, (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * d, (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * d],
         [c02 * d, (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * d, (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * d],
     ]
+}
+
+/// The seven Smits basis spectra averaged over each of `n` lanes' bins
+/// ([`smits_bin_average`]), computed once per lane count for
+/// `1..=MAX_SAMPLES` (at most 116 KB; `rgb_to_lanes` upsamples every texel
+/// of an image).
+fn smits_lane_averages(n: usize) -> Cow<'static, [Vec<f64>; 7]> {
+    static CACHE: PerLaneCount<[Vec<f64>; 7]> = PerLaneCount::new();
+    let compute = || SMITS_1999.map(|table| (0..n).map(|i| smits_bin_average(&table, n, i)).collect());
+    CACHE.get_or_init(n, compute).map_or_else(|| Cow::Owned(compute()), Cow::Borrowed)
 }
 
 /// Average over lane `i` of `n` of a Smits basis spectrum: piecewise constant

@@ -652,3 +652,152 @@ fn binned_film_integrates_products_of_spectra() {
         }
     }
 }
+
+/// The reductions as they were computed before the weights were cached:
+/// the weights integrated at every call, each row summed on its own.
+mod uncached {
+    use super::*;
+
+    pub fn to_rgb_weights(model: ColorModel) -> [Vec<f32>; 3] {
+        match model {
+            ColorModel::Rgb => [vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]],
+            _ => rgb_weights_f64(model).map(|row| to_f32s(&row)),
+        }
+    }
+
+    pub fn to_xyz_weights(model: ColorModel) -> [Vec<f32>; 3] {
+        match model {
+            ColorModel::Rgb => SRGB_TO_XYZ.map(|row| row.iter().map(|&w| to_f32(w)).collect()),
+            _ => mat_times_rows(&SRGB_TO_XYZ, &rgb_weights_f64(model)).map(|row| to_f32s(&row)),
+        }
+    }
+
+    pub fn luminance_weights(model: ColorModel) -> Vec<f32> {
+        match model {
+            ColorModel::Rgb => vec![0.2126, 0.7152, 0.0722],
+            _ => to_xyz_weights(model)[1].clone(),
+        }
+    }
+
+    /// `Color::to_rgb` as it was (`lanes_to_rgb`).
+    pub fn to_rgb(model: ColorModel, lanes: &[f32]) -> [f32; 3] {
+        to_rgb_weights(model)
+            .each_ref()
+            .map(|row| row.iter().zip(lanes).map(|(w, l)| f64::from(*w) * f64::from(*l)).sum::<f64>() as f32)
+    }
+
+    /// `rgb_to_lanes` of a Smits model as it was: the basis averaged into
+    /// the lanes at every call.
+    pub fn smits_lanes(samples: usize, rgb: [f32; 3]) -> Vec<f32> {
+        let coef = smits_coefficients(rgb);
+        let mut lanes = vec![0.0f64; samples];
+        for (table, &k) in SMITS_1999.iter().zip(&coef) {
+            if k == 0.0 {
+                continue;
+            }
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                *lane += f64::from(k) * smits_bin_average(table, samples, i);
+            }
+        }
+        to_f32s(&lanes)
+    }
+
+    /// `Color::brightness` as it was.
+    pub fn brightness(model: ColorModel, lanes: &[f32]) -> f32 {
+        luminance_weights(model).iter().zip(lanes).map(|(w, x)| w * x).sum()
+    }
+}
+
+fn bits(xs: &[f32]) -> Vec<u32> {
+    xs.iter().map(|x| x.to_bits()).collect()
+}
+
+#[test]
+fn cached_weights_are_the_computed_ones_bit_for_bit() {
+    for model in all_models() {
+        let cached = reduction_weights(model);
+        let Cow::Borrowed(first) = cached else { panic!("{} is not cached", model.name()) };
+        let again = reduction_weights(model);
+        assert!(std::ptr::eq(first, again.as_ref()), "{}: computed twice", model.name());
+        let rows = |w: &[Vec<f32>; 3]| w.each_ref().map(|row| bits(row));
+        assert_eq!(rows(&first.to_rgb), rows(&uncached::to_rgb_weights(model)), "{}", model.name());
+        assert_eq!(rows(&first.to_xyz), rows(&uncached::to_xyz_weights(model)), "{}", model.name());
+        assert_eq!(bits(&first.luminance), bits(&uncached::luminance_weights(model)), "{}", model.name());
+        // The copies the public functions hand out are the cached rows.
+        assert_eq!(to_rgb_weights(model), first.to_rgb);
+        assert_eq!(to_xyz_weights(model), first.to_xyz);
+        assert_eq!(luminance_weights(model), first.luminance);
+    }
+}
+
+#[test]
+fn color_reductions_equal_the_uncached_computation_bit_for_bit() {
+    // Smooth and saturated spectra, negative and large lanes, signed
+    // zeros (a sum of -0.0 products is -0.0), infinities and NaN.
+    let colors: [fn(usize) -> f32; 7] = [
+        |i| 0.2 + 0.6 * ((i as f32 * 0.37).sin() * 0.5 + 0.5),
+        |i| if i % 5 == 0 { 1.0 } else { 0.0 },
+        |i| -3.5 + 1e4 * i as f32,
+        |_| -0.0,
+        |i| if i == 1 { f32::INFINITY } else { 0.25 },
+        |i| if i == 2 { f32::NAN } else { 1.0 },
+        |i| 1e-30 * (i as f32 + 1.0),
+    ];
+    let mut checked = 0;
+    for model in all_models() {
+        for color in colors {
+            let lanes: Vec<f32> = (0..model.lanes()).map(color).collect();
+            let c = crate::Color::from_lanes(model, &lanes);
+            assert_eq!(bits(&c.to_rgb()), bits(&uncached::to_rgb(model, &lanes)), "{} {lanes:?}", model.name());
+            assert_eq!(c.brightness().to_bits(), uncached::brightness(model, &lanes).to_bits(), "{}", model.name());
+            assert_eq!(bits(&lanes_to_rgb(model, &lanes)), bits(&uncached::to_rgb(model, &lanes)));
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 7 * (2 + 2 * MAX_SAMPLES));
+}
+
+#[test]
+fn models_outside_the_cache_compute_their_weights() {
+    for model in [spectral(1), smits(MAX_SAMPLES)] {
+        assert!(matches!(reduction_weights(model), Cow::Borrowed(_)));
+    }
+    for samples in [0, MAX_SAMPLES + 1, 200] {
+        for model in [ColorModel::Spectral { samples }, ColorModel::Smits { samples }] {
+            let weights = reduction_weights(model);
+            assert!(matches!(weights, Cow::Owned(_)), "{}", model.name());
+            assert_eq!(weights.luminance.len(), samples);
+            assert_eq!(bits(&weights.luminance), bits(&uncached::luminance_weights(model)));
+            // A color keeps at most MAX_SAMPLES lanes and does not panic.
+            let c = crate::Color::from_lanes(model, &vec![1.0; samples]);
+            assert_eq!(c.lanes().len(), samples.min(MAX_SAMPLES));
+            assert!(c.to_rgb().iter().chain([&c.brightness()]).all(|x| x.is_finite()));
+        }
+    }
+}
+
+#[test]
+fn weighted_rgb_takes_rows_of_any_length() {
+    let lanes = [1.0, 2.0, 4.0];
+    assert_eq!(weighted_rgb(&[vec![1.0], vec![0.0, 1.0], vec![1.0, 1.0, 1.0, 9.0]], &lanes), [1.0, 2.0, 7.0]);
+    assert_eq!(weighted_rgb(&[vec![1.0; 3], vec![0.5; 3], vec![]], &lanes[..2]), [3.0, 1.5, 0.0]);
+}
+
+#[test]
+fn smits_upsampling_with_cached_averages_is_bit_for_bit_the_same() {
+    let colors = [[0.9, 0.1, 0.2], [0.2, 0.3, 0.9], [0.5, 0.5, 0.5], [3.0, 0.0, 1.5], [-0.2, 0.4, 0.1], [0.0; 3]];
+    for samples in 1..=MAX_SAMPLES {
+        for rgb in colors {
+            let got = rgb_to_lanes(smits(samples), rgb);
+            assert_eq!(bits(&got), bits(&uncached::smits_lanes(samples, rgb)), "smits{samples} {rgb:?}");
+        }
+        let basis = smits_basis(smits(samples));
+        for (lanes, table) in basis.spectra().iter().zip(&SMITS_1999) {
+            let want: Vec<f32> = (0..samples).map(|i| to_f32(smits_bin_average(table, samples, i))).collect();
+            assert_eq!(bits(lanes), bits(&want), "smits{samples}");
+        }
+    }
+    // Outside the cache: computed, the same way.
+    let big = ColorModel::Smits { samples: MAX_SAMPLES + 3 };
+    assert_eq!(bits(&rgb_to_lanes(big, colors[0])), bits(&uncached::smits_lanes(MAX_SAMPLES + 3, colors[0])));
+}
