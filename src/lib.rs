@@ -1,6 +1,49 @@
 //! TSL: an embeddable shading language for texture trees and generic
 //! materials.
 //!
+//! A host compiles a program once, asks what its material templates take,
+//! makes instances, and at every ray hit gets a [`Surface`] whose methods
+//! (`sample`, `eval_pdf`, `reflection`, `emission`, ...) return typed
+//! results; generators are typed functions:
+//!
+//! ```
+//! use tsl::{ColorModel, Compiler, ShadingGlobals, SurfaceRecord};
+//!
+//! let src = r#"
+//!     float rings(float scale = 8) { return fract(length(vec2(Pl.x, Pl.z)) * scale); }
+//!     material wood = mix(rings(), lambert(kd: rgb(0.6, 0.4, 0.2)), lambert(kd: rgb(0.35, 0.2, 0.08)));
+//! "#;
+//! let program = Compiler::new().color_model(ColorModel::Spectral { samples: 16 }).source("wood.tsl", src).compile()?;
+//!
+//! // What a template takes, as OSL's oslquery tells.
+//! let metal = program.shader("rough_conductor")?;
+//! let alpha = metal.param("alpha").expect("rough_conductor has an alpha");
+//! assert_eq!(alpha.default_source.as_deref(), Some("0.1"));
+//!
+//! // An instance, its values checked as they are set; a wrong name is an error.
+//! let mut gold = metal.instance();
+//! gold.set("alpha", 0.2)?.set("distribution", "ggx")?;
+//! assert!(metal.instance().set("alpah", 0.2).is_err());
+//! let gold = gold.specialise()?;
+//!
+//! // At a hit: the surface, seen from `wo`, with typed results.
+//! let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], pl: [0.1, 0.0, 0.0], ..Default::default() };
+//! let eta = program.rgb(1.0, 1.0, 1.0);
+//! let mut record = SurfaceRecord::new();
+//! for material in [program.material("wood")?, gold] {
+//!     let mut surface = material.at(&g, [0.0, 0.0, 1.0], &eta, &mut record);
+//!     let s = surface.sample(0.5, [0.3, 0.7]);
+//!     let e = surface.eval_pdf(s.wi);
+//!     assert!(s.pdf > 0.0 && (e.pdf - s.pdf).abs() <= 1e-3 * s.pdf);
+//!     assert!(s.weight.to_rgb().iter().all(|c| c.is_finite() && *c >= 0.0));
+//! }
+//!
+//! // A generator, its signature checked once.
+//! let rings = program.typed_function::<(f32,), f32>("rings")?;
+//! assert!((0.0..1.0).contains(&rings.call(&g, (8.0,))));
+//! # Ok::<(), tsl::Error>(())
+//! ```
+//!
 //! The front end turns source text into a [`Checked`] program, in stages
 //! that each read only what the ones before made ([`check_source`] and
 //! [`check_file`] run them): [`load`] reads the root file, its imports and
