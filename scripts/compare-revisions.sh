@@ -6,6 +6,7 @@
 #
 #     scripts/compare-revisions.sh ab5ced4            # the default scenes
 #     REPEATS=5 scripts/compare-revisions.sh HEAD~3 "examples/cornell.tsl --spp 16"
+#     OTHER_BIN=/tmp/tslc-old scripts/compare-revisions.sh old   # a build kept from before
 #
 # The other revision is built (release) in target/compare/REV, a git
 # worktree; its build is kept for the next run.
@@ -15,11 +16,14 @@ shift
 root=$(cd "$(dirname "$0")/.." && pwd)
 repeats=${REPEATS:-3}
 other="$root/target/compare/$rev"
-if [ ! -d "$other" ]; then
-    mkdir -p "$root/target/compare"
-    git -C "$root" worktree add --detach -f "$other" "$rev" >/dev/null
+other_bin=${OTHER_BIN:-$other/target/release/tslc}
+if [ -z "${OTHER_BIN:-}" ]; then
+    if [ ! -d "$other" ]; then
+        mkdir -p "$root/target/compare"
+        git -C "$root" worktree add --detach -f "$other" "$rev" >/dev/null
+    fi
+    (cd "$other" && cargo build --release --quiet)
 fi
-(cd "$other" && cargo build --release --quiet)
 (cd "$root" && cargo build --release --quiet)
 if [ $# -eq 0 ]; then
     set -- \
@@ -45,7 +49,7 @@ printf '%-78s %8s %8s %7s\n' "scene" "$rev" "now" "speed-up"
 for scene in "$@"; do
     before=() after=()
     for _ in $(seq "$repeats"); do
-        before+=("$(seconds "$other/target/release/tslc" "$scene")")
+        before+=("$(seconds "$other_bin" "$scene")")
         after+=("$(seconds "$root/target/release/tslc" "$scene")")
     done
     b=$(printf '%s\n' "${before[@]}" | median)
