@@ -20,6 +20,17 @@ pub trait Lanes: Copy {
     /// All lanes held (at least the model's count for a call to accept it).
     fn lanes(&self) -> &[f32];
     fn lanes_mut(&mut self) -> &mut [f32];
+    /// A color of `model` whose lanes are the first of `words`, as bits.
+    /// A type of a fixed lane count overrides it with a fixed-size copy: a
+    /// copy of a count known only at run time is a `memmove` call per
+    /// result, which renderers pay at every call.
+    fn from_words(model: ColorModel, words: &[u32]) -> Self {
+        let mut c = Self::zero(model);
+        for (x, w) in c.lanes_mut().iter_mut().zip(words) {
+            *x = f32::from_bits(*w);
+        }
+        c
+    }
 }
 
 impl Lanes for Color {
@@ -91,11 +102,7 @@ fn vector(words: &[u32]) -> [f32; 3] {
 
 /// A color of `model` from result words.
 fn color<C: Lanes>(model: ColorModel, words: &[u32]) -> C {
-    let mut c = C::zero(model);
-    for (x, w) in c.lanes_mut().iter_mut().zip(words) {
-        *x = float(*w);
-    }
-    c
+    C::from_words(model, words)
 }
 
 /// Whether a direction is the interface's "none".

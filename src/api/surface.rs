@@ -75,12 +75,8 @@ impl<'a, C: Lanes> Surface<'a, C> {
 
     /// The result words as a color of the model.
     fn out_color(&self) -> C {
-        let mut c = self.zero();
         let lanes = self.lanes();
-        for (x, w) in c.lanes_mut()[..lanes].iter_mut().zip(&self.buffers.out) {
-            *x = f32::from_bits(*w);
-        }
-        c
+        C::from_words(self.material.color_model(), &self.buffers.out[..lanes])
     }
 
     fn out_vector(&self) -> [f32; 3] {

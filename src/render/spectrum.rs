@@ -123,6 +123,16 @@ impl<const N: usize> crate::Lanes for Spectrum<N> {
     fn lanes_mut(&mut self) -> &mut [f32] {
         &mut self.0
     }
+    fn from_words(_: crate::ColorModel, words: &[u32]) -> Self {
+        match words.get(..N) {
+            Some(words) => Spectrum(std::array::from_fn(|k| f32::from_bits(words[k]))),
+            None => {
+                let mut c = Spectrum::ZERO;
+                c.0.iter_mut().zip(words).for_each(|(x, w)| *x = f32::from_bits(*w));
+                c
+            }
+        }
+    }
 }
 
 #[cfg(test)]
