@@ -35,11 +35,12 @@ pub mod image_io;
 pub mod input_file;
 pub mod interp;
 pub mod ir;
-pub mod jit;
+mod jit;
 pub mod load;
 pub mod lsp;
+pub mod noise;
 pub mod render;
-pub mod runtime;
+mod runtime;
 pub mod scene;
 pub mod syntax;
 #[cfg(test)]

@@ -1,0 +1,4 @@
+//! Tests that read the IR itself (operation counts, tables, function
+//! shapes): they live in the crate because `ir` is not public API.
+
+mod lowering;
