@@ -326,7 +326,7 @@ fn bench_compile(names: &[&str]) {
                 .compile()
                 .expect("examples compile");
             let elapsed = start.elapsed();
-            black_box(program.entries().len());
+            black_box(program.functions().len());
             elapsed
         });
         let n = Compiler::new()
@@ -334,7 +334,7 @@ fn bench_compile(names: &[&str]) {
             .eager_prelude(eager)
             .source(name, text)
             .compile()
-            .map(|p| p.entries().len())
+            .map(|p| p.functions().len())
             .unwrap_or(0);
         println!("compile {name} ({n} entry points): {:.1} ms", t.as_secs_f64() * 1e3);
     }

@@ -115,7 +115,7 @@ impl Compiler {
 
     /// Compiles the program's own materials and generators up front, so
     /// that [`Compiler::compile`] reports every lowering error and
-    /// [`Program::entries`] lists them all. By default each name is
+    /// [`Program::functions`] lists them all. By default each name is
     /// lowered and compiled on first use ([`Program::material`],
     /// [`Program::function`], a scene object's material), so a file of
     /// 10,000 materials whose scene uses one compiles one.
@@ -123,9 +123,9 @@ impl Compiler {
     /// ```
     /// let src = "material a = lambert; material b = mirror;";
     /// let lazy = tsl::Compiler::new().source("m.tsl", src).compile()?;
-    /// assert!(lazy.entries().is_empty());
+    /// assert!(lazy.functions().is_empty());
     /// let eager = tsl::Compiler::new().eager(true).source("m.tsl", src).compile()?;
-    /// assert_eq!(eager.entries().len(), 2 * tsl::check::INTERFACE.len());
+    /// assert_eq!(eager.functions().len(), 2 * tsl::check::INTERFACE.len());
     /// # Ok::<(), tsl::Error>(())
     /// ```
     pub fn eager(mut self, eager: bool) -> Self {
@@ -300,6 +300,27 @@ impl fmt::Debug for Program {
     }
 }
 
+/// What one argument or result word of [`Function::call_words`] holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WordType {
+    /// An `f32`, as its bits (`f32::to_bits`).
+    F32,
+    /// An `i32`, as its two's-complement bits.
+    I32,
+    /// A bool: 0 or 1.
+    Bool,
+}
+
+impl From<crate::ir::Scalar> for WordType {
+    fn from(s: crate::ir::Scalar) -> WordType {
+        match s {
+            crate::ir::Scalar::F32 => WordType::F32,
+            crate::ir::Scalar::I32 => WordType::I32,
+            crate::ir::Scalar::Bool => WordType::Bool,
+        }
+    }
+}
+
 /// Which back end runs a function: the JIT, or the reference interpreter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Backend {
@@ -318,8 +339,34 @@ impl Program {
 
     /// The entry points compiled so far: all of the program's own with
     /// [`Compiler::eager`], otherwise those of the names already used.
-    pub fn entries(&self) -> Vec<Entry> {
+    pub(crate) fn entries(&self) -> Vec<Entry> {
         self.parts().iter().flat_map(|p| p.entries.iter().cloned()).collect()
+    }
+
+    /// The functions compiled so far, in the order they were compiled: all
+    /// of the program's own with [`Compiler::eager`], otherwise those of
+    /// the names already used (a material's interface methods, as
+    /// `name.method`). A count of them tells a host whether an operation
+    /// compiled anything.
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "float half(float x) { return x / 2; }").compile()?;
+    /// assert!(p.functions().is_empty());
+    /// p.function("half").expect("compiled on first use");
+    /// let names: Vec<String> = p.functions().iter().map(|f| f.name().to_string()).collect();
+    /// assert_eq!(names, ["half"]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn functions(&self) -> Vec<Function> {
+        let mut out = Vec::new();
+        for part in self.parts() {
+            for (index, f) in part.ir.functions.iter().enumerate() {
+                if let Some(native) = part.jit.function(&f.name) {
+                    out.push(Function::new(part.clone(), index, native));
+                }
+            }
+        }
+        out
     }
 
     /// The IR of the entry points compiled so far.
@@ -635,6 +682,38 @@ impl Function {
 
     pub fn ir(&self) -> &IrFunction {
         &self.part.ir.functions[self.index]
+    }
+
+    /// The entry point's name: `rings`, or `wood.reflection`.
+    pub fn name(&self) -> &str {
+        &self.entry().name
+    }
+
+    /// The source-level parameters, by name and checked type, in order;
+    /// [`Function::call_words`] takes their words in this order (a float
+    /// or int one word, a vector three, a color one per lane of the
+    /// program's color model).
+    pub fn params(&self) -> &[(String, check::Ty)] {
+        &self.entry().params
+    }
+
+    /// How many argument words [`Function::call_words`] reads.
+    pub fn arg_words(&self) -> usize {
+        self.words.0
+    }
+
+    /// What each result word [`Function::call_words`] writes holds, in
+    /// order (its length is the number of result words).
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "vector up(float h) { return vector(0, h, 0); }").compile()?;
+    /// let f = p.function("up").expect("defined");
+    /// assert_eq!((f.name(), f.arg_words()), ("up", 1));
+    /// assert_eq!(f.result_types(), [tsl::WordType::F32; 3]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn result_types(&self) -> Vec<WordType> {
+        self.ir().results.iter().map(|&s| WordType::from(s)).collect()
     }
 
     #[cold]
