@@ -46,7 +46,8 @@ pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use param_value::{ParamType, ParamValue};
-pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
+use prepared::worth_preparing;
+pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS};
 pub use shader::{Instance, ParamInfo, Shader};
 pub use surface::{Surface, SurfaceRecord};
 pub use surfaces::{HitCalls, MaterialSource, SurfaceOptions};
@@ -367,11 +368,6 @@ impl Program {
             }
         }
         out
-    }
-
-    /// The IR of the entry points compiled so far.
-    pub fn ir(&self) -> IrModule {
-        IrModule { functions: self.parts().iter().flat_map(|p| p.ir.functions.iter().cloned()).collect() }
     }
 
     /// Cranelift IR text per function, when compiled with `keep_clif`.
@@ -695,6 +691,19 @@ impl Function {
     /// program's color model).
     pub fn params(&self) -> &[(String, check::Ty)] {
         &self.entry().params
+    }
+
+    /// The function's IR as text (what `tslc emit ir` prints): for reading
+    /// what the compiler made of a shader, not a stable format.
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "float twice(float x) { return x * 2; }").compile()?;
+    /// let text = p.function("twice").expect("defined").ir_text();
+    /// assert!(text.contains("twice"), "{text}");
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn ir_text(&self) -> String {
+        self.ir().to_string()
     }
 
     /// How many argument words [`Function::call_words`] reads.

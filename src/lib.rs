@@ -51,7 +51,6 @@ pub use api::{
     Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
     Lanes, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit, Program,
     SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS, WordType,
-    worth_preparing,
 };
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;
