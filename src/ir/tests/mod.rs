@@ -1,4 +1,5 @@
 //! Tests that read the IR itself (operation counts, tables, function
 //! shapes): they live in the crate because `ir` is not public API.
 
+mod deep_chain;
 mod lowering;
