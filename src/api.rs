@@ -42,6 +42,7 @@ mod surface;
 mod surfaces;
 mod typed;
 
+pub use crate::ir::lower::HitMethod;
 pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};

@@ -250,10 +250,7 @@ fn materials_that_use_the_previous_twice_compile_in_linear_code() {
                     &checked.program,
                     ColorModel::Rgb,
                     &[(name.clone(), body)],
-                    &[
-                        tsl::ir::lower::HitMethod::Interface(tsl::check::Method::Sample),
-                        tsl::ir::lower::HitMethod::EvalPdf,
-                    ],
+                    &[tsl::HitMethod::Interface(tsl::check::Method::Sample), tsl::HitMethod::EvalPdf],
                 );
                 assert!(diags.is_empty(), "{diags:?}");
                 (entries, tsl::ir::count_insts(&groups[0].combined.body))

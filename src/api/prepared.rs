@@ -256,8 +256,7 @@ impl HitMaterial {
     /// [`HitMaterial::record_words`] words in place.
     ///
     /// ```
-    /// use tsl::{Backend, Compiler, ShadingGlobals, PATH_METHODS};
-    /// use tsl::ir::lower::HitMethod;
+    /// use tsl::{Backend, Compiler, HitMethod, PATH_METHODS, ShadingGlobals};
     /// let program = Compiler::new()
     ///     .source("m.tsl", "material m = mix(noise(P) * 0.5 + 0.5, lambert, phong);")
     ///     .compile()
