@@ -732,7 +732,7 @@ impl Function {
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
     }
 
-    pub fn entry(&self) -> &Entry {
+    pub(crate) fn entry(&self) -> &Entry {
         &self.part.entries[self.index]
     }
 
