@@ -86,10 +86,8 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                     let mut record = vec![0u32; h.record_words()];
                     run_counting(h.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
                     let own = |m| match m {
-                        tsl::ir::lower::HitMethod::EvalPdf => (wi.clone(), lights),
-                        tsl::ir::lower::HitMethod::DeltaLobes => {
-                            (Vec::new(), usize::from(facts.reflects || facts.refracts))
-                        }
+                        tsl::HitMethod::EvalPdf => (wi.clone(), lights),
+                        tsl::HitMethod::DeltaLobes => (Vec::new(), usize::from(facts.reflects || facts.refracts)),
                         _ => (u.clone(), 1),
                     };
                     for m in tsl::PATH_METHODS {

@@ -16,7 +16,7 @@
 use std::f32::consts::PI;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
-use tsl::runtime::{tsl_noise3, tsl_pow, tsl_sin};
+use tsl::noise::noise3;
 use tsl::{Backend, ColorModel, Compiler, Material, Program, ShadingGlobals};
 
 const SOURCE: &str = r#"
@@ -69,7 +69,7 @@ fn reflect(i: V3, n: V3) -> V3 {
 fn marble_fbm(p: V3) -> f32 {
     let (mut sum, mut amp, mut q) = (0.0, 0.5, p);
     for _ in 0..6 {
-        sum += amp * tsl_noise3(q[0], q[1], q[2]);
+        sum += amp * noise3(q[0], q[1], q[2]);
         q = [q[0] * 2.03, q[1] * 2.03, q[2] * 2.03];
         amp *= 0.5;
     }
@@ -100,7 +100,7 @@ fn spline(t: f32, knots: &[[f32; 3]; 4]) -> [f32; 3] {
 
 fn marble_rust(g: &ShadingGlobals, wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] {
     let pl = g.pl;
-    let t = 0.5 + 0.5 * tsl_sin(pl[0] * 4.0 + 6.0 * marble_fbm([pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0]));
+    let t = 0.5 + 0.5 * (pl[0] * 4.0 + 6.0 * marble_fbm([pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0])).sin();
     let kd = spline(t, &[[0.9, 0.9, 0.85], [0.55, 0.5, 0.5], [0.2, 0.2, 0.25], [0.9, 0.88, 0.8]]);
     let cos_i = dot(g.n, wi);
     if cos_i <= 0.0 {
@@ -108,7 +108,7 @@ fn marble_rust(g: &ShadingGlobals, wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] 
     }
     let r = reflect([-wi[0], -wi[1], -wi[2]], g.n);
     let (ks, ns) = (0.25, 40.0);
-    let lobe = tsl_pow(dot(r, wo).max(0.0), ns) * (ns + 2.0) / (2.0 * PI);
+    let lobe = dot(r, wo).max(0.0).powf(ns) * (ns + 2.0) / (2.0 * PI);
     let mut out = [0.0; 3];
     for c in 0..3 {
         out[c] = light[c] * (kd[c] / PI + ks * lobe) * cos_i;
@@ -127,7 +127,7 @@ fn phong_rust(g: &ShadingGlobals, kd: [f32; 3], wi: V3, light: [f32; 3], wo: V3)
     }
     let r = reflect([-wi[0], -wi[1], -wi[2]], n);
     let ns = 32.0;
-    let lobe = tsl_pow(dot(r, wo).max(0.0), ns) * (ns + 2.0) / (2.0 * PI);
+    let lobe = dot(r, wo).max(0.0).powf(ns) * (ns + 2.0) / (2.0 * PI);
     let mut out = [0.0; 3];
     for c in 0..3 {
         out[c] = light[c] * (kd[c] / PI + 0.2 * lobe) * cos_i;
@@ -138,7 +138,7 @@ fn phong_rust(g: &ShadingGlobals, kd: [f32; 3], wi: V3, light: [f32; 3], wo: V3)
 fn wood_rust(g: &ShadingGlobals, wi: V3, light: [f32; 3], wo: V3) -> [f32; 3] {
     let pl = g.pl;
     let len = (pl[0] * pl[0] + pl[2] * pl[2]).sqrt();
-    let x = len * 8.0 + 0.3 * tsl_noise3(pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0);
+    let x = len * 8.0 + 0.3 * noise3(pl[0] * 2.0, pl[1] * 2.0, pl[2] * 2.0);
     let t = x - x.floor();
     let a = if t != 1.0 { phong_rust(g, [0.6, 0.4, 0.2], wi, light, wo) } else { [0.0; 3] };
     let b = if t != 0.0 { phong_rust(g, [0.35, 0.2, 0.08], wi, light, wo) } else { [0.0; 3] };
@@ -326,7 +326,7 @@ fn bench_compile(names: &[&str]) {
                 .compile()
                 .expect("examples compile");
             let elapsed = start.elapsed();
-            black_box(program.entries().len());
+            black_box(program.functions().len());
             elapsed
         });
         let n = Compiler::new()
@@ -334,7 +334,7 @@ fn bench_compile(names: &[&str]) {
             .eager_prelude(eager)
             .source(name, text)
             .compile()
-            .map(|p| p.entries().len())
+            .map(|p| p.functions().len())
             .unwrap_or(0);
         println!("compile {name} ({n} entry points): {:.1} ms", t.as_secs_f64() * 1e3);
     }

@@ -58,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!(
         "{} entry points compiled (on first use), color model {}",
-        program.entries().len(),
+        program.functions().len(),
         program.color_model().name()
     );
     Ok(())

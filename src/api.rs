@@ -42,11 +42,13 @@ mod surface;
 mod surfaces;
 mod typed;
 
+pub use crate::ir::lower::HitMethod;
 pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
 pub use param_value::{ParamType, ParamValue};
-pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS, worth_preparing};
+use prepared::worth_preparing;
+pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS};
 pub use shader::{Instance, ParamInfo, Shader};
 pub use surface::{Surface, SurfaceRecord};
 pub use surfaces::{HitCalls, MaterialSource, SurfaceOptions};
@@ -115,7 +117,7 @@ impl Compiler {
 
     /// Compiles the program's own materials and generators up front, so
     /// that [`Compiler::compile`] reports every lowering error and
-    /// [`Program::entries`] lists them all. By default each name is
+    /// [`Program::functions`] lists them all. By default each name is
     /// lowered and compiled on first use ([`Program::material`],
     /// [`Program::function`], a scene object's material), so a file of
     /// 10,000 materials whose scene uses one compiles one.
@@ -123,9 +125,9 @@ impl Compiler {
     /// ```
     /// let src = "material a = lambert; material b = mirror;";
     /// let lazy = tsl::Compiler::new().source("m.tsl", src).compile()?;
-    /// assert!(lazy.entries().is_empty());
+    /// assert!(lazy.functions().is_empty());
     /// let eager = tsl::Compiler::new().eager(true).source("m.tsl", src).compile()?;
-    /// assert_eq!(eager.entries().len(), 2 * tsl::check::INTERFACE.len());
+    /// assert_eq!(eager.functions().len(), 2 * tsl::check::INTERFACE.len());
     /// # Ok::<(), tsl::Error>(())
     /// ```
     pub fn eager(mut self, eager: bool) -> Self {
@@ -300,6 +302,27 @@ impl fmt::Debug for Program {
     }
 }
 
+/// What one argument or result word of [`Function::call_words`] holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WordType {
+    /// An `f32`, as its bits (`f32::to_bits`).
+    F32,
+    /// An `i32`, as its two's-complement bits.
+    I32,
+    /// A bool: 0 or 1.
+    Bool,
+}
+
+impl From<crate::ir::Scalar> for WordType {
+    fn from(s: crate::ir::Scalar) -> WordType {
+        match s {
+            crate::ir::Scalar::F32 => WordType::F32,
+            crate::ir::Scalar::I32 => WordType::I32,
+            crate::ir::Scalar::Bool => WordType::Bool,
+        }
+    }
+}
+
 /// Which back end runs a function: the JIT, or the reference interpreter.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Backend {
@@ -318,13 +341,34 @@ impl Program {
 
     /// The entry points compiled so far: all of the program's own with
     /// [`Compiler::eager`], otherwise those of the names already used.
-    pub fn entries(&self) -> Vec<Entry> {
+    pub(crate) fn entries(&self) -> Vec<Entry> {
         self.parts().iter().flat_map(|p| p.entries.iter().cloned()).collect()
     }
 
-    /// The IR of the entry points compiled so far.
-    pub fn ir(&self) -> IrModule {
-        IrModule { functions: self.parts().iter().flat_map(|p| p.ir.functions.iter().cloned()).collect() }
+    /// The functions compiled so far, in the order they were compiled: all
+    /// of the program's own with [`Compiler::eager`], otherwise those of
+    /// the names already used (a material's interface methods, as
+    /// `name.method`). A count of them tells a host whether an operation
+    /// compiled anything.
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "float half(float x) { return x / 2; }").compile()?;
+    /// assert!(p.functions().is_empty());
+    /// p.function("half").expect("compiled on first use");
+    /// let names: Vec<String> = p.functions().iter().map(|f| f.name().to_string()).collect();
+    /// assert_eq!(names, ["half"]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn functions(&self) -> Vec<Function> {
+        let mut out = Vec::new();
+        for part in self.parts() {
+            for (index, f) in part.ir.functions.iter().enumerate() {
+                if let Some(native) = part.jit.function(&f.name) {
+                    out.push(Function::new(part.clone(), index, native));
+                }
+            }
+        }
+        out
     }
 
     /// Cranelift IR text per function, when compiled with `keep_clif`.
@@ -637,13 +681,58 @@ impl Function {
         &self.part.ir.functions[self.index]
     }
 
+    /// The entry point's name: `rings`, or `wood.reflection`.
+    pub fn name(&self) -> &str {
+        &self.entry().name
+    }
+
+    /// The source-level parameters, by name and checked type, in order;
+    /// [`Function::call_words`] takes their words in this order (a float
+    /// or int one word, a vector three, a color one per lane of the
+    /// program's color model).
+    pub fn params(&self) -> &[(String, check::Ty)] {
+        &self.entry().params
+    }
+
+    /// The function's IR as text (what `tslc emit ir` prints): for reading
+    /// what the compiler made of a shader, not a stable format.
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "float twice(float x) { return x * 2; }").compile()?;
+    /// let text = p.function("twice").expect("defined").ir_text();
+    /// assert!(text.contains("twice"), "{text}");
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn ir_text(&self) -> String {
+        self.ir().to_string()
+    }
+
+    /// How many argument words [`Function::call_words`] reads.
+    pub fn arg_words(&self) -> usize {
+        self.words.0
+    }
+
+    /// What each result word [`Function::call_words`] writes holds, in
+    /// order (its length is the number of result words).
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "vector up(float h) { return vector(0, h, 0); }").compile()?;
+    /// let f = p.function("up").expect("defined");
+    /// assert_eq!((f.name(), f.arg_words()), ("up", 1));
+    /// assert_eq!(f.result_types(), [tsl::WordType::F32; 3]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn result_types(&self) -> Vec<WordType> {
+        self.ir().results.iter().map(|&s| WordType::from(s)).collect()
+    }
+
     #[cold]
     fn words_error(&self) -> String {
         let (params, results) = self.words;
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
     }
 
-    pub fn entry(&self) -> &Entry {
+    pub(crate) fn entry(&self) -> &Entry {
         &self.part.entries[self.index]
     }
 

@@ -78,11 +78,12 @@ pub mod image_io;
 pub mod input_file;
 pub mod interp;
 pub mod ir;
-pub mod jit;
+mod jit;
 pub mod load;
 pub mod lsp;
+pub mod noise;
 pub mod render;
-pub mod runtime;
+mod runtime;
 pub mod scene;
 pub mod syntax;
 #[cfg(test)]
@@ -91,9 +92,9 @@ pub mod texture;
 
 pub use api::{
     Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
-    Lanes, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit, Program,
-    SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS,
-    worth_preparing,
+    HitMethod, Lanes, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit,
+    Program, SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS,
+    WordType,
 };
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;

@@ -79,7 +79,9 @@ impl NativeFn {
         }
     }
 
-    /// The code address, for a JIT symbol table.
+    /// The code address, for a JIT symbol table (`runtime::tests` compares it
+    /// with the table's pointer).
+    #[cfg(test)]
     pub fn ptr(&self) -> *const u8 {
         match *self {
             NativeFn::F1(f) => f as *const u8,

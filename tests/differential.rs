@@ -41,21 +41,21 @@ fn args(rng: &mut Rng, params: &[(String, Ty)], model: ColorModel) -> Vec<u32> {
 fn compare(program: &Program, keep: impl Fn(&str) -> bool, seed: u64) -> usize {
     let mut rng = Rng(seed);
     let mut checked = 0;
-    for entry in program.entries().iter().filter(|e| keep(&e.name)) {
-        let f = program.function(&entry.name).expect("every entry is compiled");
-        let results = f.ir().results.clone();
+    for entry in program.functions().iter().filter(|e| keep(e.name())) {
+        let f = program.function(entry.name()).expect("every entry is compiled");
+        let results = f.result_types();
         let mut out_jit = vec![0u32; results.len()];
         let mut out_int = vec![0u32; results.len()];
         for point in 0..POINTS {
             let g = globals(&mut rng);
-            let a = args(&mut rng, &entry.params, program.color_model());
+            let a = args(&mut rng, entry.params(), program.color_model());
             f.call_words(Backend::Jit, &g, &a, &mut out_jit).unwrap();
             f.call_words(Backend::Interpreter, &g, &a, &mut out_int).unwrap();
             for (k, ty) in results.iter().enumerate() {
                 assert!(
                     close(out_jit[k], out_int[k], *ty),
                     "{} ({}) word {k} at point {point}: jit {:?} vs interpreter {:?}\nglobals {g:?}\nargs {a:?}",
-                    entry.name,
+                    entry.name(),
                     program.color_model().name(),
                     f32::from_bits(out_jit[k]),
                     f32::from_bits(out_int[k]),

@@ -152,13 +152,13 @@ fn run(src: &str, seed: u64) -> Outcome {
     };
     let mut rng = Rng(seed | 1);
     let mut compared = 0;
-    for entry in program.entries() {
-        let Some(f) = program.function(&entry.name) else { continue };
-        let results = f.ir().results.clone();
+    for entry in program.functions() {
+        let Some(f) = program.function(entry.name()) else { continue };
+        let results = f.result_types();
         let (mut jit, mut interp) = (vec![0u32; results.len()], vec![0u32; results.len()]);
         for point in 0..3 {
             let g = if point == 0 { tsl::ShadingGlobals::default() } else { shading_point(&mut rng) };
-            let a = args(&mut rng, &entry.params, program.color_model());
+            let a = args(&mut rng, entry.params(), program.color_model());
             let ran = f.call_words(Backend::Jit, &g, &a, &mut jit).and(f.call_words(
                 Backend::Interpreter,
                 &g,
@@ -172,7 +172,7 @@ fn run(src: &str, seed: u64) -> Outcome {
                 if !close(jit[k], interp[k], *ty) {
                     return Outcome::Disagreement(format!(
                         "{} word {k}: jit {:?} vs interpreter {:?} at {g:?} with {a:?}",
-                        entry.name,
+                        entry.name(),
                         f32::from_bits(jit[k]),
                         f32::from_bits(interp[k])
                     ));

@@ -42,14 +42,13 @@ fn lower(path: &Path) -> String {
         .import_path("examples/textures")
         .compile()
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let module = program.ir();
     let names = emitted_names(&source);
-    let functions: Vec<&tsl::ir::Function> = if names.is_empty() {
-        module.functions.iter().collect()
+    let functions: Vec<tsl::Function> = if names.is_empty() {
+        program.functions()
     } else {
         names
             .iter()
-            .map(|n| module.function(n).unwrap_or_else(|| panic!("{}: no entry point `{n}`", path.display())))
+            .map(|n| program.function(n).unwrap_or_else(|| panic!("{}: no entry point `{n}`", path.display())))
             .collect()
     };
     // Images print by the path they were loaded from, which is absolute:
@@ -59,7 +58,7 @@ fn lower(path: &Path) -> String {
     let mut text = format!("// The IR of {file} (RGB). Bless: UPDATE_EXPECT=1 cargo test --test lower_golden\n");
     for f in functions {
         text.push('\n');
-        text.push_str(&f.to_string().replace(&root, ""));
+        text.push_str(&f.ir_text().replace(&root, ""));
     }
     text
 }

@@ -93,7 +93,7 @@ fn alone_args(method: HitMethod, wo: &[u32], eta: &[u32], own: &[u32]) -> Vec<u3
 /// in one function for the whole group the sites fall elsewhere; `bump`'s
 /// finite differences magnify that to about 1e-4 in a normal.
 fn near(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
-    if close(a, b, ty) {
+    if close(a, b, ty.into()) {
         return true;
     }
     let (x, y) = (f32::from_bits(a), f32::from_bits(b));
@@ -175,7 +175,7 @@ fn check_program(program: &Program, trees: &[String], model: ColorModel, seed: u
                 tsl::interp::run(combined, &g, &all_args, &mut whole);
                 for (k, ty) in f.results.iter().enumerate() {
                     assert!(
-                        close(got[k], whole[first_result + k], *ty),
+                        close(got[k], whole[first_result + k], (*ty).into()),
                         "{name} {method:?} word {k} at point {point}: prepared {:?}, combined {:?}",
                         f32::from_bits(got[k]),
                         f32::from_bits(whole[first_result + k]),

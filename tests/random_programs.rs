@@ -52,21 +52,21 @@ fn own(name: &str) -> bool {
 fn compare(program: &Program, seed: u64) -> Result<usize, String> {
     let mut rng = Rng(seed);
     let mut checked = 0;
-    for entry in program.entries().iter().filter(|e| own(&e.name)) {
-        let f = program.function(&entry.name).ok_or(format!("entry `{}` is not compiled", entry.name))?;
-        let results = f.ir().results.clone();
+    for entry in program.functions().iter().filter(|e| own(e.name())) {
+        let f = program.function(entry.name()).ok_or(format!("entry `{}` is not compiled", entry.name()))?;
+        let results = f.result_types();
         let mut out_jit = vec![0u32; results.len()];
         let mut out_int = vec![0u32; results.len()];
         for point in 0..POINTS {
             let g = globals(&mut rng, point);
-            let a = args(&mut rng, &entry.params, program.color_model());
+            let a = args(&mut rng, entry.params(), program.color_model());
             f.call_words(Backend::Jit, &g, &a, &mut out_jit)?;
             f.call_words(Backend::Interpreter, &g, &a, &mut out_int)?;
             for (k, ty) in results.iter().enumerate() {
                 if !close(out_jit[k], out_int[k], *ty) {
                     return Err(format!(
                         "{} ({}) word {k} ({ty:?}) at point {point}: jit {:#x} ({:?}) vs interpreter {:#x} ({:?})\nglobals {g:?}\nargs {a:?}",
-                        entry.name,
+                        entry.name(),
                         program.color_model().name(),
                         out_jit[k],
                         f32::from_bits(out_jit[k]),
@@ -97,7 +97,7 @@ fn compare_folded(program: &Program) -> Result<(), String> {
         let wrapper = name.replacen("g_", "w_", 1);
         let g = program.function(name).ok_or(format!("no entry `{name}`"))?;
         let w = program.function(&wrapper).ok_or(format!("no entry `{wrapper}`"))?;
-        let results = g.ir().results.clone();
+        let results = g.result_types();
         let mut out_g = vec![0u32; results.len()];
         let mut out_w = vec![0u32; results.len()];
         for point in 0..10 {

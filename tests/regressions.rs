@@ -103,12 +103,12 @@ fn nested_loops_cannot_hang_the_host() {
 #[test]
 fn failed_prelude_lookups_do_not_recompile() {
     let p = compile("float f() { return 1; }");
-    let start = p.entries().len();
+    let start = p.functions().len();
     for _ in 0..10 {
         assert!(p.function("lambert.no_such_method").is_none());
         assert!(p.function("PI").is_none());
     }
-    let after = p.entries().len();
+    let after = p.functions().len();
     let methods = tsl::check::INTERFACE.len();
     assert!(after <= start + methods, "{start} entries before 10 failed lookups, {after} after");
     // The real methods are still found.
@@ -136,15 +136,15 @@ fn work_shared_out_of_a_dead_block_keeps_its_definition() {
     let src = std::fs::read_to_string("tests/data/regressions/shared_block_work.tsl").unwrap();
     let p = compile(&src);
     let g = ShadingGlobals::default();
-    for entry in p.entries() {
-        let f = p.function(&entry.name).unwrap();
-        let args = vec![0u32; f.ir().params.len()];
-        let (mut jit, mut int) = (vec![0u32; f.ir().results.len()], vec![0u32; f.ir().results.len()]);
+    for entry in p.functions() {
+        let f = p.function(entry.name()).unwrap();
+        let args = vec![0u32; f.arg_words()];
+        let (mut jit, mut int) = (vec![0u32; f.result_types().len()], vec![0u32; f.result_types().len()]);
         f.call_words(Backend::Jit, &g, &args, &mut jit).unwrap();
         f.call_words(Backend::Interpreter, &g, &args, &mut int).unwrap();
         let same =
             jit.iter().zip(&int).all(|(a, b)| a == b || (f32::from_bits(*a).is_nan() && f32::from_bits(*b).is_nan()));
-        assert!(same, "{}: {jit:?} vs {int:?}", entry.name);
+        assert!(same, "{}: {jit:?} vs {int:?}", entry.name());
     }
 }
 

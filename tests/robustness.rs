@@ -32,26 +32,8 @@ fn unary_chain_100000_long() {
     assert_too_deep(&format!("float f() {{ return {}1; }}", "- ".repeat(DEEP)));
 }
 
-/// A flat chain is long, not deep: 100,000 terms check clean, lower, and
-/// run in the interpreter, all on a default 2 MiB test thread (the passes
-/// grow their stack as they recurse along the chain).
-#[test]
-fn binary_chain_100000_long_is_not_nesting() {
-    let src = format!("float f(float x) {{ return x{}; }}", " - x * 0.5".repeat(DEEP));
-    let checked = check(&src);
-    assert!(checked.is_ok(), "{}", &checked.render_diagnostics()[..2000.min(checked.render_diagnostics().len())]);
-    let (module, _, diags) = tsl::ir::lower::lower_program(&checked.program, tsl::ColorModel::Rgb);
-    assert!(diags.is_empty(), "{diags:?}");
-    let f = module.function("f").expect("f is lowered");
-    let globals = tsl::ShadingGlobals::default().words();
-    let mut out = [0u32];
-    tsl::interp::run(f, &globals, &[2.0f32.to_bits()], &mut out);
-    // x - x/2 - x/2 - ... : 2 - 100,000 exactly, every step exact in f32.
-    assert_eq!(f32::from_bits(out[0]), 2.0 - DEEP as f32);
-    // Real nesting inside the chain still counts.
-    assert_too_deep(&format!("float f() {{ return 1 + {}1{}; }}", "(".repeat(300), ")".repeat(300)));
-    assert_too_deep(&format!("float f() {{ return 1{}; }}", " + (1".repeat(300) + &")".repeat(300)));
-}
+// `binary_chain_100000_long_is_not_nesting` lowers and interprets the IR
+// directly, so it lives in the crate: src/ir/tests/deep_chain.rs.
 
 #[test]
 fn blocks_nested_100000_deep() {

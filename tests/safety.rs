@@ -35,7 +35,7 @@ fn same(a: u32, b: u32) -> bool {
 /// Returns the result words.
 fn call_at(p: &Program, name: &str, g: &ShadingGlobals, args: &[u32]) -> Vec<u32> {
     let func = p.function(name).unwrap_or_else(|| panic!("no entry `{name}`"));
-    let n = func.ir().results.len();
+    let n = func.result_types().len();
     let mut jit = vec![0u32; n];
     let mut int = vec![0u32; n];
     func.call_words(Backend::Jit, g, args, &mut jit).unwrap();
@@ -320,7 +320,7 @@ fn loops_are_capped_at_65536_iterations() {
 fn compare_material(p: &Program, name: &str, points: usize) {
     let lanes = p.color_model().lanes();
     p.material(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let entries: Vec<_> = p.entries().into_iter().filter(|e| e.name.starts_with(&format!("{name}."))).collect();
+    let entries: Vec<_> = p.functions().into_iter().filter(|e| e.name().starts_with(&format!("{name}."))).collect();
     assert_eq!(entries.len(), tsl::check::INTERFACE.len(), "the methods of `{name}`");
     for entry in &entries {
         for k in 0..points {
@@ -339,7 +339,7 @@ fn compare_material(p: &Program, name: &str, points: usize) {
                 ..Default::default()
             };
             let mut args = Vec::new();
-            for (pname, ty) in &entry.params {
+            for (pname, ty) in entry.params() {
                 match ty {
                     tsl::check::Ty::Float => args.push(f(1.5)),
                     tsl::check::Ty::Color if pname == "eta" => args.extend((0..lanes).map(|_| f(1.5))),
@@ -347,7 +347,7 @@ fn compare_material(p: &Program, name: &str, points: usize) {
                     _ => args.extend([f(0.6), f(0.0), f(0.8)]),
                 }
             }
-            call_at(p, &entry.name, &g, &args);
+            call_at(p, entry.name(), &g, &args);
         }
     }
 }
@@ -544,7 +544,7 @@ fn prelude_compiled_on_first_use_from_8_threads_at_once() {
         m.reflection(&g, [0.3, 0.4, 0.866], &p.rgb(1.0, 1.0, 1.0), [0.0, 0.6, 0.8])
     };
     let p = compile(src);
-    let own = p.entries().len();
+    let own = p.functions().len();
     let barrier = std::sync::Barrier::new(8);
     std::thread::scope(|s| {
         for _ in 0..8 {
@@ -557,7 +557,7 @@ fn prelude_compiled_on_first_use_from_8_threads_at_once() {
             });
         }
     });
-    assert_eq!(p.entries().len(), own + tsl::check::INTERFACE.len(), "cook_torrance was compiled more than once");
+    assert_eq!(p.functions().len(), own + tsl::check::INTERFACE.len(), "cook_torrance was compiled more than once");
 }
 
 // ---------------------------------------------------------------- API misuse

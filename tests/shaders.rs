@@ -202,8 +202,8 @@ fn assert_same_bits(a: &Material, b: &Material, what: &str) {
         let g = shading_point(&mut rng);
         for method in tsl::check::Method::ALL {
             let (fa, fb) = (a.method(method).unwrap(), b.method(method).unwrap());
-            let words = args(&mut rng, &fa.entry().params, a.color_model());
-            let n = fa.ir().results.len();
+            let words = args(&mut rng, fa.params(), a.color_model());
+            let n = fa.result_types().len();
             let (mut oa, mut ob) = (vec![0u32; n], vec![0u32; n]);
             fa.call_words(Backend::Jit, &g, &words, &mut oa).unwrap();
             fb.call_words(Backend::Jit, &g, &words, &mut ob).unwrap();

@@ -36,7 +36,7 @@ fn compile(dir: &Path, src: &str, model: ColorModel) -> Result<Program, tsl::Err
 
 fn call(program: &Program, name: &str, g: &ShadingGlobals, backend: Backend) -> Vec<f32> {
     let f = program.function(name).unwrap_or_else(|| panic!("no function {name}"));
-    let mut out = vec![0u32; f.ir().results.len()];
+    let mut out = vec![0u32; f.result_types().len()];
     f.call_words(backend, g, &[], &mut out).unwrap();
     out.into_iter().map(f32::from_bits).collect()
 }

@@ -159,11 +159,27 @@ pub(super) fn add_split_groups(groups: &[HitGroup], ir: &mut IrModule, entries: 
 /// each method on its own: measured with `cargo bench --bench render --
 /// split`, `cornell` rendered 18% and `glossy` 5% slower split, as the
 /// extra call and the record cost more than the arithmetic they share.
-pub fn worth_preparing(prepare: &crate::ir::Function) -> bool {
+pub(crate) fn worth_preparing(prepare: &crate::ir::Function) -> bool {
     crate::ir::has_costly(&prepare.body)
 }
 
 impl HitMaterial {
+    /// Whether running this material's prepare function once per hit saves
+    /// work (it looks up a texture or evaluates noise): what the renderer
+    /// decides by, and what `tslc emit hit` reports.
+    ///
+    /// ```
+    /// let src = "material plain = lambert; material grain = scale(gray(noise(Pl * 4)), lambert);";
+    /// let p = tsl::Compiler::new().source("m.tsl", src).compile()?;
+    /// let hits = p.hit_materials(&["plain", "grain"], tsl::PATH_METHODS)?;
+    /// assert!(!hits[0].worth_preparing());
+    /// assert!(hits[1].worth_preparing());
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn worth_preparing(&self) -> bool {
+        worth_preparing(self.prepare.ir())
+    }
+
     /// The words of this material's hit record.
     pub fn record_words(&self) -> usize {
         self.record_words
@@ -240,8 +256,7 @@ impl HitMaterial {
     /// [`HitMaterial::record_words`] words in place.
     ///
     /// ```
-    /// use tsl::{Backend, Compiler, ShadingGlobals, PATH_METHODS};
-    /// use tsl::ir::lower::HitMethod;
+    /// use tsl::{Backend, Compiler, HitMethod, PATH_METHODS, ShadingGlobals};
     /// let program = Compiler::new()
     ///     .source("m.tsl", "material m = mix(noise(P) * 0.5 + 0.5, lambert, phong);")
     ///     .compile()

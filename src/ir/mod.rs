@@ -29,6 +29,8 @@ mod memo;
 pub mod opt;
 pub mod semantics;
 pub mod split;
+#[cfg(test)]
+mod tests;
 pub mod verify;
 
 pub use adce::eliminate_dead_code_aggressive;

@@ -120,11 +120,11 @@ pub fn shading_point(rng: &mut Rng) -> ShadingGlobals {
 
 /// Whether two result words agree: exactly, or within 1e-5 relative for
 /// floats (both NaN counts as agreeing).
-pub fn close(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
+pub fn close(a: u32, b: u32, ty: tsl::WordType) -> bool {
     if a == b {
         return true;
     }
-    if ty != tsl::ir::Scalar::F32 {
+    if ty != tsl::WordType::F32 {
         return false;
     }
     let (x, y) = (f32::from_bits(a), f32::from_bits(b));

@@ -273,8 +273,8 @@ fn emit(args: EmitArgs) -> ExitCode {
     };
     match args.emit {
         EmitKind::Ir => {
-            for f in program.ir().functions.iter().filter(|f| wanted(&f.name)) {
-                let _ = writeln!(out, "{f}");
+            for f in program.functions().iter().filter(|f| wanted(f.name())) {
+                let _ = writeln!(out, "{}", f.ir_text());
             }
         }
         EmitKind::Hit => {
@@ -283,17 +283,17 @@ fn emit(args: EmitArgs) -> ExitCode {
             match program.hit_materials(&names, tsl::PATH_METHODS) {
                 Ok(hits) => {
                     for (name, hit) in names.iter().zip(&hits) {
-                        let worth = tsl::worth_preparing(hit.prepare_function().ir());
+                        let worth = hit.worth_preparing();
                         let _ = writeln!(
                             out,
                             "// {name}: a {}-word hit record; the renderer {} it",
                             hit.record_words(),
                             if worth { "prepares" } else { "calls each method on its own for" }
                         );
-                        let _ = writeln!(out, "{}", hit.prepare_function().ir());
+                        let _ = writeln!(out, "{}", hit.prepare_function().ir_text());
                         for m in tsl::PATH_METHODS {
                             if let Some(f) = hit.method_function(*m) {
-                                let _ = writeln!(out, "{}", f.ir());
+                                let _ = writeln!(out, "{}", f.ir_text());
                             }
                         }
                     }

@@ -9,8 +9,8 @@
 //! without weights, string options, each tree node) is in the golden IR
 //! of `tests/lower/` (`tests/lower_golden.rs`).
 
-use tsl::ir::{Function, Inst, Op};
-use tsl::{Compiler, Program, ShadingGlobals};
+use crate::ir::{Function, Inst, Op};
+use crate::{Compiler, Program, ShadingGlobals};
 
 fn compile(src: &str) -> Program {
     Compiler::new().source("t.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"))
@@ -48,7 +48,7 @@ fn calls(f: &Function, native: &str) -> usize {
 /// How many times `f` evaluates 3D noise: native calls, plus inlined
 /// expansions, each of which reads the permutation table 14 times (2 + 4 + 8).
 fn noise3_evaluations(f: &Function) -> usize {
-    let perm = tsl::runtime::PERM_WORDS.as_ptr();
+    let perm = crate::runtime::PERM_WORDS.as_ptr();
     let lookups =
         all_ops(f).iter().filter(|op| matches!(op, Op::Table { table, .. } if table.as_ptr() == perm)).count();
     assert_eq!(lookups % 14, 0, "a partial noise expansion:\n{f}");
@@ -100,7 +100,7 @@ fn materials_compile_on_first_use() {
     assert!(p.entries().is_empty(), "nothing is compiled before it is used");
     p.material("mine").unwrap();
     let before = p.entries().len();
-    let methods = tsl::check::INTERFACE.len();
+    let methods = crate::check::INTERFACE.len();
     assert_eq!(before, methods, "only the material asked for");
     let glass = p.material("glass").expect("prelude materials are available by name");
     assert!(!glass.opaque(&ShadingGlobals::default()));
@@ -143,7 +143,7 @@ fn a_reflection_sum_evaluates_the_texture_once_for_all_lights() {
     }
     args.extend(wo.map(f32::to_bits));
     let mut out = [0u32; 3];
-    sums[0].call_words(tsl::Backend::Jit, &g, &args, &mut out).unwrap();
+    sums[0].call_words(crate::Backend::Jit, &g, &args, &mut out).unwrap();
     for c in 0..3 {
         assert!((f32::from_bits(out[c]) - expected[c]).abs() <= 1e-5 * expected[c].abs().max(1.0));
     }
@@ -221,8 +221,8 @@ fn templates_and_spline_blends_are_seen_through() {
 fn float_at(p: &Program, name: &str, g: &ShadingGlobals) -> f32 {
     let f = p.function(name).unwrap();
     let (mut a, mut b) = ([0u32], [0u32]);
-    f.call_words(tsl::Backend::Jit, g, &[], &mut a).unwrap();
-    f.call_words(tsl::Backend::Interpreter, g, &[], &mut b).unwrap();
+    f.call_words(crate::Backend::Jit, g, &[], &mut a).unwrap();
+    f.call_words(crate::Backend::Interpreter, g, &[], &mut b).unwrap();
     assert_eq!(a, b, "{name}");
     f32::from_bits(a[0])
 }
@@ -263,9 +263,9 @@ fn inlined_noise_is_the_native_noise() {
         let p3 = [coord(next()), coord(next()), coord(next())];
         let g = ShadingGlobals { p: p3, ..Default::default() };
         let native = [
-            tsl::runtime::tsl_noise1(p3[0]),
-            tsl::runtime::tsl_noise2(p3[0], p3[1]),
-            tsl::runtime::tsl_noise3(p3[0], p3[1], p3[2]),
+            crate::runtime::tsl_noise1(p3[0]),
+            crate::runtime::tsl_noise2(p3[0], p3[1]),
+            crate::runtime::tsl_noise3(p3[0], p3[1], p3[2]),
         ];
         for (name, want) in ["n1", "n2", "n3"].iter().zip(native) {
             let got = float_at(&p, name, &g);
@@ -292,7 +292,7 @@ fn natives_of_constants_fold_to_their_own_value() {
     );
     let k = ir(&p, "k");
     assert!(!all_ops(&k).iter().any(|op| matches!(op, Op::Call { .. })), "{k}");
-    let want = tsl::runtime::tsl_sin(0.349) + tsl::runtime::tsl_cos(0.349);
+    let want = crate::runtime::tsl_sin(0.349) + crate::runtime::tsl_cos(0.349);
     assert_eq!(float_at(&p, "k", &ShadingGlobals::default()).to_bits(), want.to_bits());
     assert_eq!(calls(&ir(&p, "w"), "tsl_sin"), 1);
 }
@@ -352,9 +352,9 @@ fn delta_lobes_agree_with_the_four_methods() {
                 let mut args: Vec<u32> = wo.map(f32::to_bits).to_vec();
                 args.extend(eta.map(f32::to_bits));
                 let mut out = [0u32; 12];
-                f.call_words(tsl::Backend::Jit, &g, &args, &mut out).unwrap();
+                f.call_words(crate::Backend::Jit, &g, &args, &mut out).unwrap();
                 let got: Vec<f32> = out.iter().map(|w| f32::from_bits(*w)).collect();
-                let eta_c = tsl::Color::from_lanes(p.color_model(), &eta);
+                let eta_c = crate::Color::from_lanes(p.color_model(), &eta);
                 let dr = m.reflection_dir(&g, wo);
                 let wr = m.reflection(&g, dr, &one, wo);
                 let dt = m.refraction_dir(&g, wo, &eta_c);
@@ -395,7 +395,7 @@ fn a_bump_evaluates_its_height_three_times_per_hit() {
         material bumped = bump(cellnoise(Pl * 5), 0.1, phong(kd: gray(0.5), ks: gray(0.3)));
         "#,
     );
-    let m = &p.hit_materials(&["bumped"], tsl::PATH_METHODS).unwrap()[0];
+    let m = &p.hit_materials(&["bumped"], crate::PATH_METHODS).unwrap()[0];
     let prepare = m.prepare_function().ir();
     assert_eq!(calls(prepare, "tsl_cellnoise3"), 3, "{prepare}");
     // On its own, `sample` needs the tilted normal for its direction, its
@@ -438,9 +438,9 @@ fn the_interpreter_counts_noise_evaluations() {
     let g = ShadingGlobals { p: [0.3, 0.2, 0.1], u: 0.4, v: 0.7, ..Default::default() }.words();
     for (name, expected) in [("three", 3.0), ("octaves", 5.0)] {
         let f = ir(&p, name);
-        let mut counts = tsl::interp::Counts::default();
+        let mut counts = crate::interp::Counts::default();
         let mut out = [0u32; 1];
-        tsl::interp::run_counting(&f, &g, &[], &mut out, &mut counts);
+        crate::interp::run_counting(&f, &g, &[], &mut out, &mut counts);
         assert_eq!(counts.noise, expected, "{f}");
     }
 }
