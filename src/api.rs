@@ -617,6 +617,7 @@ impl Program {
         let part = compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base);
         let outcome = match part {
             Ok(part) => {
+                self.inner.compiled_functions.fetch_add(part.ir.functions.len(), Ordering::Relaxed);
                 if !part.entries.is_empty()
                     && let Ok(mut parts) = self.inner.parts.write()
                 {

@@ -13,7 +13,7 @@
 
 use super::param_value::{ParamType, ParamValue};
 use super::shader::{Instance, ParamInfo};
-use super::{Error, Function, Material, Program};
+use super::{Error, Function, Material, MaterialFacts, Program};
 use crate::check::{Method, check_material_expr};
 use crate::color::ColorModel;
 use crate::diag::Diagnostic;
@@ -31,6 +31,8 @@ pub(super) struct InstanceCode {
     offsets: Vec<Option<u32>>,
     /// The block's length in words.
     words: usize,
+    /// What the code reads and does, the same for every block.
+    facts: MaterialFacts,
 }
 
 /// The block words of a parameter that can be read at run time; `None`
@@ -156,19 +158,12 @@ impl Instance {
             )));
         }
         let block: Arc<[u32]> = block.into();
-        let mut methods = Method::ALL.map(|_| None);
-        for (slot, f) in methods.iter_mut().zip(&code.methods) {
-            *slot = Some(f.with_instance(block.clone()).map_err(Error::plain)?);
+        let mut methods = Vec::with_capacity(code.methods.len());
+        for f in &code.methods {
+            methods.push(Some(f.with_instance(block.clone()).map_err(Error::plain)?));
         }
-        let code = super::material::Code {
-            name: format!("@{}", self.shader().name()),
-            methods,
-            eval_pdf: None,
-            delta_lobes: None,
-            reflection_sum: None,
-            hit: None,
-        };
-        Ok(Material::new(program.clone(), code))
+        let facts = code.facts.clone();
+        Ok(Material::with_facts(program.clone(), method_code(self.shader().name(), methods), facts))
     }
 
     /// Compiles `source` (the instance's call with its code-changing
@@ -210,6 +205,28 @@ impl Instance {
             };
             methods.push(Function::new(part.clone(), index, native));
         }
-        Ok(InstanceCode { methods, offsets, words: words.len() })
+        // Facts come from the IR alone: found once, for every block.
+        let unbound = Material::new(
+            program.clone(),
+            method_code(self.shader().name(), methods.iter().cloned().map(Some).collect()),
+        );
+        let facts = unbound.facts().clone();
+        Ok(InstanceCode { methods, offsets, words: words.len(), facts })
+    }
+}
+
+/// The material code of a bound instance's methods (by [`Method`]).
+fn method_code(shader: &str, methods: Vec<Option<Function>>) -> super::material::Code {
+    let mut by_method = Method::ALL.map(|_| None);
+    for (slot, f) in by_method.iter_mut().zip(methods) {
+        *slot = f;
+    }
+    super::material::Code {
+        name: format!("@{shader}"),
+        methods: by_method,
+        eval_pdf: None,
+        delta_lobes: None,
+        reflection_sum: None,
+        hit: None,
     }
 }
