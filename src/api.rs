@@ -44,6 +44,7 @@ mod surface;
 mod surfaces;
 mod typed;
 
+pub use bound::MAX_BOUND_COMBINATIONS;
 pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};

@@ -48,9 +48,9 @@ pub mod texture;
 
 pub use api::{
     Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
-    Lanes, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit, Program,
-    SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS,
-    worth_preparing,
+    Lanes, MAX_BOUND_COMBINATIONS, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS,
+    PreparedHit, Program, SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction,
+    WHITTED_METHODS, worth_preparing,
 };
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;

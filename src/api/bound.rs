@@ -21,6 +21,13 @@ use crate::ir::Scalar;
 use crate::ir::lower::{InstanceBlock, lower_material_with_instance};
 use std::sync::Arc;
 
+/// The most compiled combinations a program keeps for binding (of all its
+/// shaders together): past it, a new combination is compiled for its
+/// bind alone and not kept, so a host that binds ever new `material`
+/// values cannot grow the cache without bound. Each kept combination
+/// holds one compiled function per interface method.
+pub const MAX_BOUND_COMBINATIONS: usize = 1024;
+
 /// A shader's code for one combination of code-changing values, shared
 /// by every instance bound with that combination.
 pub(super) struct InstanceCode {
@@ -81,6 +88,9 @@ impl Instance {
     /// microseconds. The results equal [`Instance::specialise`]'s within
     /// float rounding. An error when a required parameter has no value.
     ///
+    /// A program keeps at most [`MAX_BOUND_COMBINATIONS`] compiled
+    /// combinations; past it a new one compiles on every bind.
+    ///
     /// A parameter whose default is not one constant (it reads the
     /// shading point) and that has no value keeps its default in the code;
     /// setting it later compiles once more for that combination.
@@ -137,7 +147,11 @@ impl Instance {
                 // Two threads binding at once may both compile; either
                 // code is right, and the first kept is used from then on.
                 let mut cache = program.inner.instance_code.lock().unwrap_or_else(|e| e.into_inner());
-                cache.entry(key).or_insert(code).clone()
+                if cache.len() < MAX_BOUND_COMBINATIONS || cache.contains_key(&key) {
+                    cache.entry(key).or_insert(code).clone()
+                } else {
+                    code
+                }
             }
         };
         let mut block = Vec::with_capacity(code.words);

@@ -14,9 +14,10 @@
 //! values folded in: the call is written as TSL text
 //! (`rough_conductor(alpha: 0.2)`), checked as if written in the root
 //! file ([`check_material_expr`]) and lowered as a scene object's material
-//! is, so it compiles exactly as that call in source would. Values are
-//! stored by index so that binding them at run time (a parameter block
-//! read by compiled code) can be added beside specialisation.
+//! is, so it compiles exactly as that call in source would.
+//! [`Instance::bind`] (`bound`) instead reads the numeric, vector, color
+//! and bool values from a parameter block at run time, from code compiled
+//! once per combination of material and string values.
 
 use super::param_value::{ParamType, ParamValue};
 use super::{Error, Function, Material, Program};
