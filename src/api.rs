@@ -30,8 +30,10 @@ use crate::syntax::ast::{Expr, Item};
 use std::collections::HashMap;
 use std::fmt;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
+mod bound;
 mod error;
 mod material;
 mod outputs;
@@ -43,6 +45,7 @@ mod surfaces;
 mod typed;
 
 pub use crate::ir::lower::HitMethod;
+pub use bound::MAX_BOUND_COMBINATIONS;
 pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
 pub use outputs::{BsdfSample, DeltaLobe, DeltaLobes, EvalPdf, Lanes};
@@ -244,6 +247,8 @@ impl Compiler {
                 scene,
                 lean,
                 jit_options,
+                compiled_functions: AtomicUsize::new(parts.iter().map(|p| p.ir.functions.len()).sum()),
+                instance_code: Mutex::default(),
                 parts: RwLock::new(parts),
                 compiled: Mutex::new(compiled),
             }),
@@ -287,6 +292,11 @@ struct Inner {
     /// Names already compiled (or found to have no entries), with the
     /// error lowering them gave, if any.
     compiled: Mutex<HashMap<String, Option<Error>>>,
+    /// Functions JIT-compiled so far ([`Program::compiled_functions`]).
+    compiled_functions: AtomicUsize,
+    /// Run-time-bound instance code, by shader and code-changing values
+    /// (see `bound`).
+    instance_code: Mutex<HashMap<String, Arc<bound::InstanceCode>>>,
 }
 
 /// A compiled program: cheap to clone, `Send + Sync`, callable from many
@@ -400,6 +410,21 @@ impl Program {
     }
 
     /// Lowered entries compiled into one JIT module.
+    /// How many functions (entry points) the program has JIT-compiled so
+    /// far, up front and on first use: a host can check that binding an
+    /// instance or changing its values compiled nothing.
+    ///
+    /// ```
+    /// let program = tsl::Compiler::new().source("m.tsl", "material m = lambert;").compile()?;
+    /// let before = program.compiled_functions();
+    /// let _ = program.material("m")?;
+    /// assert!(program.compiled_functions() > before);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn compiled_functions(&self) -> usize {
+        self.inner.compiled_functions.load(Ordering::Relaxed)
+    }
+
     fn jit_part(&self, ir: IrModule, entries: Vec<Entry>) -> Result<Arc<Part>, Error> {
         self.jit_part_with(ir, entries, &self.inner.jit_options)
     }
@@ -407,6 +432,7 @@ impl Program {
     /// [`Program::jit_part`] with other code generation options.
     fn jit_part_with(&self, ir: IrModule, entries: Vec<Entry>, options: &JitOptions) -> Result<Arc<Part>, Error> {
         let jit = crate::jit::compile(&ir, options).map_err(Error::plain)?;
+        self.inner.compiled_functions.fetch_add(ir.functions.len(), Ordering::Relaxed);
         Ok(Arc::new(Part { ir, entries, jit }))
     }
 
@@ -636,6 +662,7 @@ impl Program {
         let part = compile_part(&self.inner.program, self.inner.model, &self.inner.jit_options, |n, _| n == base);
         let outcome = match part {
             Ok(part) => {
+                self.inner.compiled_functions.fetch_add(part.ir.functions.len(), Ordering::Relaxed);
                 if !part.entries.is_empty()
                     && let Ok(mut parts) = self.inner.parts.write()
                 {
@@ -665,16 +692,35 @@ pub struct Function {
     part: Arc<Part>,
     index: usize,
     native: EntryFn,
-    /// Argument and result words, kept here so that a call checks its
-    /// slices without reaching into the part's IR.
-    words: (usize, usize),
+    /// Argument, result and instance block words, kept here so that a
+    /// call checks its slices without reaching into the part's IR.
+    words: (usize, usize, usize),
+    /// The instance parameter block the code reads (`Op::InstanceWord`):
+    /// a run-time-bound instance's values, at least as many words as the
+    /// IR function's `instance_words` (checked in [`Function::with_instance`]).
+    instance: Option<Arc<[u32]>>,
 }
 
 impl Function {
     fn new(part: Arc<Part>, index: usize, native: EntryFn) -> Function {
         let f = &part.ir.functions[index];
-        let words = (f.params.len(), f.results.len());
-        Function { part, index, native, words }
+        let words = (f.params.len(), f.results.len(), f.instance_words.len());
+        Function { part, index, native, words, instance: None }
+    }
+
+    /// The function reading `block` as its instance parameter block: the
+    /// same compiled code, no compilation. An error when the block is
+    /// shorter than the words the code reads.
+    pub(crate) fn with_instance(&self, block: Arc<[u32]>) -> Result<Function, String> {
+        let needed = self.words.2;
+        if block.len() < needed {
+            return Err(format!(
+                "`{}` reads {needed} instance words, but the block has {}",
+                self.ir().name,
+                block.len()
+            ));
+        }
+        Ok(Function { instance: Some(block), ..self.clone() })
     }
 
     pub fn ir(&self) -> &IrFunction {
@@ -728,7 +774,7 @@ impl Function {
 
     #[cold]
     fn words_error(&self) -> String {
-        let (params, results) = self.words;
+        let (params, results, _) = self.words;
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
     }
 
@@ -749,19 +795,33 @@ impl Function {
         args: &[u32],
         out: &mut [u32],
     ) -> Result<(), String> {
-        let (params, results) = self.words;
+        let (params, results, instance_words) = self.words;
         if args.len() < params || out.len() < results {
             return Err(self.words_error());
         }
+        // Code without instance words never reads the block; code with
+        // them was given one long enough (`with_instance`), or has none.
+        let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
+        if instance.len() < instance_words {
+            return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
+        }
         match backend {
-            Backend::Interpreter => crate::interp::run(self.ir(), &g.words(), args, out),
+            Backend::Interpreter => crate::interp::run_instance(self.ir(), &g.words(), args, instance, out),
             Backend::Jit => {
                 // SAFETY: the function was compiled from this IR function,
-                // which reads at most `params.len()` argument words and the
-                // 48-word globals record and writes `results.len()` words;
-                // the lengths were checked above, and the code is alive as
-                // long as `self.part` is.
-                unsafe { (self.native)((g as *const ShadingGlobals).cast(), args.as_ptr(), out.as_mut_ptr()) }
+                // which reads at most `params.len()` argument words, the
+                // 48-word globals record and `instance_words.len()` block
+                // words, and writes `results.len()` words; the lengths were
+                // checked above, and the code is alive as long as
+                // `self.part` is.
+                unsafe {
+                    (self.native)(
+                        (g as *const ShadingGlobals).cast(),
+                        args.as_ptr(),
+                        out.as_mut_ptr(),
+                        instance.as_ptr(),
+                    )
+                }
             }
         }
         Ok(())

@@ -92,9 +92,9 @@ pub mod texture;
 
 pub use api::{
     Backend, BsdfSample, Color, Compiler, DeltaLobe, DeltaLobes, Error, EvalPdf, Function, HitCalls, HitMaterial,
-    HitMethod, Lanes, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource, PATH_METHODS, PreparedHit,
-    Program, SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType, TypedFunction, WHITTED_METHODS,
-    WordType,
+    HitMethod, Lanes, MAX_BOUND_COMBINATIONS, MAX_DEBUG_DIAGNOSTICS, Material, MaterialFacts, MaterialSource,
+    PATH_METHODS, PreparedHit, Program, SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType,
+    TypedFunction, WHITTED_METHODS, WordType,
 };
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;

@@ -189,6 +189,12 @@ impl Material {
         Material { program, code: Arc::new(code), facts }
     }
 
+    /// A material of `code` whose facts are known already (those of other
+    /// code compiled from the same IR): a run-time-bound instance's.
+    pub(super) fn with_facts(program: Program, code: Code, facts: MaterialFacts) -> Material {
+        Material { program, code: Arc::new(code), facts }
+    }
+
     /// The surface at a hit, seen from `wo` (unit, toward the viewer), with
     /// the relative index of refraction `eta` across it: every method of
     /// the interface, with typed results. Whether the compiler split the

@@ -14,9 +14,10 @@
 //! values folded in: the call is written as TSL text
 //! (`rough_conductor(alpha: 0.2)`), checked as if written in the root
 //! file ([`check_material_expr`]) and lowered as a scene object's material
-//! is, so it compiles exactly as that call in source would. Values are
-//! stored by index so that binding them at run time (a parameter block
-//! read by compiled code) can be added beside specialisation.
+//! is, so it compiles exactly as that call in source would.
+//! [`Instance::bind`] (`bound`) instead reads the numeric, vector, color
+//! and bool values from a parameter block at run time, from code compiled
+//! once per combination of material and string values.
 
 use super::param_value::{ParamType, ParamValue};
 use super::{Error, Function, Material, Program};
@@ -264,7 +265,7 @@ impl Shader {
 
     /// An error at the declaration of `at` (a parameter's name, or the
     /// template's).
-    fn error(&self, at: Span, message: String, help: Option<String>) -> Error {
+    pub(super) fn error(&self, at: Span, message: String, help: Option<String>) -> Error {
         let mut d = Diagnostic::error(at, message);
         if let Some(help) = help {
             d = d.with_help(help);
@@ -461,22 +462,8 @@ impl Instance {
     /// keeps the [`Material`]); the code lives as long as the material.
     /// An error when a required parameter has no value.
     pub fn specialise(&self) -> Result<Material, Error> {
+        self.check_required()?;
         let shader = &self.shader;
-        let missing: Vec<&str> = shader
-            .params()
-            .iter()
-            .zip(&self.values)
-            .filter(|(p, v)| p.required() && v.is_none())
-            .map(|(p, _)| p.name.as_str())
-            .collect();
-        if !missing.is_empty() {
-            let message = format!(
-                "`{}` needs a value for {} (no default)",
-                shader.name(),
-                list(missing.iter().map(|m| format!("`{m}`")))
-            );
-            return Err(shader.error(shader.desc.span, message, Some("set it with `Instance::set`".into())));
-        }
         let program = &shader.program;
         let name = format!("<instance of {}>", shader.name());
         let checked = check_material_expr(program.checked(), &name, &self.source());
@@ -510,6 +497,27 @@ impl Instance {
             hit: None,
         };
         Ok(Material::new(program.clone(), code))
+    }
+
+    /// An error naming the required parameters without a value.
+    pub(super) fn check_required(&self) -> Result<(), Error> {
+        let shader = &self.shader;
+        let missing: Vec<&str> = shader
+            .params()
+            .iter()
+            .zip(&self.values)
+            .filter(|(p, v)| p.required() && v.is_none())
+            .map(|(p, _)| p.name.as_str())
+            .collect();
+        if !missing.is_empty() {
+            let message = format!(
+                "`{}` needs a value for {} (no default)",
+                shader.name(),
+                list(missing.iter().map(|m| format!("`{m}`")))
+            );
+            return Err(shader.error(shader.desc.span, message, Some("set it with `Instance::set`".into())));
+        }
+        Ok(())
     }
 }
 

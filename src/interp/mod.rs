@@ -17,7 +17,13 @@ use crate::texture::Lookup;
 /// Runs `func` on the given globals and argument words, writing the result
 /// words into `out`.
 pub fn run(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32]) {
-    run_with(func, globals, args, out, None);
+    run_with(func, globals, args, &[], out, None);
+}
+
+/// [`run`] for a function that reads an instance parameter block
+/// (`Op::InstanceWord`): `instance` holds its words.
+pub fn run_instance(func: &Function, globals: &[u32], args: &[u32], instance: &[u32], out: &mut [u32]) {
+    run_with(func, globals, args, instance, out, None);
 }
 
 /// What a run evaluated, for benchmarks ([`run_counting`]).
@@ -31,10 +37,17 @@ pub struct Counts {
 
 /// [`run`], adding what it evaluated to `counts`.
 pub fn run_counting(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], counts: &mut Counts) {
-    run_with(func, globals, args, out, Some(counts));
+    run_with(func, globals, args, &[], out, Some(counts));
 }
 
-fn run_with(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], counts: Option<&mut Counts>) {
+fn run_with(
+    func: &Function,
+    globals: &[u32],
+    args: &[u32],
+    instance: &[u32],
+    out: &mut [u32],
+    counts: Option<&mut Counts>,
+) {
     // A bool argument is true when its word is non-zero, as in the JIT.
     let args: Vec<u32> = args
         .iter()
@@ -44,6 +57,7 @@ fn run_with(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], cou
     let mut m = Machine {
         globals,
         args: &args,
+        instance,
         values: vec![0; func.values.len()],
         vars: vec![0; func.vars.len()],
         arrays: func.arrays.iter().map(|(_, n)| vec![0u32; *n as usize]).collect(),
@@ -64,6 +78,7 @@ enum Flow {
 struct Machine<'a, 'o> {
     globals: &'a [u32],
     args: &'a [u32],
+    instance: &'a [u32],
     values: Vec<u32>,
     vars: Vec<u32>,
     arrays: Vec<Vec<u32>>,
@@ -168,6 +183,7 @@ impl Machine<'_, '_> {
             Op::Bool(b) => bw(*b),
             Op::Param(k) => self.args[*k as usize],
             Op::Global(k) => self.globals[*k as usize],
+            Op::InstanceWord(k) => self.instance[*k as usize],
             Op::Get(var) => self.vars[var.0 as usize],
             Op::Table { table, index } => {
                 if let Some(c) = &mut self.counts {

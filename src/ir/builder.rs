@@ -101,6 +101,7 @@ pub(crate) enum MemoKey {
 pub(crate) enum OpKey {
     Param(u32),
     Global(u32),
+    InstanceWord(u32),
     Unary(UnOp, Value),
     Binary(BinOp, Value, Value),
     Select(Value, Value, Value),
@@ -122,6 +123,7 @@ impl OpKey {
         Some(match op {
             Op::Param(k) => OpKey::Param(*k),
             Op::Global(k) => OpKey::Global(*k),
+            Op::InstanceWord(k) => OpKey::InstanceWord(*k),
             Op::Unary(u, a) => OpKey::Unary(*u, *a),
             Op::Binary(b, x, y) => OpKey::Binary(*b, *x, *y),
             Op::Select { cond, then_value, else_value } => OpKey::Select(*cond, *then_value, *else_value),
@@ -240,7 +242,7 @@ impl Builder {
             return v;
         }
         match op {
-            Op::Global(_) => {
+            Op::Global(_) | Op::InstanceWord(_) => {
                 self.in_prologue.insert(v);
                 self.prologue.push(Inst::Def(v, op));
             }

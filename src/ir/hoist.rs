@@ -67,7 +67,7 @@ impl Builder {
         let depth = self.stack.len().saturating_sub(1) as u32;
         let Some(h) = &mut self.hoisting else { return };
         let per_call = match op {
-            None | Some(Op::Global(_)) => false,
+            None | Some(Op::Global(_) | Op::InstanceWord(_)) => false,
             Some(Op::Param(k)) => *k >= h.first_own_word,
             Some(Op::Get(var)) => h.per_call_vars.contains(var),
             Some(Op::Load { array, index }) => h.per_call_arrays.contains(array) || h.per_call(*index),
@@ -153,7 +153,7 @@ impl Builder {
     /// per-call. (Reads of variables and arrays stay: a write between the
     /// anchor and here would change them.)
     pub(super) fn anchor_of(&self, op: &Op) -> Option<usize> {
-        if matches!(op, Op::Get(_) | Op::Load { .. } | Op::Param(_) | Op::Global(_)) {
+        if matches!(op, Op::Get(_) | Op::Load { .. } | Op::Param(_) | Op::Global(_) | Op::InstanceWord(_)) {
             return None;
         }
         let anchor = self.anchor()?;

@@ -133,6 +133,10 @@ pub enum Op {
     Param(u32),
     /// Word `i` of the shading globals (see `ShadingGlobals`).
     Global(u32),
+    /// Word `i` of the instance parameter block: a run-time-bound
+    /// instance's values ([`Function::instance_words`]), read like the
+    /// globals (unchanged during a call).
+    InstanceWord(u32),
     Get(Var),
     Load {
         array: ArrayId,
@@ -240,6 +244,9 @@ pub struct Function {
     /// The first argument words that are a hit record written by a
     /// `prepare` function ([`split`]); 0 for functions called on their own.
     pub record_words: u32,
+    /// The instance parameter block's words and their types
+    /// ([`Op::InstanceWord`]); empty for code with its values folded in.
+    pub instance_words: Vec<Scalar>,
     pub body: Vec<Inst>,
 }
 
@@ -376,6 +383,7 @@ fn print_op(func: &Function, op: &Op) -> String {
             Some(name) => format!("global {name}"),
             None => format!("globals[{i}]"),
         },
+        Op::InstanceWord(i) => format!("instance[{i}]"),
         Op::Get(v) => format!("x{}", v.0),
         Op::Load { array, index } => format!("a{}[v{}]", array.0, index.0),
         // By name, never by address, so printed IR is the same on every run.

@@ -21,7 +21,7 @@ fn operands(op: &Op, out: &mut Vec<Value>) {
 /// Calls `f` on each value `op` reads.
 pub(crate) fn for_each_operand(op: &Op, mut f: impl FnMut(Value)) {
     match op {
-        Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Param(_) | Op::Global(_) | Op::Get(_) => {}
+        Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Param(_) | Op::Global(_) | Op::InstanceWord(_) | Op::Get(_) => {}
         Op::Load { index, .. } | Op::Table { index, .. } => f(*index),
         Op::Unary(_, a) => f(*a),
         Op::Binary(_, a, b) => {

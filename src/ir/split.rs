@@ -175,7 +175,7 @@ impl Leaf {
     fn of(op: &Op) -> Leaf {
         match op {
             Op::Param(_) => Leaf::Param,
-            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_) => Leaf::Free,
+            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_) | Op::InstanceWord(_) => Leaf::Free,
             _ => Leaf::Work,
         }
     }
@@ -222,7 +222,7 @@ impl PointOnly {
 
     fn op(&self, op: &Op) -> bool {
         match op {
-            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_) => true,
+            Op::F32(_) | Op::I32(_) | Op::Bool(_) | Op::Global(_) | Op::InstanceWord(_) => true,
             Op::Param(k) => *k < self.hit_inputs,
             Op::Get(var) => self.vars[var.0 as usize],
             Op::Load { array, index } => self.arrays[array.0 as usize] && self.values[index.0 as usize],

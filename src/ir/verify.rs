@@ -306,6 +306,16 @@ impl<'f> Verifier<'f> {
                 }
                 word
             }
+            Op::InstanceWord(k) => {
+                let word = self.func.instance_words.get(*k as usize).copied();
+                if word.is_none() {
+                    self.report(format!(
+                        "instance[{k}] is past the instance parameter block ({} words)",
+                        self.func.instance_words.len()
+                    ));
+                }
+                word
+            }
             Op::Get(var) => self.var(*var),
             Op::Load { array, index } => {
                 self.operand(*index, Some(I32), "the index");
@@ -452,6 +462,7 @@ mod tests {
             arrays: vec![(F32, 4), (I32, 1)],
             labels: 2,
             record_words: 0,
+            instance_words: vec![],
             body,
         }
     }
@@ -679,6 +690,10 @@ mod tests {
         caught(function(&[F32], vec![def(0, Op::Param(1))]), "args[1] is not a parameter word");
         caught(function(&[I32], vec![def(0, Op::Param(0))]), "the value is i32, but the operation gives f32");
         caught(function(&[F32], vec![def(0, Op::Global(50))]), "globals[50] is past the shading globals");
+        caught(function(&[F32], vec![def(0, Op::InstanceWord(0))]), "instance[0] is past the instance parameter block");
+        let mut with_block = function(&[I32], vec![def(0, Op::InstanceWord(1))]);
+        with_block.instance_words = vec![F32, F32];
+        caught(with_block, "the value is i32, but the operation gives f32");
         // Words 20 and 32 are `face` and `frame`, the ints.
         caught(function(&[F32], vec![def(0, Op::Global(20))]), "the value is f32, but the operation gives i32");
         caught(function(&[F32], vec![def(0, Op::Global(32))]), "the value is f32, but the operation gives i32");

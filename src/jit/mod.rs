@@ -1,8 +1,11 @@
 //! Cranelift code generation: one native `extern "C"` function per IR
-//! function, `fn(globals: *const ShadingGlobals, args: *const u32, out: *mut u32)`.
+//! function, `fn(globals: *const ShadingGlobals, args: *const u32, out: *mut u32,
+//! instance: *const u32)`.
 //!
 //! All `unsafe` of the crate lives here. The generated code reads only the
-//! globals record, the argument words and its own stack slots, and writes
+//! globals record, the argument words, the instance parameter block (a
+//! run-time-bound instance's values; unread by other code) and its own
+//! stack slots, and writes
 //! only the result words: IR operations are total (clamped indices, guarded
 //! integer division, saturating conversions, bounded loops), so the code
 //! cannot trap or hang. Its memory is freed when the [`Jit`] is dropped.
@@ -30,7 +33,7 @@ use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The native signature of every entry point.
-pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, out: *mut u32);
+pub type EntryFn = unsafe extern "C" fn(globals: *const u32, args: *const u32, out: *mut u32, instance: *const u32);
 
 /// Compiled code for a whole IR module.
 pub struct Jit {
@@ -148,7 +151,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
         jit.declare_function(SPECTRUM_TEXTURE_SYMBOL, Linkage::Import, &spectrum_sig).map_err(|e| e.to_string())?;
 
     let mut entry_sig = jit.make_signature();
-    entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
+    entry_sig.params.extend([AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr), AbiParam::new(ptr)]);
     let mut ids = Vec::new();
     for (k, f) in module.functions.iter().enumerate() {
         // Unique by position; the IR name after it (dots and other
@@ -181,7 +184,7 @@ pub fn compile(module: &ir::Module, options: &JitOptions) -> Result<Jit, String>
     for (f, id) in module.functions.iter().zip(&ids) {
         let code = jit.get_finalized_function(*id);
         // SAFETY: the function was defined with `entry_sig`, the platform C
-        // ABI taking three pointers and returning nothing: exactly `EntryFn`.
+        // ABI taking four pointers and returning nothing: exactly `EntryFn`.
         let entry = unsafe { std::mem::transmute::<*const u8, EntryFn>(code) };
         functions.insert(f.name.clone(), entry);
     }
@@ -338,6 +341,8 @@ struct Gen<'a, 'b> {
     globals: ClValue,
     args: ClValue,
     out: ClValue,
+    /// The instance parameter block (`Op::InstanceWord`).
+    instance: ClValue,
 }
 
 impl<'a, 'b> Gen<'a, 'b> {
@@ -366,6 +371,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             globals: params[0],
             args: params[1],
             out: params[2],
+            instance: params[3],
         }
     }
 
@@ -563,6 +569,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             Op::Bool(x) => self.b.ins().iconst(types::I8, i64::from(*x)),
             Op::Param(k) => self.load_word(self.args, *k, ty, readonly),
             Op::Global(k) => self.load_word(self.globals, *k, ty, readonly),
+            Op::InstanceWord(k) => self.load_word(self.instance, *k, ty, readonly),
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
             Op::Table { table, index } => {
                 // The table is a `'static` slice: its address is a constant.

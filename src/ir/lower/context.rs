@@ -20,6 +20,7 @@ impl<'p> Lowerer<'p> {
             folded_consts: HashMap::default(),
             default_methods: Default::default(),
             gave_up: false,
+            instance_block: None,
         }
     }
 

@@ -197,12 +197,27 @@ impl<'p> Lowerer<'p> {
             ExprKind::Call { callee, args: call_args } => {
                 if let Some(sym) = self.program.resolutions.get(&callee.span).copied() {
                     return match self.item(sym) {
-                        Item::Material(_) => {
-                            let inst = self.instance_from_def(b, sym, call_args, ctx, &mat.env, mat.in_prelude);
+                        Item::Material(def) => {
+                            let mut inst = self.instance_from_def(b, sym, call_args, ctx, &mat.env, mat.in_prelude);
+                            if let Some(read) = self.instance_block_values(b, e.span, &def.params) {
+                                let mut params = inst.params.clone();
+                                for (k, v) in read {
+                                    params[k].1 = v;
+                                }
+                                inst = Rc::new(Instance { params, ..*inst });
+                            }
                             self.instance_method(b, &inst, im, args, ctx)
                         }
                         Item::MaterialTree(t) => {
-                            let env = self.template_env(b, t, call_args, mat, ctx);
+                            let mut env = self.template_env(b, t, call_args, mat, ctx);
+                            let params = t.params.as_deref().unwrap_or(&[]);
+                            if let Some(read) = self.instance_block_values(b, e.span, params) {
+                                let mut bound = (*env).clone();
+                                for (k, v) in read {
+                                    bound.insert(params[k].name.name.to_string(), v);
+                                }
+                                env = Rc::new(bound);
+                            }
                             let m = Mat { expr: &t.body, env, in_prelude: self.is_prelude(sym) };
                             self.mat_method(b, &m, im, args, ctx)
                         }
@@ -233,6 +248,27 @@ impl<'p> Lowerer<'p> {
                 self.typed_zeros(b, &im.ret)
             }
         }
+    }
+
+    /// When `at` is the run-time-bound instance's call: its value
+    /// parameters read from the instance parameter block, by parameter
+    /// index (see [`InstanceBlock`]).
+    fn instance_block_values(
+        &mut self,
+        b: &mut Builder,
+        at: Span,
+        params: &[ast::Param],
+    ) -> Option<Vec<(usize, Val<'p>)>> {
+        let block = self.instance_block.as_ref().filter(|block| block.root == at)?;
+        let offsets = block.offsets.clone();
+        let mut read = Vec::new();
+        for (k, (p, first)) in params.iter().zip(offsets).enumerate() {
+            let Some(first) = first else { continue };
+            let words = self.words(&Ty::from_ast(&p.ty));
+            let lanes = (0..).zip(words).map(|(i, ty)| b.def(ty, Op::InstanceWord(first + i))).collect();
+            read.push((k, Val::Lanes(lanes)));
+        }
+        Some(read)
     }
 
     /// Binds a template's parameters: materials stay expressions, values

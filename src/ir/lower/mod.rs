@@ -196,13 +196,54 @@ pub fn lower_material_methods(
     materials: &[(String, &Expr)],
     keep: impl Fn(usize, Method) -> bool,
 ) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
+    lower_methods_with(Lowerer::new(program, model), materials, keep)
+}
+
+/// Which value parameters of a material call read the instance parameter
+/// block at run time ([`Op::InstanceWord`]) instead of the call's
+/// arguments: a run-time-bound instance, compiled once for all its values.
+#[derive(Debug, Clone)]
+pub struct InstanceBlock {
+    /// The span of the material call so bound (the instance's own call;
+    /// calls inside it keep their arguments).
+    pub root: Span,
+    /// Each parameter's first word in the block, by parameter index;
+    /// `None` for a parameter bound in the code (a material, a string).
+    pub offsets: Vec<Option<u32>>,
+    /// The block's word types, which every function lowered reads by
+    /// (its `instance_words`).
+    pub words: Vec<Scalar>,
+}
+
+/// [`lower_material_exprs`] of one material call whose value parameters
+/// `block` names read the instance parameter block, laid out as the host
+/// says.
+pub fn lower_material_with_instance(
+    program: &Program,
+    model: ColorModel,
+    entry: &str,
+    expr: &Expr,
+    block: InstanceBlock,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
     let mut lw = Lowerer::new(program, model);
+    lw.instance_block = Some(block);
+    lower_methods_with(lw, &[(entry.to_string(), expr)], |_, _| true)
+}
+
+fn lower_methods_with<'p>(
+    mut lw: Lowerer<'p>,
+    materials: &[(String, &'p Expr)],
+    keep: impl Fn(usize, Method) -> bool,
+) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
     let mut module = Module::default();
     let mut entries = Vec::new();
     for (k, (name, expr)) in materials.iter().enumerate() {
         for im in Method::ALL.into_iter().filter(|m| keep(k, *m)).map(Method::interface) {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
+            if let Some(block) = &lw.instance_block {
+                b.func.instance_words = block.words.clone();
+            }
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
             let args = lw.method_args(&mut b, &params);
             let ctx = lw.root_ctx();
@@ -410,6 +451,9 @@ struct Lowerer<'p> {
     /// Set once an entry point was too large (see `finish_entry`): the
     /// lowering has failed, and the entries after it are not inlined.
     gave_up: bool,
+    /// Set when lowering a run-time-bound instance (see
+    /// [`lower_material_with_instance`]).
+    instance_block: Option<InstanceBlock>,
 }
 
 // ---------------------------------------------------------------- values

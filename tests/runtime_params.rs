@@ -1,0 +1,198 @@
+//! Run-time-bound instances (`Instance::bind`): one compiled shader, its
+//! numeric, vector, color and bool parameters read from each instance's
+//! parameter block. They agree with specialised instances (values folded
+//! in) within float rounding, on both back ends, in RGB and a spectral
+//! model; binding again after a value changed compiles nothing.
+
+mod common;
+
+use common::{Rng, args, shading_point};
+use tsl::{Backend, ColorModel, Compiler, Material, ParamType, ParamValue, Program, Shader, ShadingGlobals};
+
+/// A program of no templates of its own (an empty file is an error).
+const HOST: &str = "material host = lambert;";
+
+fn program(src: &str, model: ColorModel) -> Program {
+    Compiler::new().color_model(model).source("host.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A value other than the default: a `phong` for a material, the last
+/// option for a string.
+fn non_default(p: &tsl::ParamInfo, k: usize, program: &Program) -> Option<ParamValue> {
+    if p.array_len.is_some() {
+        return None;
+    }
+    let x = 0.15 + 0.1 * k as f32;
+    Some(match p.ty {
+        ParamType::Float => ParamValue::Float(x),
+        ParamType::Int => ParamValue::Int(k as i32 + 2),
+        ParamType::Bool => ParamValue::Bool(p.default != Some(ParamValue::Bool(true))),
+        ParamType::Color => ParamValue::Triple([x, 0.5, 1.0 - x / 2.0]),
+        ParamType::Vector | ParamType::Point | ParamType::Normal => ParamValue::Triple([x, -0.5, 0.25]),
+        ParamType::Vec2 => ParamValue::Vec2([x, 0.5]),
+        ParamType::String => ParamValue::String(p.options.last()?.clone()),
+        ParamType::Material => program.shader("phong").ok()?.instance().set("ns", 12.0).ok()?.clone().into(),
+        ParamType::Matrix | ParamType::BsdfSample => return None,
+    })
+}
+
+/// Whether two result words agree: equal, or floats within rounding.
+fn close(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
+    if a == b || ty != tsl::ir::Scalar::F32 {
+        return a == b;
+    }
+    let (x, y) = (f32::from_bits(a), f32::from_bits(b));
+    (x.is_nan() && y.is_nan()) || (x - y).abs() <= 1e-4 * x.abs().max(y.abs()) + 1e-5
+}
+
+/// Every interface method of both materials, on the same arguments at the
+/// same points, on `backend`: results within rounding. Returns how many
+/// words were compared.
+fn assert_agree(bound: &Material, specialised: &Material, backend: Backend, what: &str) -> usize {
+    let mut rng = Rng(0x5eed);
+    let mut compared = 0;
+    for _ in 0..4 {
+        let g = shading_point(&mut rng);
+        for method in tsl::check::Method::ALL {
+            let (fa, fb) = (bound.method(method).unwrap(), specialised.method(method).unwrap());
+            let words = args(&mut rng, fa.params(), bound.color_model());
+            let results = &fa.ir().results;
+            let (mut oa, mut ob) = (vec![0u32; results.len()], vec![0u32; results.len()]);
+            fa.call_words(backend, &g, &words, &mut oa).unwrap();
+            fb.call_words(backend, &g, &words, &mut ob).unwrap();
+            for (k, ((a, b), ty)) in oa.iter().zip(&ob).zip(results).enumerate() {
+                assert!(
+                    close(*a, *b, *ty),
+                    "{what} {backend:?}: `{}` word {k}: bound {} vs specialised {}",
+                    method.name(),
+                    f32::from_bits(*a),
+                    f32::from_bits(*b)
+                );
+            }
+            compared += results.len();
+        }
+    }
+    compared
+}
+
+#[test]
+fn bound_and_specialised_instances_agree_for_every_stdlib_material() {
+    for model in [ColorModel::Rgb, ColorModel::Spectral { samples: 8 }] {
+        let program = program(HOST, model);
+        let shaders: Vec<Shader> = program.shaders().into_iter().filter(Shader::in_prelude).collect();
+        assert!(shaders.len() >= 19, "{} shaders", shaders.len());
+        for shader in &shaders {
+            // At the defaults (required parameters set), then with every
+            // parameter changed.
+            let mut instance = shader.instance();
+            for changed in [false, true] {
+                for (k, p) in shader.params().iter().enumerate().filter(|(_, p)| changed || p.required()) {
+                    if let Some(v) = non_default(p, k, &program) {
+                        instance.set(&p.name, v).unwrap_or_else(|e| panic!("{}.{}: {e}", shader.name(), p.name));
+                    }
+                }
+                let what = format!("{model:?} {}", instance.source());
+                let bound = instance.bind().unwrap_or_else(|e| panic!("{what}: {e}"));
+                let specialised = instance.specialise().unwrap_or_else(|e| panic!("{what}: {e}"));
+                for backend in [Backend::Jit, Backend::Interpreter] {
+                    assert!(assert_agree(&bound, &specialised, backend, &what) > 0);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn the_block_is_read_at_run_time_so_changing_a_value_compiles_nothing() {
+    let program = program(HOST, ColorModel::Rgb);
+    let mut metal = program.shader("rough_conductor").unwrap().instance();
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ..Default::default() };
+    let (wi, wo) = ([0.6, 0.0, 0.8], [-0.6, 0.0, 0.8]);
+    let white = program.rgb(1.0, 1.0, 1.0);
+    let first = metal.set("alpha", 0.05).unwrap().bind().unwrap();
+    let compiled = program.compiled_functions();
+    assert!(compiled > 0);
+    let mut peaks = vec![first.reflection(&g, wi, &white, wo).to_rgb()[0]];
+    for alpha in [0.2, 0.6] {
+        let m = metal.set("alpha", alpha).unwrap().bind().unwrap();
+        peaks.push(m.reflection(&g, wi, &white, wo).to_rgb()[0]);
+        // The same code, another block.
+        assert!(!m.method(tsl::check::Method::Reflection).unwrap().ir().instance_words.is_empty());
+    }
+    assert_eq!(program.compiled_functions(), compiled, "binding new values compiled code");
+    assert!(peaks[0] > peaks[1] && peaks[1] > peaks[2], "rougher is a lower mirror peak: {peaks:?}");
+    // The first material keeps its own block.
+    assert_eq!(first.reflection(&g, wi, &white, wo).to_rgb()[0], peaks[0]);
+    // A string option changes the code: one more compilation, then cached.
+    metal.set("distribution", "ggx").unwrap();
+    let ggx = metal.bind().unwrap();
+    let after_ggx = program.compiled_functions();
+    assert!(after_ggx > compiled);
+    metal.set("alpha", 0.3).unwrap().bind().unwrap();
+    assert_eq!(program.compiled_functions(), after_ggx);
+    assert!(ggx.reflection(&g, wi, &white, wo).to_rgb()[0].is_finite());
+}
+
+#[test]
+fn bound_instances_are_shared_across_threads() {
+    let program = program(HOST, ColorModel::Spectral { samples: 8 });
+    let shader = program.shader("phong").unwrap();
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ..Default::default() };
+    let (wi, wo) = ([0.3, 0.0, 0.954], [-0.3, 0.0, 0.954]);
+    let light = program.rgb(1.0, 1.0, 1.0);
+    let shared = shader.instance().set("ns", 64.0).unwrap().bind().unwrap();
+    let want = shared.reflection(&g, wi, &light, wo);
+    let compiled = program.compiled_functions();
+    let got: Vec<(tsl::Color, tsl::Color)> = std::thread::scope(|s| {
+        let handles: Vec<_> = [4.0f32, 16.0, 128.0]
+            .map(|ns| {
+                let (shader, shared, light) = (&shader, &shared, &light);
+                s.spawn(move || {
+                    let own = shader.instance().set("ns", ns).unwrap().bind().unwrap();
+                    (shared.reflection(&g, wi, light, wo), own.reflection(&g, wi, light, wo))
+                })
+            })
+            .into_iter()
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert!(got.iter().all(|(s, _)| *s == want), "a shared bound material gave another result on a thread");
+    let peaks: Vec<f32> = got.iter().map(|(_, own)| own.to_rgb()[0]).collect();
+    assert!(peaks[0] < peaks[1] && peaks[1] < peaks[2], "higher exponents, higher peaks: {peaks:?}");
+    assert_eq!(program.compiled_functions(), compiled, "threads binding values compiled code");
+}
+
+#[test]
+fn a_user_template_binds_its_values_at_run_time() {
+    let src = r#"
+material car_paint(
+    color base = rgb(0.5, 0.02, 0.02),
+    string finish = "gloss" in ("gloss", "satin"),
+    material under = lambert,
+) = mix(0.3, rough_plastic(diffuse_reflectance: base, alpha: finish == "gloss" ? 0.05 : 0.3), under);
+"#;
+    let program = program(src, ColorModel::Rgb);
+    let mut paint = program.shader("car_paint").unwrap().instance();
+    let mut under = program.shader("rough_conductor").unwrap().instance();
+    under.set("alpha", 0.4).unwrap();
+    paint.set("finish", "satin").unwrap().set("under", &under).unwrap();
+    for base in [[0.1, 0.2, 0.7], [0.9, 0.1, 0.1]] {
+        paint.set("base", base).unwrap();
+        let (bound, specialised) = (paint.bind().unwrap(), paint.specialise().unwrap());
+        for backend in [Backend::Jit, Backend::Interpreter] {
+            assert_agree(&bound, &specialised, backend, &paint.source());
+        }
+    }
+}
+
+#[test]
+fn a_required_parameter_without_a_value_is_an_error_when_bound() {
+    let src = "material tinted(color c) = lambert(kd: c);";
+    let program = program(src, ColorModel::Rgb);
+    let err = program.shader("tinted").unwrap().instance().bind().unwrap_err();
+    assert!(err.to_string().contains("needs a value for `c`"), "{err}");
+    let mut tinted = program.shader("tinted").unwrap().instance();
+    tinted.set("c", [0.2, 0.4, 0.6]).unwrap();
+    let (bound, specialised) = (tinted.bind().unwrap(), tinted.specialise().unwrap());
+    assert!(assert_agree(&bound, &specialised, Backend::Jit, "tinted") > 0);
+}
