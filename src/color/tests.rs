@@ -3,6 +3,7 @@
 
 use super::*;
 use serde_json::Value;
+use std::borrow::Cow;
 
 const ORACLE: &str = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/color_oracle.json"));
 
