@@ -164,14 +164,7 @@ fn bound_instances_are_shared_across_threads() {
 
 #[test]
 fn a_user_template_binds_its_values_at_run_time() {
-    let src = r#"
-material car_paint(
-    color base = rgb(0.5, 0.02, 0.02),
-    string finish = "gloss" in ("gloss", "satin"),
-    material under = lambert,
-) = mix(0.3, rough_plastic(diffuse_reflectance: base, alpha: finish == "gloss" ? 0.05 : 0.3), under);
-"#;
-    let program = program(src, ColorModel::Rgb);
+    let program = program(common::CAR_PAINT, ColorModel::Rgb);
     let mut paint = program.shader("car_paint").unwrap().instance();
     let mut under = program.shader("rough_conductor").unwrap().instance();
     under.set("alpha", 0.4).unwrap();

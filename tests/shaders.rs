@@ -241,15 +241,11 @@ fn specialised_instances_equal_the_same_call_in_source() {
 
 #[test]
 fn user_templates_specialise_like_their_source_call() {
-    let src = r#"
-material car_paint(
-    color base = rgb(0.5, 0.02, 0.02),
-    string finish = "gloss" in ("gloss", "satin"),
-    material under = lambert,
-) = mix(0.3, rough_plastic(diffuse_reflectance: base, alpha: finish == "gloss" ? 0.05 : 0.3), under);
-material written = car_paint(base: rgb(0.1, 0.2, 0.7), finish: "satin", under: rough_conductor(alpha: 0.4));
-"#;
-    let program = program(src, ColorModel::Rgb);
+    let src = format!(
+        "{}material written = car_paint(base: rgb(0.1, 0.2, 0.7), finish: \"satin\", under: rough_conductor(alpha: 0.4));",
+        common::CAR_PAINT
+    );
+    let program = program(&src, ColorModel::Rgb);
     let mut under = program.shader("rough_conductor").unwrap().instance();
     under.set("alpha", 0.4).unwrap();
     let mut paint = program.shader("car_paint").unwrap().instance();

@@ -225,3 +225,13 @@ pub fn args(rng: &mut Rng, params: &[(String, Ty)], model: tsl::ColorModel) -> V
     }
     words
 }
+
+/// A user's material template with a colour, a string option and a material
+/// parameter: what the shader and run-time binding tests instantiate.
+pub const CAR_PAINT: &str = r#"
+material car_paint(
+    color base = rgb(0.5, 0.02, 0.02),
+    string finish = "gloss" in ("gloss", "satin"),
+    material under = lambert,
+) = mix(0.3, rough_plastic(diffuse_reflectance: base, alpha: finish == "gloss" ? 0.05 : 0.3), under);
+"#;
