@@ -278,6 +278,22 @@ struct Part {
     jit: Jit,
 }
 
+/// The compiled interface methods `ENTRY.method` of `part`, by [`check::Method`]:
+/// what a material compiled from one expression is made of.
+fn interface_functions(part: &Arc<Part>, entry: &str) -> Result<Vec<Function>, Error> {
+    check::Method::ALL
+        .iter()
+        .map(|method| {
+            let fname = format!("{entry}.{}", method.name());
+            let index = part.ir.functions.iter().position(|f| f.name == fname);
+            match (index, part.jit.function(&fname)) {
+                (Some(index), Some(native)) => Ok(Function::new(part.clone(), index, native)),
+                _ => Err(Error::plain(format!("internal error: `{fname}` was not compiled"))),
+            }
+        })
+        .collect()
+}
+
 struct Inner {
     model: ColorModel,
     /// The checked program, kept to compile prelude entries on first use.
@@ -606,15 +622,7 @@ impl Program {
         }
         let methods = crate::check::Method::ALL.map(|m| self.find(&format!("{name}.{}", m.name())));
         if methods.iter().all(Option::is_some) {
-            let code = material::Code {
-                name: name.to_string(),
-                methods,
-                eval_pdf: None,
-                delta_lobes: None,
-                reflection_sum: None,
-                hit: None,
-            };
-            return Ok(Material::new(self.clone(), code));
+            return Ok(Material::new(self.clone(), material::Code::methods_only(name.to_string(), methods)));
         }
         let known: Vec<&str> = self
             .inner

@@ -14,7 +14,7 @@
 use super::param_value::{ParamType, ParamValue};
 use super::shader::{Instance, ParamInfo};
 use super::{Error, Function, Material, MaterialFacts, Program};
-use crate::check::{Method, check_material_expr};
+use crate::check::check_material_expr;
 use crate::color::ColorModel;
 use crate::diag::Diagnostic;
 use crate::ir::Scalar;
@@ -31,7 +31,7 @@ pub const MAX_BOUND_COMBINATIONS: usize = 1024;
 /// A shader's code for one combination of code-changing values, shared
 /// by every instance bound with that combination.
 pub(super) struct InstanceCode {
-    /// By [`Method`], each reading the block.
+    /// By [`Method`](crate::check::Method), each reading the block.
     methods: Vec<Function>,
     /// Each parameter's first word in the block, by parameter index;
     /// `None` for a parameter bound in the code.
@@ -210,15 +210,7 @@ impl Instance {
             return Err(to_error(diags));
         }
         let part = program.jit_part(ir, entries)?;
-        let mut methods = Vec::new();
-        for method in Method::ALL {
-            let fname = format!("{entry}.{}", method.name());
-            let index = part.ir.functions.iter().position(|f| f.name == fname);
-            let (Some(index), Some(native)) = (index, part.jit.function(&fname)) else {
-                return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
-            };
-            methods.push(Function::new(part.clone(), index, native));
-        }
+        let methods = super::interface_functions(&part, &entry)?;
         // Facts come from the IR alone: found once, for every block.
         let unbound = Material::new(
             program.clone(),
@@ -229,18 +221,7 @@ impl Instance {
     }
 }
 
-/// The material code of a bound instance's methods (by [`Method`]).
+/// The material code of a bound instance's methods (by [`Method`](crate::check::Method)).
 fn method_code(shader: &str, methods: Vec<Option<Function>>) -> super::material::Code {
-    let mut by_method = Method::ALL.map(|_| None);
-    for (slot, f) in by_method.iter_mut().zip(methods) {
-        *slot = f;
-    }
-    super::material::Code {
-        name: format!("@{shader}"),
-        methods: by_method,
-        eval_pdf: None,
-        delta_lobes: None,
-        reflection_sum: None,
-        hit: None,
-    }
+    super::material::Code::methods_only(format!("@{shader}"), methods)
 }

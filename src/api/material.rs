@@ -39,6 +39,16 @@ pub(super) struct Code {
     pub hit: Option<Prepared>,
 }
 
+impl Code {
+    /// The interface methods alone, in [`Method`] order (missing ones
+    /// `None`): no combined entries, no hit group.
+    pub fn methods_only(name: String, methods: impl IntoIterator<Item = Option<Function>>) -> Code {
+        let mut methods = methods.into_iter();
+        let methods = Method::ALL.map(|_| methods.next().flatten());
+        Code { name, methods, eval_pdf: None, delta_lobes: None, reflection_sum: None, hit: None }
+    }
+}
+
 /// A hit group with the positions of the methods a surface calls through
 /// it, looked up once (comparing at every call cost 2.7% of a textured
 /// render).

@@ -20,7 +20,7 @@
 //! once per combination of material and string values.
 
 use super::param_value::{ParamType, ParamValue};
-use super::{Error, Function, Material, Program};
+use super::{Error, Material, Program};
 use crate::check::{self, SymbolKind, Ty, check_material_expr};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::syntax::ast::{Expr, ExprKind, Item, Param};
@@ -479,24 +479,8 @@ impl Instance {
             return Err(to_error(diags));
         }
         let part = program.jit_part(ir, entries)?;
-        let mut methods = check::Method::ALL.map(|_| None);
-        for (slot, method) in methods.iter_mut().zip(check::Method::ALL) {
-            let fname = format!("{entry}.{}", method.name());
-            let index = part.ir.functions.iter().position(|f| f.name == fname);
-            let (Some(index), Some(native)) = (index, part.jit.function(&fname)) else {
-                return Err(Error::plain(format!("internal error: `{fname}` was not compiled")));
-            };
-            *slot = Some(Function::new(part.clone(), index, native));
-        }
-        let code = super::material::Code {
-            name: entry,
-            methods,
-            eval_pdf: None,
-            delta_lobes: None,
-            reflection_sum: None,
-            hit: None,
-        };
-        Ok(Material::new(program.clone(), code))
+        let methods = super::interface_functions(&part, &entry)?.into_iter().map(Some);
+        Ok(Material::new(program.clone(), super::material::Code::methods_only(entry, methods)))
     }
 
     /// An error naming the required parameters without a value.
