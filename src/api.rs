@@ -33,6 +33,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 
+mod batch;
 mod bound;
 mod error;
 mod material;
@@ -45,6 +46,7 @@ mod surfaces;
 mod typed;
 
 pub use crate::ir::lower::HitMethod;
+pub use batch::{Column, Layout, MAX_BATCH_WORDS, ShadingBatch};
 pub use bound::MAX_BOUND_COMBINATIONS;
 pub use error::{Error, MAX_DEBUG_DIAGNOSTICS};
 pub use material::{Material, MaterialFacts, SampledDir};
@@ -268,7 +270,7 @@ fn compile_part(
         return Err(Error { diagnostics: diags, sources: program.loaded.sources.clone() });
     }
     let jit = crate::jit::compile(&ir, options).map_err(Error::plain)?;
-    Ok(Part { ir, entries, jit })
+    Ok(Part::new(ir, entries, jit))
 }
 
 /// Entry points compiled together into one JIT module.
@@ -276,6 +278,15 @@ struct Part {
     ir: IrModule,
     entries: Vec<Entry>,
     jit: Jit,
+    /// By function: its batch entry, compiled when first asked for.
+    batches: Box<[std::sync::OnceLock<Result<crate::jit::BatchCode, String>>]>,
+}
+
+impl Part {
+    fn new(ir: IrModule, entries: Vec<Entry>, jit: Jit) -> Part {
+        let batches = ir.functions.iter().map(|_| std::sync::OnceLock::new()).collect();
+        Part { ir, entries, jit, batches }
+    }
 }
 
 /// The compiled interface methods `ENTRY.method` of `part`, by [`check::Method`]:
@@ -449,7 +460,7 @@ impl Program {
     fn jit_part_with(&self, ir: IrModule, entries: Vec<Entry>, options: &JitOptions) -> Result<Arc<Part>, Error> {
         let jit = crate::jit::compile(&ir, options).map_err(Error::plain)?;
         self.inner.compiled_functions.fetch_add(ir.functions.len(), Ordering::Relaxed);
-        Ok(Arc::new(Part { ir, entries, jit }))
+        Ok(Arc::new(Part::new(ir, entries, jit)))
     }
 
     /// The program's `scene { }` block as checked plain data, its colors in
@@ -786,6 +797,18 @@ impl Function {
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
     }
 
+    /// The instance parameter block the code reads. Code without instance
+    /// words never reads it; code with them was given one long enough
+    /// (`with_instance`), or has none: an error.
+    #[inline]
+    fn instance_block(&self) -> Result<&[u32], String> {
+        let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
+        if instance.len() < self.words.2 {
+            return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
+        }
+        Ok(instance)
+    }
+
     pub(crate) fn entry(&self) -> &Entry {
         &self.part.entries[self.index]
     }
@@ -803,16 +826,11 @@ impl Function {
         args: &[u32],
         out: &mut [u32],
     ) -> Result<(), String> {
-        let (params, results, instance_words) = self.words;
+        let (params, results, _) = self.words;
         if args.len() < params || out.len() < results {
             return Err(self.words_error());
         }
-        // Code without instance words never reads the block; code with
-        // them was given one long enough (`with_instance`), or has none.
-        let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
-        if instance.len() < instance_words {
-            return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
-        }
+        let instance = self.instance_block()?;
         match backend {
             Backend::Interpreter => crate::interp::run_instance(self.ir(), &g.words(), args, instance, out),
             Backend::Jit => {

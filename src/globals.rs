@@ -162,6 +162,12 @@ impl ShadingGlobals {
         // with no padding (asserted in the tests), so it is 50 valid words.
         unsafe { std::mem::transmute::<ShadingGlobals, [u32; GLOBAL_WORDS as usize]>(*self) }
     }
+
+    /// The record whose words are `words` (the inverse of [`ShadingGlobals::words`]).
+    pub fn from_words(words: &[u32; GLOBAL_WORDS as usize]) -> ShadingGlobals {
+        // SAFETY: as above; every bit pattern is a valid f32 or i32.
+        unsafe { std::mem::transmute::<[u32; GLOBAL_WORDS as usize], ShadingGlobals>(*words) }
+    }
 }
 
 #[cfg(test)]

@@ -13,6 +13,10 @@
 //! module depends on `ir`, the runtime natives and textures only, never on
 //! the front end.
 
+mod batch;
+
+pub use batch::{BatchCode, BatchShape, ColumnPtr, compile_batch};
+
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
 use crate::runtime::natives;
