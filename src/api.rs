@@ -42,6 +42,7 @@ mod param_value;
 mod prepared;
 mod shader;
 mod surface;
+mod surface_batch;
 mod surfaces;
 mod typed;
 
@@ -56,6 +57,7 @@ use prepared::worth_preparing;
 pub use prepared::{HitMaterial, PATH_METHODS, PreparedHit, WHITTED_METHODS};
 pub use shader::{Instance, ParamInfo, Shader};
 pub use surface::{Surface, SurfaceRecord};
+pub use surface_batch::{ColorBatch, DeltaLobesBatch, EvalPdfBatch, SampleBatch, SurfaceBatch};
 pub use surfaces::{HitCalls, MaterialSource, SurfaceOptions};
 pub use typed::{TslParams, TslType, TypedFunction};
 

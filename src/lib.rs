@@ -96,7 +96,9 @@ pub use api::{
     PATH_METHODS, PreparedHit, Program, SampledDir, Surface, SurfaceOptions, SurfaceRecord, TslParams, TslType,
     TypedFunction, WHITTED_METHODS, WordType,
 };
-pub use api::{Column, Layout, MAX_BATCH_WORDS, ShadingBatch};
+pub use api::{
+    ColorBatch, Column, DeltaLobesBatch, EvalPdfBatch, Layout, MAX_BATCH_WORDS, SampleBatch, ShadingBatch, SurfaceBatch,
+};
 pub use api::{Instance, ParamInfo, ParamType, ParamValue, Shader};
 pub use color::ColorModel;
 pub use driver::{Checked, check_file, check_source, check_source_cancellable, check_source_reusing};

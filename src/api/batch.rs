@@ -77,6 +77,12 @@ impl<'a> Column<'a> {
         Column { source: Source::Slice { words, first, stride } }
     }
 
+    /// Point `i` reads `words[first + i * stride]` (`stride` > 0): a word
+    /// of records stored point by point.
+    pub(super) fn words_strided(words: &'a [u32], first: usize, stride: usize) -> Column<'a> {
+        Column { source: Source::Slice { words, first, stride: stride.max(1) } }
+    }
+
     /// Every point reads `value`.
     pub fn uniform(value: f32) -> Column<'static> {
         Column { source: Source::Uniform(value.to_bits()) }
@@ -119,7 +125,7 @@ impl<'a> Column<'a> {
     }
 
     /// The word point `i` reads (`i` within [`Column::len`]).
-    fn word(&self, i: usize) -> u32 {
+    pub(super) fn word(&self, i: usize) -> u32 {
         match self.source {
             Source::Uniform(w) => w,
             Source::Slice { words, first, stride } => words[first + i * stride],
@@ -138,7 +144,7 @@ impl<'a> Column<'a> {
     }
 
     /// An error unless the column has values for `points` points.
-    fn check(&self, points: usize, what: impl FnOnce() -> String) -> Result<(), Error> {
+    pub(super) fn check(&self, points: usize, what: impl FnOnce() -> String) -> Result<(), Error> {
         match self.len() {
             Some(n) if n < points => {
                 Err(Error::plain(format!("{} has values for {n} points, and the batch has {points}", what())))

@@ -3,6 +3,7 @@
 //! is checked then ([`Program::typed_function`]), and every call after
 //! takes and returns Rust values, with no words to pack.
 
+use super::batch::{Column, Layout, ShadingBatch};
 use super::{Backend, Color, Error, Function, Program};
 use crate::check::Ty;
 use crate::color::{ColorModel, MAX_SAMPLES};
@@ -245,6 +246,56 @@ impl<P: TslParams, R: TslType> TypedFunction<P, R> {
         // are the function's own, so the call cannot fail.
         let _ = self.function.call_words(backend, g, &words[..n], &mut out);
         R::read(self.model, &out)
+    }
+
+    /// [`TypedFunction::call`] at every point of `points`, with one
+    /// argument tuple per point, in one native call (see
+    /// [`Function::call_batch`]): the same values as calls point by point.
+    ///
+    /// ```
+    /// use tsl::{Compiler, ShadingBatch};
+    /// let program = Compiler::new().source("t.tsl", "float ramp(float k) { return u * k; }").compile()?;
+    /// let ramp = program.typed_function::<(f32,), f32>("ramp")?;
+    /// let mut points = ShadingBatch::new(3);
+    /// points.set_floats("u", &[0.0, 0.5, 1.0])?;
+    /// assert_eq!(ramp.call_batch(&points, &[(2.0,), (2.0,), (4.0,)])?, [0.0, 1.0, 4.0]);
+    /// assert_eq!(ramp.call_batch_uniform(&points, (2.0,))?, [0.0, 1.0, 2.0]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    ///
+    /// An `args` of another length than the batch is an error.
+    pub fn call_batch(&self, points: &ShadingBatch, args: &[P]) -> Result<Vec<R>, Error> {
+        if args.len() != points.len() {
+            return Err(Error::plain(format!(
+                "`{}` was given {} argument tuples for a batch of {} points",
+                self.function.name(),
+                args.len(),
+                points.len()
+            )));
+        }
+        let width = P::words(self.model);
+        let mut words = vec![0u32; args.len() * width];
+        for (a, w) in args.iter().zip(words.chunks_exact_mut(width.max(1))) {
+            a.write(self.model, w);
+        }
+        let columns: Vec<Column> = (0..width).map(|k| Column::words_strided(&words, k, width)).collect();
+        self.run_batch(points, &columns)
+    }
+
+    /// [`TypedFunction::call_batch`] with the same arguments at every point.
+    pub fn call_batch_uniform(&self, points: &ShadingBatch, args: P) -> Result<Vec<R>, Error> {
+        let mut words = [0u32; MAX_TYPED_ARG_WORDS];
+        let n = P::words(self.model);
+        args.write(self.model, &mut words[..n]);
+        let columns: Vec<Column> = words[..n].iter().map(|&w| Column::uniform_word(w)).collect();
+        self.run_batch(points, &columns)
+    }
+
+    fn run_batch(&self, points: &ShadingBatch, columns: &[Column]) -> Result<Vec<R>, Error> {
+        let width = R::words(self.model);
+        let mut out = vec![0u32; points.len() * width];
+        self.function.call_batch(Backend::Jit, points, columns, &mut out, Layout::PointMajor)?;
+        Ok(out.chunks_exact(width.max(1)).take(points.len()).map(|w| R::read(self.model, w)).collect())
     }
 
     /// The untyped function.

@@ -1,0 +1,337 @@
+//! Batch calls (`Function::call_batch`, `TypedFunction::call_batch`,
+//! `Material::at_batch`) give, at every point, the bits the same call
+//! gives point by point: generators and every stdlib material, both back
+//! ends, RGB and spectral, prepared (split) and whole materials, bound
+//! instances; columns of every kind (structure of arrays, a field of an
+//! array of vectors, one value for all); both result layouts; from many
+//! threads at once. Bad batches are errors before anything runs.
+
+mod common;
+
+use common::{Rng, args, shading_point};
+use tsl::{
+    Backend, ColorModel, Column, Compiler, HitCalls, Layout, Material, MaterialSource, Program, ShadingBatch,
+    ShadingGlobals, SurfaceOptions, SurfaceRecord,
+};
+
+const POINTS: usize = 37;
+
+/// Per-point globals of a batch, as columns of every kind: `P` from an
+/// array of vectors, `N` and `Ng` word by word (structure of arrays), `u`
+/// and `v` floats, `face` ints, `time` one value for all.
+struct Globals {
+    p: Vec<[f32; 3]>,
+    n: [Vec<f32>; 3],
+    uv: [Vec<f32>; 2],
+    pl: Vec<f32>,
+    dpdu: Vec<[f32; 3]>,
+    dpdx: Vec<[f32; 3]>,
+    face: Vec<i32>,
+}
+
+impl Globals {
+    fn new(rng: &mut Rng) -> Globals {
+        let points: Vec<ShadingGlobals> = (0..POINTS).map(|_| shading_point(rng)).collect();
+        Globals {
+            p: points.iter().map(|g| g.p).collect(),
+            n: [0, 1, 2].map(|k| points.iter().map(|g| g.n[k]).collect()),
+            uv: [points.iter().map(|g| g.u).collect(), points.iter().map(|g| g.v).collect()],
+            // Pl as one row-major matrix (n × 3), read with a stride.
+            pl: points.iter().flat_map(|g| g.pl).collect(),
+            dpdu: points.iter().map(|g| g.dpdu).collect(),
+            dpdx: points.iter().map(|g| g.dpdx).collect(),
+            face: points.iter().map(|g| g.face).collect(),
+        }
+    }
+
+    fn batch(&self) -> ShadingBatch<'_> {
+        let mut b = ShadingBatch::with_base(POINTS, ShadingGlobals { time: 1.5, dudx: 0.003, ..Default::default() });
+        let normal = [0, 1, 2].map(|k| Column::floats(&self.n[k]));
+        b.set_vectors("P", &self.p).unwrap();
+        b.set("N", &normal).unwrap();
+        b.set("Ng", &normal).unwrap();
+        b.set_floats("u", &self.uv[0]).unwrap().set_floats("v", &self.uv[1]).unwrap();
+        b.set("Pl", &[0, 1, 2].map(|k| Column::strided(&self.pl, k, 3))).unwrap();
+        b.set_vectors("dPdu", &self.dpdu).unwrap().set_vectors("dPdx", &self.dpdx).unwrap();
+        b.set("face", &[Column::ints(&self.face)]).unwrap();
+        b
+    }
+}
+
+/// Generators of every kind of result and argument, reading globals of
+/// every kind, with loops, noise and branches.
+const GENERATORS: &str = r#"
+float grain(float scale) { return noise(Pl * scale) + 0.1 * u; }
+vector bent(vector d, float k) { return normalize(N + d * k * v); }
+color tint(color c, int n) {
+    color acc = c;
+    for i in 0..n { acc = acc * 0.5 + gray(fbm(P * float(i), 3)); }
+    return acc * float(face + 2);
+}
+bool upward(float bias) { return N.y + bias > 0; }
+int stripes(int count) { return int(floor(u * float(count))) + face; }
+vec2 flow(vec2 at) { return vec2(at.x + time, at.y * length(dPdx) + dudx); }
+"#;
+
+fn program(src: &str, model: ColorModel) -> Program {
+    Compiler::new().color_model(model).source("b.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn generator_batches_give_the_bits_of_calls_point_by_point() {
+    let mut rng = Rng(0xba7c4);
+    let globals = Globals::new(&mut rng);
+    let batch = globals.batch();
+    for model in [ColorModel::Rgb, ColorModel::Spectral { samples: 8 }] {
+        let program = program(GENERATORS, model);
+        for name in ["grain", "bent", "tint", "upward", "stripes", "flow"] {
+            let f = program.function(name).unwrap();
+            // Arguments: the first point by point (an array of structs, read
+            // with a stride), the rest one value for all.
+            let per_point: Vec<Vec<u32>> = (0..POINTS).map(|_| args(&mut rng, f.params(), model)).collect();
+            let width = f.arg_words();
+            let flat: Vec<u32> = per_point.iter().flatten().copied().collect();
+            let floats: Vec<f32> = flat.iter().map(|w| f32::from_bits(*w)).collect();
+            let first_param = per_point[0].len().min(3).min(width);
+            let columns: Vec<Column> = (0..width)
+                .map(|k| {
+                    if k < first_param {
+                        Column::strided(&floats, k, width)
+                    } else {
+                        Column::uniform_word(per_point[0][k])
+                    }
+                })
+                .collect();
+            let results = f.result_types().len();
+            for backend in [Backend::Jit, Backend::Interpreter] {
+                for layout in [Layout::PointMajor, Layout::WordMajor] {
+                    let mut out = vec![0xdead_beef_u32; POINTS * results];
+                    f.call_batch(backend, &batch, &columns, &mut out, layout).unwrap();
+                    for i in 0..POINTS {
+                        let mut a: Vec<u32> = per_point[i].clone();
+                        a[first_param..].copy_from_slice(&per_point[0][first_param..]);
+                        let mut want = vec![0u32; results];
+                        f.call_words(backend, &batch.point(i), &a, &mut want).unwrap();
+                        for (k, w) in want.iter().enumerate() {
+                            let at = match layout {
+                                Layout::PointMajor => i * results + k,
+                                Layout::WordMajor => k * POINTS + i,
+                            };
+                            assert_eq!(out[at], *w, "{model:?} {name} {backend:?} {layout:?} point {i} word {k}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    // The batch's points are the globals given, column by column.
+    let g = batch.point(5);
+    assert_eq!(
+        (g.p, g.pl[1], g.u, g.face, g.time),
+        (globals.p[5], globals.pl[16], globals.uv[0][5], globals.face[5], 1.5)
+    );
+}
+
+#[test]
+fn typed_batches_give_the_values_of_typed_calls() {
+    let program = program(GENERATORS, ColorModel::Rgb);
+    let globals = Globals::new(&mut Rng(7));
+    let batch = globals.batch();
+    let bent = program.typed_function::<([f32; 3], f32), [f32; 3]>("bent").unwrap();
+    let args: Vec<([f32; 3], f32)> = (0..POINTS).map(|i| ([0.1 * i as f32, 1.0, -0.5], 0.3 + i as f32)).collect();
+    let got = bent.call_batch(&batch, &args).unwrap();
+    let uniform = bent.call_batch_uniform(&batch, args[3]).unwrap();
+    for i in 0..POINTS {
+        assert_eq!(got[i], bent.call(&batch.point(i), args[i]), "point {i}");
+        assert_eq!(uniform[i], bent.call(&batch.point(i), args[3]), "point {i}");
+    }
+    let tint = program.typed_function::<(tsl::Color, i32), tsl::Color>("tint").unwrap();
+    let c = program.rgb(0.2, 0.4, 0.8);
+    let colors = tint.call_batch_uniform(&batch, (c, 3)).unwrap();
+    assert_eq!(colors[9], tint.call(&batch.point(9), (c, 3)));
+    let err = bent.call_batch(&batch, &args[..3]).unwrap_err().to_string();
+    assert!(err.contains("3 argument tuples for a batch of 37 points"), "{err}");
+}
+
+/// Every call of a surface batch against a surface at each point.
+fn assert_surface_batch_matches(m: &Material, globals: &Globals, rng: &mut Rng, what: &str) {
+    let model = m.color_model();
+    let lanes = model.lanes();
+    let batch = globals.batch();
+    let wo: Vec<[f32; 3]> = (0..POINTS).map(|_| rng.unit()).collect();
+    let wi: Vec<[f32; 3]> = (0..POINTS).map(|_| rng.unit()).collect();
+    let eta: Vec<f32> = (0..POINTS * lanes).map(|_| rng.range(1.0, 1.8)).collect();
+    let light: Vec<f32> = (0..POINTS * lanes).map(|_| rng.range(0.0, 2.0)).collect();
+    let (uc, u0, u1, dist): (Vec<f32>, Vec<f32>, Vec<f32>, Vec<f32>) = (
+        (0..POINTS).map(|_| rng.range(0.0, 1.0)).collect(),
+        (0..POINTS).map(|_| rng.range(0.0, 1.0)).collect(),
+        (0..POINTS).map(|_| rng.range(0.0, 1.0)).collect(),
+        (0..POINTS).map(|_| rng.range(0.0, 3.0)).collect(),
+    );
+    let (eta_columns, light_columns) = (Column::colors(&eta, lanes), Column::colors(&light, lanes));
+    let mut s = m.at_batch(&batch, Column::vectors(&wo), &eta_columns).unwrap();
+    let sample = s.sample(Column::floats(&uc), [Column::floats(&u0), Column::floats(&u1)]).unwrap();
+    let eval = s.eval_pdf(Column::vectors(&wi)).unwrap();
+    let lobes = s.delta_lobes().unwrap();
+    let reflection = s.reflection(Column::vectors(&wi), &light_columns).unwrap();
+    let refraction = s.refraction(Column::vectors(&wi), &light_columns).unwrap();
+    let (ior, emission, diffuse) = (s.refraction_index().unwrap(), s.emission().unwrap(), s.diffuse().unwrap());
+    let ambient = s.ambient(&light_columns).unwrap();
+    let absorption = s.absorption(&light_columns, Column::floats(&dist)).unwrap();
+    let (rdir, tdir, normal) = (s.reflection_dir().unwrap(), s.refraction_dir().unwrap(), s.normal().unwrap());
+    let (opaque, pdf) = (s.opaque().unwrap(), s.pdf(Column::vectors(&wi)).unwrap());
+
+    let mut record = SurfaceRecord::new();
+    let color = |i: usize, xs: &[f32]| tsl::Color::from_lanes(model, &xs[i * lanes..(i + 1) * lanes]);
+    for i in 0..POINTS {
+        let g = batch.point(i);
+        let (eta_i, light_i) = (color(i, &eta), color(i, &light));
+        let at = format!("{what}: point {i}");
+        let mut one = m.at(&g, wo[i], &eta_i, &mut record);
+        let want = one.sample(uc[i], [u0[i], u1[i]]);
+        assert_eq!(
+            (sample.wi[i], sample.weight.get(i), sample.pdf[i], sample.delta[i]),
+            (want.wi, want.weight.lanes(), want.pdf, want.delta),
+            "{at}: sample"
+        );
+        let want = one.eval_pdf(wi[i]);
+        assert_eq!((eval.value.get(i), eval.pdf[i]), (want.value.lanes(), want.pdf), "{at}: eval_pdf");
+        let want = one.delta_lobes();
+        let lobe =
+            |l: Option<tsl::DeltaLobe>| l.map_or(([0.0; 3], vec![0.0; lanes]), |l| (l.dir, l.weight.lanes().to_vec()));
+        assert_eq!(
+            (lobes.reflect_dir[i], lobes.reflect_weight.get(i).to_vec()),
+            lobe(want.reflect),
+            "{at}: reflect lobe"
+        );
+        assert_eq!(
+            (lobes.refract_dir[i], lobes.refract_weight.get(i).to_vec()),
+            lobe(want.refract),
+            "{at}: refract lobe"
+        );
+        assert_eq!(reflection.get(i), one.reflection(wi[i], &light_i).lanes(), "{at}: reflection");
+        assert_eq!(refraction.get(i), one.refraction(wi[i], &light_i).lanes(), "{at}: refraction");
+        assert_eq!(ior.get(i), one.refraction_index().lanes(), "{at}: refraction_index");
+        assert_eq!(emission.get(i), one.emission().lanes(), "{at}: emission");
+        assert_eq!(diffuse.get(i), one.diffuse().lanes(), "{at}: diffuse");
+        assert_eq!(ambient.get(i), one.ambient(&light_i).lanes(), "{at}: ambient");
+        assert_eq!(absorption.get(i), one.absorption(&light_i, dist[i]).lanes(), "{at}: absorption");
+        assert_eq!((rdir[i], tdir[i], normal[i]), (one.reflection_dir(), one.refraction_dir(), one.normal()), "{at}");
+        assert_eq!((opaque[i], pdf[i]), (one.opaque(), one.pdf(wi[i])), "{at}: opaque, pdf");
+    }
+}
+
+/// A textured template, its material parameter and a stdlib model.
+const TEXTURED: &str = r#"
+material grainy(float scale = 4, material base = phong) = mix(noise(Pl * scale) * 0.5 + 0.5, base, glass);
+material host = grainy(scale: 6, base: rough_conductor(alpha: 0.2));
+"#;
+
+#[test]
+fn surface_batches_give_the_bits_of_surfaces_for_every_stdlib_material() {
+    let mut rng = Rng(0x5afe);
+    let globals = Globals::new(&mut rng);
+    for model in [ColorModel::Rgb, ColorModel::Spectral { samples: 8 }] {
+        let program = program(TEXTURED, model);
+        let mut checked = 0;
+        for shader in program.shaders() {
+            let mut instance = shader.instance();
+            let required: Vec<_> = shader.params().iter().filter(|p| p.required()).collect();
+            for p in required {
+                let value = match p.ty {
+                    tsl::ParamType::Material => program.shader("lambert").unwrap().instance().into(),
+                    tsl::ParamType::Float => tsl::ParamValue::Float(0.5),
+                    tsl::ParamType::Color => tsl::ParamValue::Triple([0.8, 0.5, 0.2]),
+                    _ => continue,
+                };
+                instance.set(&p.name, value).unwrap();
+            }
+            let what = format!("{model:?} {}", instance.source());
+            let bound = instance.bind().unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_surface_batch_matches(&bound, &globals, &mut rng, &format!("{what} bound"));
+            checked += 1;
+        }
+        assert!(checked >= 20, "{checked} shaders");
+        // The renderer's split materials (a per-hit stage and its group).
+        let sources = [MaterialSource::Named("host".into()), MaterialSource::Named("glass".into())];
+        for hit_calls in [HitCalls::Path, HitCalls::Whitted] {
+            let options = SurfaceOptions { hit_calls: Some(hit_calls), ..Default::default() };
+            let materials = program.compile_surfaces(&sources, &options).unwrap();
+            assert!(materials[0].is_prepared(), "the textured material is split");
+            for m in &materials {
+                assert_surface_batch_matches(m, &globals, &mut rng, &format!("{model:?} {hit_calls:?}"));
+            }
+        }
+        let whole = program.material("host").unwrap();
+        assert!(!whole.is_prepared());
+        assert_surface_batch_matches(&whole, &globals, &mut rng, &format!("{model:?} host"));
+    }
+}
+
+#[test]
+fn batches_run_from_many_threads_at_once() {
+    let program = program(GENERATORS, ColorModel::Rgb);
+    let globals = Globals::new(&mut Rng(3));
+    let f = program.function("grain").unwrap();
+    let batch = globals.batch();
+    let reference: Vec<Vec<u32>> = (0..POINTS)
+        .map(|i| {
+            let mut out = vec![0u32; 1];
+            f.call_words(Backend::Jit, &batch.point(i), &[(1.5f32 + i as f32).to_bits()], &mut out).unwrap();
+            out
+        })
+        .collect();
+    // Every thread's first call races to compile the batch form.
+    std::thread::scope(|scope| {
+        for _ in 0..4 {
+            scope.spawn(|| {
+                let scales: Vec<f32> = (0..POINTS).map(|i| 1.5 + i as f32).collect();
+                for _ in 0..20 {
+                    let mut out = vec![0u32; POINTS];
+                    f.call_batch(Backend::Jit, &batch, &[Column::floats(&scales)], &mut out, Layout::PointMajor)
+                        .unwrap();
+                    assert_eq!(out, reference.concat());
+                }
+            });
+        }
+    });
+}
+
+#[test]
+fn bad_batches_are_errors_before_anything_runs() {
+    let program = program(GENERATORS, ColorModel::Rgb);
+    let f = program.function("bent").unwrap();
+    let p = [[0.0f32; 3]; 4];
+    let mut batch = ShadingBatch::new(4);
+    let err = |e: tsl::Error| e.to_string();
+    assert!(err(batch.set_vectors("Pll", &p).unwrap_err()).contains("no global `Pll`; did you mean `Pl`?"));
+    assert!(err(batch.set("P", &[Column::uniform(1.0)]).unwrap_err()).contains("`P` is a point: 3 columns, not 1"));
+    let short = [[0.0f32; 3]; 3];
+    let e = err(batch.set_vectors("P", &short).unwrap_err());
+    assert!(e.contains("column 0 of `P` has values for 3 points, and the batch has 4"), "{e}");
+    batch.set_vectors("P", &p).unwrap();
+
+    let mut out = [0xffff_ffffu32; 12];
+    let full = [Column::uniform(0.0), Column::uniform(1.0), Column::uniform(0.0), Column::uniform(2.0)];
+    let e = err(f.call_batch(Backend::Jit, &batch, &full[..3], &mut out, Layout::PointMajor).unwrap_err());
+    assert!(e.contains("`bent` takes 4 argument columns, not 3"), "{e}");
+    let xs = [1.0f32; 3];
+    let mut with_short = full;
+    with_short[3] = Column::floats(&xs);
+    let e = err(f.call_batch(Backend::Jit, &batch, &with_short, &mut out, Layout::PointMajor).unwrap_err());
+    assert!(e.contains("argument column 3 of `bent` has values for 3 points"), "{e}");
+    let e = err(f.call_batch(Backend::Jit, &batch, &full, &mut out[..11], Layout::WordMajor).unwrap_err());
+    assert!(e.contains("`bent` writes 3 words for each of 4 points: `out` holds 11"), "{e}");
+    assert!(out.iter().all(|w| *w == 0xffff_ffff), "nothing ran");
+    // A stride-0 column past the end of its slice has no points.
+    assert_eq!(Column::strided(&xs, 3, 0).len(), Some(0));
+    assert_eq!(Column::strided(&xs, 1, 2).len(), Some(1));
+
+    let m = Compiler::new().source("m.tsl", "material m = lambert;").compile().unwrap().material("m").unwrap();
+    let two = Column::uniforms(&[1.0, 1.0]);
+    let e = err(m.at_batch(&batch, Column::vectors(&p), &two).err().unwrap());
+    assert!(e.contains("`eta` needs 3 columns (the color model's lanes), not 2"), "{e}");
+    // An empty batch runs nothing and is no error.
+    let empty = ShadingBatch::new(0);
+    f.call_batch(Backend::Jit, &empty, &full, &mut [], Layout::PointMajor).unwrap();
+}
