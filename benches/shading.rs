@@ -8,7 +8,9 @@
 //!   goal: under 50 ms;
 //! - spectral (16 samples) vs RGB cost of the same material;
 //! - texture lookups (bilinear, trilinear) and noise evaluations per
-//!   second, called from JIT code; goal: trilinear under 50 ns.
+//!   second, called from JIT code; goal: trilinear under 50 ns;
+//! - batches: a material's `reflection` over 64K points in one batch
+//!   (`Material::at_batch`) vs a surface per point; goal: no slower.
 //!
 //! Ratios are measured in one run, interleaved, so machine noise affects
 //! both sides alike.
@@ -268,12 +270,49 @@ fn main() {
     if part("lookups") {
         bench_lookups();
     }
+    if part("batch") {
+        bench_batch(&rgb);
+    }
     if part("compile") {
         // Other words filter the compiled sources by name:
         // `-- compile texture_tree`.
-        let parts = ["materials", "spectral", "lookups", "compile"];
+        let parts = ["materials", "spectral", "lookups", "batch", "compile"];
         let names: Vec<&str> = only.iter().map(String::as_str).filter(|o| !parts.contains(o)).collect();
         bench_compile(&names);
+    }
+}
+
+/// One batch call over all points vs a surface per point: the same
+/// `reflection` of the same material at the same points.
+fn bench_batch(rgb: &Program) {
+    let pts = points(1 << 16);
+    let p: Vec<[f32; 3]> = pts.iter().map(|g| g.p).collect();
+    let uv: [Vec<f32>; 2] = [pts.iter().map(|g| g.u).collect(), pts.iter().map(|g| g.v).collect()];
+    let mut batch = tsl::ShadingBatch::new(pts.len());
+    for name in ["P", "Pl", "N", "Ng"] {
+        batch.set_vectors(name, &p).expect("a global");
+    }
+    batch.set_floats("u", &uv[0]).expect("a global").set_floats("v", &uv[1]).expect("a global");
+    let ones = tsl::Column::uniforms(&[1.0; 3]);
+    for name in ["marble", "wood"] {
+        let m = rgb.material(name).expect("material exists");
+        let light = rgb.rgb(1.0, 1.0, 1.0);
+        let mut record = tsl::SurfaceRecord::new();
+        let (mut per_point, mut batched) = (Duration::MAX, Duration::MAX);
+        for _ in 0..5 {
+            per_point =
+                per_point.min(time(1, &pts, |g| m.at(g, WO, &light, &mut record).reflection(WI, &light).lanes()[0]));
+            let start = Instant::now();
+            let mut surfaces =
+                m.at_batch(&batch, tsl::Column::uniforms(&WO).try_into().expect("three"), &ones).unwrap();
+            let out = surfaces.reflection(tsl::Column::uniforms(&WI).try_into().expect("three"), &ones).unwrap();
+            black_box(out);
+            batched = batched.min(start.elapsed());
+        }
+        let (a, b) = (ns_per_point(per_point, pts.len()), ns_per_point(batched, pts.len()));
+        println!("{name} reflection, a surface per point: {a:.1} ns/point");
+        println!("{name} reflection, one batch: {b:.1} ns/point");
+        println!("{name} batch/per-point: {:.2} x", b / a);
     }
 }
 
