@@ -303,9 +303,8 @@ fn bench_batch(rgb: &Program) {
             per_point =
                 per_point.min(time(1, &pts, |g| m.at(g, WO, &light, &mut record).reflection(WI, &light).lanes()[0]));
             let start = Instant::now();
-            let mut surfaces =
-                m.at_batch(&batch, tsl::Column::uniforms(&WO).try_into().expect("three"), &ones).unwrap();
-            let out = surfaces.reflection(tsl::Column::uniforms(&WI).try_into().expect("three"), &ones).unwrap();
+            let mut surfaces = m.at_batch(&batch, tsl::Column::uniform_vector(WO), &ones).unwrap();
+            let out = surfaces.reflection(tsl::Column::uniform_vector(WI), &ones).unwrap();
             black_box(out);
             batched = batched.min(start.elapsed());
         }

@@ -4,7 +4,8 @@
 //! A host compiles a program once, asks what its material templates take,
 //! makes instances, and at every ray hit gets a [`Surface`] whose methods
 //! (`sample`, `eval_pdf`, `reflection`, `emission`, ...) return typed
-//! results; generators are typed functions:
+//! results; generators are typed functions; both run over many points in
+//! one call too ([`ShadingBatch`], [`SurfaceBatch`]):
 //!
 //! ```
 //! use tsl::{ColorModel, Compiler, ShadingGlobals, SurfaceRecord};
@@ -41,6 +42,16 @@
 //! // A generator, its signature checked once.
 //! let rings = program.typed_function::<(f32,), f32>("rings")?;
 //! assert!((0.0..1.0).contains(&rings.call(&g, (8.0,))));
+//!
+//! // Many points in one call: globals and arguments as columns.
+//! let pl = [[0.1, 0.0, 0.0], [0.2, 0.0, 0.0], [0.3, 0.0, 0.0f32]];
+//! let mut points = tsl::ShadingBatch::with_base(3, g);
+//! points.set_vectors("Pl", &pl)?;
+//! let values = rings.call_batch_uniform(&points, (8.0,))?;
+//! assert_eq!(values[1], rings.call(&points.point(1), (8.0,)));
+//! let wo = tsl::Column::uniform_vector([0.0, 0.0, 1.0]);
+//! let albedo = program.material("wood")?.at_batch(&points, wo, &tsl::Column::uniforms(eta.lanes()))?.diffuse()?;
+//! assert_eq!(albedo.len(), 3);
 //! # Ok::<(), tsl::Error>(())
 //! ```
 //!

@@ -104,7 +104,12 @@ impl<'a> Column<'a> {
         (0..lanes).map(|k| Column::strided(values, k, lanes)).collect()
     }
 
-    /// One value for every point in each of `lanes` (a color, a vector).
+    /// One vector for every point (a direction all points share).
+    pub fn uniform_vector(v: [f32; 3]) -> [Column<'static>; 3] {
+        v.map(Column::uniform)
+    }
+
+    /// One value for every point in each of `lanes` (a color's lanes).
     pub fn uniforms(lanes: &[f32]) -> Vec<Column<'static>> {
         lanes.iter().map(|&x| Column::uniform(x)).collect()
     }
