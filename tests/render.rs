@@ -88,6 +88,50 @@ fn a_white_sphere_in_a_white_environment_disappears() {
     }
 }
 
+/// The mean of a sphere of `material` filling the frame in a white
+/// environment, path-traced to `depth`.
+fn sphere_in_white_furnace(material: &str, depth: u32) -> f64 {
+    let src = format!(
+        r#"
+        scene {{
+            background gray(1);
+            camera {{ from (0, 0, 4); to (0, 0, 0); fov 18; }}
+            render {{ width 12; height 12; spp 48; integrator "path"; }}
+            object sphere {{ center (0, 0, 0); radius 1; material {material}; }}
+        }}
+    "#
+    );
+    let image = render_src(&src, ColorModel::Rgb, &Overrides { max_depth: Some(depth), ..Default::default() });
+    let m = mean(&image);
+    (m[0] + m[1] + m[2]) / 3.0
+}
+
+/// A lossless dielectric sphere in a white furnace: every path ends in the
+/// background, so with depth enough the sphere vanishes (radiance 1), a
+/// slightly rough one nearly so, and at every depth a nearly smooth rough
+/// dielectric renders as the smooth one. A renderer that gave a
+/// transmitting material without a perfect refraction direction the index
+/// 1 (`rough_dielectric` rendered 58% too dark) fails each of these.
+#[test]
+fn transmitting_materials_keep_their_energy_in_a_white_furnace() {
+    let smooth = "glass(ior: gray(1.5))";
+    let rough = |alpha: f32, distribution: &str| {
+        format!("rough_dielectric(int_ior: 1.5, ext_ior: 1, alpha: {alpha}, distribution: \"{distribution}\")")
+    };
+    for depth in [3, 8] {
+        let (a, b) = (sphere_in_white_furnace(smooth, depth), sphere_in_white_furnace(&rough(0.01, "ggx"), depth));
+        assert!((a - b).abs() <= 0.03 * a, "depth {depth}: glass {a} vs rough_dielectric at alpha 0.01 {b}");
+    }
+    let deep = 64;
+    let glass = sphere_in_white_furnace(smooth, deep);
+    assert!((glass - 1.0).abs() <= 0.02, "glass at depth {deep}: {glass}");
+    for (alpha, distribution) in [(0.01, "ggx"), (0.2, "ggx"), (0.2, "beckmann")] {
+        let m = sphere_in_white_furnace(&rough(alpha, distribution), deep);
+        // Single-scattering microfacets lose a little energy as they roughen.
+        assert!((0.9..=1.02).contains(&m), "rough_dielectric {alpha} {distribution} at depth {deep}: {m}");
+    }
+}
+
 #[test]
 fn a_point_light_falls_off_with_the_inverse_square() {
     // Looking straight down at a Lambertian floor under a point light:

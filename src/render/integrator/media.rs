@@ -81,7 +81,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if out.len < MAX_MEDIA {
                 let o = sh.object;
                 let facts = o.material.facts();
-                let g = if facts.clear && (!facts.refracts || facts.constant_ior.is_some()) {
+                // The medium's globals are kept when its index or its
+                // absorption must be evaluated again from inside.
+                let g = if facts.clear && facts.constant_ior.is_some() {
                     NO_GLOBALS
                 } else {
                     self.entered.push(*sh.g);
@@ -106,14 +108,16 @@ impl<'s, const N: usize> Tracer<'s, N> {
 }
 
 /// The index of refraction of `object`'s material at `g` (1, with no call,
-/// for one light cannot cross).
+/// for one light cannot cross). Every material light crosses has its
+/// index read, not only those with a perfect refraction direction: a rough
+/// dielectric's `sample` and `pdf` need it as much as glass's.
 fn refraction_index<const N: usize>(
     object: &crate::render::scene::Object,
     g: &crate::ShadingGlobals,
     ones: &Spectrum<N>,
     scratch: &mut crate::SurfaceRecord,
 ) -> Spectrum<N> {
-    if !object.material.facts().refracts {
+    if !object.material.facts().transmits() {
         return *ones;
     }
     object.material.at(g, [0.0; 3], ones, scratch).refraction_index()
