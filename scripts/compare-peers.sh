@@ -226,8 +226,8 @@ if [[ $which == spectral ]]; then
     images=()
     for model in spectral spectral64 spectral16 smits16 rgb; do
         image="$OUT/cornell_tsl_$model$spp.exr"
-        t=$(timed "$TSLC" render examples/cornell.tsl -o "$image" --spp "$spp" --seed 1 --color "$model" --quiet)
-        echo "time: tslc --color $model ${t}s"
+        t=$(timed "$TSLC" render examples/cornell.tsl -o "$image" --spp "$spp" --seed 1 --color-model "$model" --quiet)
+        echo "time: tslc --color-model $model ${t}s"
         images+=("$image")
     done
     python3 scripts/compare_images.py "$mi_ref" "${images[@]}" --objects "$OUT/cornell_ids.exr" \

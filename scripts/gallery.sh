@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Renders the texturing examples into docs/gallery/ at the scenes' own
 # settings: every scene of examples/techniques/ in RGB, the ones whose
-# point is spectral also with --color spectral, the room in both, and the
+# point is spectral also with --color-model spectral, the room in both, and the
 # texture tree.
 #
 #   scripts/gallery.sh            # about two minutes on two cores
@@ -23,8 +23,8 @@ for scene in examples/techniques/*.tsl; do
     render "$scene" "$(basename "$scene" .tsl)"
 done
 for name in image_spectral spectral_perturbation smoked_glass rusted_steel; do
-    render "examples/techniques/$name.tsl" "${name}_spectral" --color spectral
+    render "examples/techniques/$name.tsl" "${name}_spectral" --color-model spectral
 done
 render examples/room.tsl room
-render examples/room.tsl room_spectral --color spectral
+render examples/room.tsl room_spectral --color-model spectral
 render examples/texture_tree.tsl texture_tree

@@ -190,7 +190,7 @@ fn merged_tiles_are_the_bytes_of_one_render_and_merge_names_what_is_wrong() {
         ("tsl:spp", vec!["--spp", "3"]),
         ("tsl:seed", vec!["--seed", "7"]),
         ("tsl:integrator", vec!["--integrator", "whitted"]),
-        ("tsl:colorModel", vec!["--color", "spectral8"]),
+        ("tsl:colorModel", vec!["--color-model", "spectral8"]),
         ("tsl:frame", vec!["--frame", "3"]),
     ] {
         let mut options = options;

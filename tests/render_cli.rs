@@ -109,13 +109,51 @@ fn spectral_means_sampled_wavelengths_as_in_mitsuba_and_pbrt() {
     let render = |model: &str| {
         let out = dir.join(format!("{model}.exr"));
         let args = ["render", "examples/cornell.tsl", "-o", &s(&out), "--res", "12x12", "--spp", "2", "--quiet"];
-        let o = tslc(&[&args[..], &["--color", model]].concat());
+        let o = tslc(&[&args[..], &["--color-model", model]].concat());
         assert!(o.status.success(), "{model}: {}", stderr(&o));
         tsl::render::image_io::read_exr(&out).unwrap().color
     };
     let spectral = render("spectral");
     assert_eq!(spectral, render("hero"));
     assert_ne!(spectral, render("spectral16"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// One vocabulary, as cargo and rustc: `--color` is when to colour
+/// diagnostics, `--color-model` what a color is.
+#[test]
+fn color_is_terminal_colour_and_color_model_the_model() {
+    let dir = scratch("color-flags");
+    let new = dir.join("new.exr");
+    let model = |m: &str| {
+        let args = ["render", "examples/cornell.tsl", "-o", &s(&new), "--res", "12x12", "--spp", "2", "--quiet"];
+        assert!(tslc(&[&args[..], &["--color-model", m]].concat()).status.success());
+        tsl::render::image_io::read_exr(&new).unwrap().color
+    };
+    // The old spelling, `--color MODEL`, renders the same with a warning;
+    // `--color` is otherwise when to colour diagnostics, as in cargo.
+    let out = dir.join("old.exr");
+    let args = ["render", "examples/cornell.tsl", "-o", &s(&out), "--res", "12x12", "--spp", "2", "--quiet"];
+    let o = tslc(&[&args[..], &["--color", "spectral"][..]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: `--color spectral` is the old spelling of `--color-model spectral`"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(tsl::render::image_io::read_exr(&out).unwrap().color, model("spectral"));
+    let o = tslc(&[&args[..], &["--color", "never"][..]].concat());
+    assert!(o.status.success() && stderr(&o).is_empty(), "{}", stderr(&o));
+    let o = tslc(&[&args[..], &["--color", "sometimes"][..]].concat());
+    assert!(stderr(&o).contains("`sometimes` is not auto, always or never"), "{}", stderr(&o));
+    // `check` takes no model: a model given as `--color` says where models go.
+    let o = tslc(&["check", "examples/cornell.tsl", "--color", "spectral"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("`spectral` is a color model, and `--color` is when to colour diagnostics"),
+        "{}",
+        stderr(&o)
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -121,7 +121,7 @@ struct CheckArgs {
     #[arg(required = true)]
     files: Vec<PathBuf>,
     /// When to colour diagnostics.
-    #[arg(long, value_enum, default_value_t = ColorChoice::Auto)]
+    #[arg(long, value_name = "WHEN", default_value = "auto", value_parser = parse_color_choice)]
     color: ColorChoice,
     /// How to print diagnostics.
     #[arg(long, value_enum, default_value_t = MessageFormat::Human)]
@@ -137,11 +137,50 @@ struct CheckArgs {
     warnings: Option<WarningLevel>,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, Debug, ValueEnum)]
 enum ColorChoice {
     Auto,
     Always,
     Never,
+}
+
+impl ColorChoice {
+    fn colors(self) -> Colors {
+        match self {
+            ColorChoice::Always => Colors::Always,
+            ColorChoice::Never => Colors::Never,
+            ColorChoice::Auto => stderr_colors(),
+        }
+    }
+}
+
+/// `--color` of `render` and `watch`: when to colour diagnostics, or (the
+/// old spelling) a color model.
+#[derive(Clone, Debug)]
+enum ColorOrModel {
+    When(ColorChoice),
+    /// The model, and how the user spelled it.
+    Model(tsl::ColorModel, String),
+}
+
+fn parse_color_or_model(s: &str) -> Result<ColorOrModel, String> {
+    match ColorChoice::from_str(s, false) {
+        Ok(when) => Ok(ColorOrModel::When(when)),
+        Err(_) => tsl::ColorModel::parse(s)
+            .map(|m| ColorOrModel::Model(m, s.to_string()))
+            .ok_or_else(|| format!("`{s}` is not auto, always or never (nor a color model, for `--color-model`)")),
+    }
+}
+
+/// `--color` of `check`: when to colour diagnostics; a color model gets a
+/// message saying where a model goes.
+fn parse_color_choice(s: &str) -> Result<ColorChoice, String> {
+    ColorChoice::from_str(s, false).map_err(|_| match tsl::ColorModel::parse(s) {
+        Some(_) => format!(
+            "`{s}` is a color model, and `--color` is when to colour diagnostics (auto, always or never); checking needs no model (`tslc render --color-model {s}` renders in it)"
+        ),
+        None => format!("`{s}` is not auto, always or never"),
+    })
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -199,11 +238,7 @@ fn main() -> ExitCode {
 
 fn check(args: CheckArgs) -> ExitCode {
     let options = LoadOptions { import_paths: args.include.clone(), lean: true, ..LoadOptions::default() };
-    let colors = match args.color {
-        ColorChoice::Always => Colors::Always,
-        ColorChoice::Never => Colors::Never,
-        ColorChoice::Auto => stderr_colors(),
-    };
+    let colors = args.color.colors();
     let mut failed = false;
     let mut stdin_used = false;
     for (k, file) in args.files.iter().enumerate() {

@@ -71,7 +71,7 @@ pub struct SceneOptions {
     /// `light_sampling`).
     #[arg(long, value_name = "all|power", value_parser = parse_light_sampling)]
     pub(crate) light_sampling: Option<LightSampling>,
-    /// The color model. `rgb`: linear sRGB (the cost unit). `spectral` or
+    /// The color model (default `rgb`). `rgb`: linear sRGB (the cost unit). `spectral` or
     /// `hero`: four wavelengths drawn per camera sample (hero wavelength
     /// sampling, as Mitsuba 3 and pbrt-v4 render spectrally): unbiased,
     /// converges to the exact spectral integral (Cornell walls within 1% of
@@ -82,8 +82,13 @@ pub struct SceneOptions {
     /// upsampled by Jakob-Hanika, lights are D65-based. `smitsN`: the bins
     /// with Smits' upsampling and white E (the old model). Costs and
     /// accuracy: README, "Color models".
-    #[arg(long, default_value = "rgb", value_parser = parse_color)]
-    pub(crate) color: tsl::ColorModel,
+    #[arg(long = "color-model", value_name = "MODEL", value_parser = parse_color)]
+    pub(crate) color_model: Option<tsl::ColorModel>,
+    /// When to colour diagnostics: auto, always or never (as cargo and
+    /// rustc). A color model here, the old spelling of `--color-model`, is
+    /// taken with a warning.
+    #[arg(long, value_name = "WHEN", value_parser = crate::parse_color_or_model)]
+    pub(crate) color: Option<crate::ColorOrModel>,
     /// The random seed, a whole number from 0 (overrides the scene's `seed`).
     #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
     pub(crate) seed: Option<u64>,
@@ -93,6 +98,36 @@ pub struct SceneOptions {
     /// Add a directory to the import search path.
     #[arg(short = 'I', value_name = "DIR")]
     pub(crate) include: Vec<PathBuf>,
+}
+
+impl SceneOptions {
+    /// The color model asked for: `--color-model`, else a model given as
+    /// `--color` (warned of once, by [`SceneOptions::warn_old_spellings`]), else RGB.
+    pub(crate) fn color_model(&self) -> tsl::ColorModel {
+        match (self.color_model, &self.color) {
+            (Some(m), _) => m,
+            (None, Some(crate::ColorOrModel::Model(m, _))) => *m,
+            _ => tsl::ColorModel::Rgb,
+        }
+    }
+
+    /// When to colour diagnostics.
+    pub(crate) fn colors(&self) -> tsl::diag::Colors {
+        match self.color {
+            Some(crate::ColorOrModel::When(when)) => when.colors(),
+            _ => crate::ColorChoice::Auto.colors(),
+        }
+    }
+
+    /// Warns of a color model given as `--color`.
+    pub(crate) fn warn_old_spellings(&self) {
+        if let Some(crate::ColorOrModel::Model(_, model)) = &self.color {
+            let ignored = if self.color_model.is_some() { " (ignored: `--color-model` is given)" } else { "" };
+            eprintln!(
+                "warning: `--color {model}` is the old spelling of `--color-model {model}`{ignored}; `--color` is when to colour diagnostics (auto, always, never)"
+            );
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -216,6 +251,7 @@ pub(crate) fn fail(message: impl std::fmt::Display) -> ExitCode {
 
 pub fn render(args: RenderArgs) -> ExitCode {
     let start = Instant::now();
+    args.options.warn_old_spellings();
     let frames: Vec<i32> = match (args.frame, args.frames) {
         (Some(n), _) => vec![n],
         (None, Some((a, b))) => (a..=b).collect(),
@@ -247,7 +283,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let lean = args.frame.is_none() && args.frames.is_none() && args.fps.is_none();
     let options = tsl::LoadOptions {
         import_paths: args.options.include.clone(),
-        color_model: args.options.color,
+        color_model: args.options.color_model(),
         lean,
         ..tsl::LoadOptions::default()
     };
@@ -256,9 +292,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
     let checked = tsl::check_file(&args.scene, &options);
     let warnings: Vec<_> = checked.diagnostics.iter().filter(|d| !d.is_error()).cloned().collect();
     if checked.is_ok() && !warnings.is_empty() {
-        eprint!("{}", tsl::diag::render_text(&checked.program.loaded.sources, &warnings, crate::stderr_colors()));
+        eprint!("{}", tsl::diag::render_text(&checked.program.loaded.sources, &warnings, args.options.colors()));
     }
-    let mut compiler = tsl::Compiler::new().color_model(args.options.color).lean(lean);
+    let mut compiler = tsl::Compiler::new().color_model(args.options.color_model()).lean(lean);
     for dir in &args.options.include {
         compiler = compiler.import_path(dir);
     }
@@ -272,7 +308,7 @@ pub fn render(args: RenderArgs) -> ExitCode {
     // Nothing the scene was made from may be written over (every frame's
     // output; the files a scene reads are the same for every frame).
     let outputs = frames.iter().map(|&f| image_io::frame_path(&args.output, f));
-    if let Err(e) = refuse_overwriting_inputs(outputs, program.checked(), program.scene(), crate::stderr_colors()) {
+    if let Err(e) = refuse_overwriting_inputs(outputs, program.checked(), program.scene(), args.options.colors()) {
         eprint!("{e}");
         return ExitCode::from(1);
     }

@@ -72,6 +72,7 @@ pub struct WatchArgs {
 }
 
 pub fn watch(args: WatchArgs) -> ExitCode {
+    args.options.warn_old_spellings();
     if let Err(e) = image_io::check_output(&args.output) {
         return fail(e);
     }
@@ -146,7 +147,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     let options = LoadOptions { import_paths: args.options.include.clone(), textures, ..Default::default() };
     let checked = tsl::check_file(&args.scene, &options);
     let inputs = inputs_of(&args.scene, &checked, &args.options.include);
-    eprint!("{}", crate::human_report(&checked, crate::stderr_colors()));
+    eprint!("{}", crate::human_report(&checked, args.options.colors()));
     if let Some(live) = live {
         live.diagnostics(crate::human_report(&checked, tsl::diag::Colors::Never), !checked.is_ok());
     }
@@ -165,7 +166,7 @@ fn build(args: &WatchArgs, live: Option<&Live>) -> (Option<Scene>, Inputs) {
     {
         return (failed(e), inputs);
     }
-    let program = match tsl::Compiler::new().color_model(args.options.color).compile_checked(checked) {
+    let program = match tsl::Compiler::new().color_model(args.options.color_model()).compile_checked(checked) {
         Ok(p) => p,
         Err(e) => return (failed(e.to_string()), inputs),
     };
