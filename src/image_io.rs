@@ -263,6 +263,14 @@ pub fn check_output(path: &Path) -> Result<(), String> {
     files::check_writable(path)
 }
 
+/// [`check_output`] after making the output's missing directories (as
+/// `mkdir -p`); a wrong extension is refused before any directory is made.
+pub fn prepare_output(path: &Path) -> Result<(), String> {
+    format_of(path)?;
+    files::create_directory_of(path)?;
+    check_output(path)
+}
+
 /// Writes the image, choosing the format by extension (`.png` or `.exr`).
 /// A PNG holds just the window's pixels; an EXR keeps the window's place
 /// in the full frame.

@@ -216,7 +216,8 @@ fn merged_tiles_are_the_bytes_of_one_render_and_merge_names_what_is_wrong() {
 #[test]
 fn info_prints_what_made_an_image_for_people_and_scripts() {
     let dir = scratch("info");
-    let tiles = render_tiles("examples/cornell.tsl", &dir, 3, &[2], &["--res", "12x9", "--spp", "2", "--frame", "5"]);
+    let extra = ["--res", "12x9", "--spp", "2", "--frame", "5", "--seed", "18446744073709551615"];
+    let tiles = render_tiles("examples/cornell.tsl", &dir, 3, &[2], &extra);
     let o = tslc(&["info", &tiles[0]]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = String::from_utf8_lossy(&o.stdout);
@@ -231,6 +232,8 @@ fn info_prints_what_made_an_image_for_people_and_scripts() {
     let a = &lines[0]["attributes"];
     assert_eq!((a["tsl:tile"].as_i64(), a["tsl:tiles"].as_i64(), a["tsl:frame"].as_i64()), (Some(2), Some(3), Some(5)));
     assert_eq!(a["tsl:sceneHash"].as_str().map(str::len), Some(64));
+    // Numbers are JSON numbers, the 64-bit seed (text in the EXR) exactly.
+    assert_eq!((a["tsl:spp"].as_u64(), a["tsl:seed"].as_u64()), (Some(2), Some(u64::MAX)));
     assert_eq!(lines[0]["window"]["y"].as_i64(), Some(6));
     let o = tslc(&["info", &s(&dir.join("none.exr"))]);
     assert!(!o.status.success() && stderr(&o).contains("none.exr"), "{}", stderr(&o));

@@ -172,12 +172,19 @@ fn bad_invocations_are_clear_errors_and_write_nothing() {
     assert!(stderr(&o).contains(".exr"), "{}", stderr(&o));
     let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("x.bmp")), "--res", "8x8", "--quiet"]);
     assert!(!o.status.success() && stderr(&o).contains(".png or .exr"), "{}", stderr(&o));
-    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("nodir/x.png")), "--res", "8x8", "--quiet"]);
-    assert!(!o.status.success() && stderr(&o).contains("does not exist"), "{}", stderr(&o));
+    // Missing directories of the output are made, as `mkdir -p`.
+    let nested = dir.join("new/sub/x.png");
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&nested), "--res", "8x8", "--quiet"]);
+    assert!(o.status.success() && nested.is_file(), "{}", stderr(&o));
+    let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&dir.join("other/x.jpg")), "--res", "8x8", "--quiet"]);
+    assert!(!o.status.success() && !dir.join("other").exists(), "a refused output makes no directory");
+    std::fs::write(dir.join("afile"), "").unwrap();
     // Output problems are found before any rendering (no progress line),
     // and name the user's path.
     std::fs::create_dir_all(dir.join("d.png")).unwrap();
-    for (target, why) in [("nodir/x.png", "does not exist"), ("x.jpg", ".png or .exr"), ("d.png", "is a directory")] {
+    let cases =
+        [("afile/x.png", "cannot create the directory"), ("x.jpg", ".png or .exr"), ("d.png", "is a directory")];
+    for (target, why) in cases {
         let target = dir.join(target);
         let o = tslc(&["render", "examples/whitted.tsl", "-o", &s(&target), "--res", "8x8"]);
         let err = stderr(&o);

@@ -41,6 +41,17 @@ pub const TEMPORARY_RANDOM_CHARS: usize = 12;
 #[cfg(unix)]
 const OUTPUT_MODE: u32 = 0o666;
 
+/// Creates the directory `target` is to be written into, and those above
+/// it, when they do not exist (as `mkdir -p`): `-o out/shot.exr` makes
+/// `out/`. An error names the directory and `target`.
+pub fn create_directory_of(target: &Path) -> Result<(), String> {
+    match target.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create the directory {} for {}: {e}", dir.display(), target.display())),
+        _ => Ok(()),
+    }
+}
+
 /// The directory `target` is written into; an error naming `target` when
 /// it does not exist.
 pub fn directory_of(target: &Path) -> Result<PathBuf, String> {

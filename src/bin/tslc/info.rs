@@ -51,7 +51,7 @@ pub fn info(args: InfoArgs) -> ExitCode {
 
 fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
     let attributes: serde_json::Map<String, serde_json::Value> =
-        h.metadata.attributes.iter().map(|(k, v)| (k.clone(), v.to_json())).collect();
+        h.metadata.attributes.iter().map(|(k, v)| (k.clone(), attribute_json(k, v))).collect();
     serde_json::json!({
         "file": name,
         "resolution": [h.full_width, h.full_height],
@@ -60,6 +60,18 @@ fn json(name: &str, h: &ExrHeader) -> serde_json::Value {
         "compression": h.compression,
         "attributes": attributes,
     })
+}
+
+/// An attribute's JSON value: numbers as numbers, the seed too (an EXR
+/// holds it as text, having no 64-bit integers; JSON numbers are exact
+/// integers here, though JavaScript reads those above 2^53 inexactly).
+fn attribute_json(name: &str, value: &tsl::render::image_io::AttributeValue) -> serde_json::Value {
+    match value {
+        tsl::render::image_io::AttributeValue::Text(text) if name == "tsl:seed" => {
+            text.parse::<u64>().map_or_else(|_| text.clone().into(), Into::into)
+        }
+        _ => value.to_json(),
+    }
 }
 
 /// Compact JSON with every character a terminal must not see raw (DEL,

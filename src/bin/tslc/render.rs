@@ -265,8 +265,9 @@ pub fn render(args: RenderArgs) -> ExitCode {
         ));
     }
     // Everything about the output is checked before any work starts (every
-    // frame is written to the same directory).
-    if let Err(e) = image_io::check_output(&image_io::frame_path(&args.output, frames[0])) {
+    // frame is written to the same directory, made if missing).
+    let first = image_io::frame_path(&args.output, frames[0]);
+    if let Err(e) = image_io::prepare_output(&first) {
         return fail(e);
     }
     let is_exr = args.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
@@ -535,7 +536,7 @@ pub(crate) fn refuse_overwriting_inputs(
 }
 
 pub fn merge(args: MergeArgs) -> ExitCode {
-    if let Err(e) = image_io::check_output(&args.output) {
+    if let Err(e) = image_io::prepare_output(&args.output) {
         return fail(e);
     }
     let output = tsl::files::FileIdentity::all_of(&args.output);

@@ -73,7 +73,7 @@ pub struct WatchArgs {
 
 pub fn watch(args: WatchArgs) -> ExitCode {
     args.options.warn_old_spellings();
-    if let Err(e) = image_io::check_output(&args.output) {
+    if let Err(e) = image_io::prepare_output(&args.output) {
         return fail(e);
     }
     let live = match args.serve.map(Live::start).transpose() {
