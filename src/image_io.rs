@@ -32,6 +32,7 @@
 
 mod exr_planes;
 mod exr_read;
+mod layers;
 mod merge;
 mod metadata;
 mod non_finite;
@@ -40,6 +41,7 @@ pub use exr_read::{
     ExrHeader, MAX_EXR_BLOCK_BYTES, MAX_EXR_CHANNELS, MAX_EXR_HEADER_BYTES, MAX_EXR_PARTS, read_exr, read_exr_header,
     read_exr_with_metadata,
 };
+pub use layers::{LayerName, layer_rgb8};
 pub use merge::{array_spec, merge};
 pub use metadata::{ATTRIBUTES, AttributeValue, Metadata, PER_PART, SOFTWARE, meaning};
 pub use non_finite::{NonFiniteTexels, replace_non_finite};
@@ -300,16 +302,27 @@ fn write_png(file: &mut std::fs::File, image: &RenderedImage) -> Result<(), Stri
 /// The image's color as an 8-bit sRGB PNG file in memory (what
 /// [`write_image`] writes to a `.png`; `tslc watch --serve` sends it).
 pub fn encode_png(image: &RenderedImage) -> Result<Vec<u8>, String> {
+    let pixels: Vec<[u8; 3]> = image.color.iter().map(|p| p.map(srgb_encode)).collect();
+    encode_png_rgb8(image.width, image.height, &pixels)
+}
+
+/// 8-bit RGB pixels, row by row, as a PNG file in memory.
+pub fn encode_png_rgb8(width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<Vec<u8>, String> {
     use image::ImageEncoder;
-    let mut bytes = Vec::with_capacity(image.color.len() * 3);
-    for p in &image.color {
-        bytes.extend(p.map(srgb_encode));
-    }
     let mut png = Vec::new();
     image::codecs::png::PngEncoder::new(&mut png)
-        .write_image(&bytes, image.width, image.height, image::ExtendedColorType::Rgb8)
+        .write_image(pixels.as_flattened(), width, height, image::ExtendedColorType::Rgb8)
         .map_err(|e| format!("cannot encode a PNG image: {e}"))?;
     Ok(png)
+}
+
+/// 8-bit RGB pixels written to a `.png`, atomically (`files::atomic_write`).
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, pixels: &[[u8; 3]]) -> Result<(), String> {
+    let png = encode_png_rgb8(width, height, pixels)?;
+    files::atomic_write(path, |file| {
+        use std::io::Write;
+        file.write_all(&png).map_err(|e| e.to_string())
+    })
 }
 
 /// The image as an EXR into `file`; the error is the reason.

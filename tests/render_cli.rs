@@ -290,3 +290,50 @@ fn an_interrupted_write_leaves_nothing_behind() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `tslc view`: every layer of an EXR as a PNG whose pixels are the
+/// layer's mapped values, or drawn in the terminal; a missing layer names
+/// `--aov`.
+#[test]
+fn view_shows_each_layer_of_an_exr() {
+    let dir = scratch("view");
+    let exr = dir.join("shot.exr");
+    let o =
+        tslc(&["render", "examples/cornell.tsl", "-o", &s(&exr), "--res", "20x10", "--spp", "2", "--aov", "--quiet"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let image = tsl::render::image_io::read_exr(&exr).unwrap();
+    for layer in ["color", "albedo", "normal", "depth", "object"] {
+        let png = dir.join(format!("{layer}.png"));
+        let o = tslc(&["view", &s(&exr), "--layer", layer, "-o", &s(&png)]);
+        assert!(o.status.success(), "{layer}: {}", stderr(&o));
+        let picture = image::open(&png).unwrap().to_rgb8();
+        assert_eq!(picture.dimensions(), (20, 10), "{layer}");
+        let name = tsl::render::image_io::LayerName::parse(layer).unwrap();
+        let want = tsl::render::image_io::layer_rgb8(&image, name).unwrap();
+        assert_eq!(picture.pixels().map(|p| p.0).collect::<Vec<_>>(), want, "{layer}");
+    }
+    // A normal facing the camera is the normal-map blue.
+    let normals = image::open(dir.join("normal.png")).unwrap().to_rgb8();
+    let centre = image.normal.as_ref().unwrap()[5 * 20 + 10];
+    assert_eq!(normals.get_pixel(10, 5).0, centre.map(|x| ((x + 1.0) * 127.5).round() as u8));
+    // In the terminal: 24-bit colours, two rows a line.
+    let o = tslc(&["view", &s(&exr), "--layer", "albedo", "--columns", "10"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && text.lines().count() == 3 && text.contains("\x1b[38;2;"), "{text}");
+    assert_eq!(text.lines().next().unwrap().matches('▀').count(), 10);
+    let plain = dir.join("plain.exr");
+    assert!(
+        tslc(&["render", "examples/cornell.tsl", "-o", &s(&plain), "--res", "8x8", "--spp", "1", "--quiet"])
+            .status
+            .success()
+    );
+    let o = tslc(&["view", &s(&plain), "--layer", "depth"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("no depth layer") && stderr(&o).contains("--aov"),
+        "{}",
+        stderr(&o)
+    );
+    let o = tslc(&["view", &s(&exr), "-o", &s(&dir.join("x.exr"))]);
+    assert!(!o.status.success() && stderr(&o).contains(".png"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -11,6 +11,7 @@ mod info;
 mod query;
 mod render;
 mod serve;
+mod view;
 mod watch;
 
 use clap::{Parser, Subcommand, ValueEnum};
@@ -45,6 +46,9 @@ enum Command {
     /// Print what an EXR says about itself: frame, window, channels and
     /// the render settings, scene hash and tile it was made with.
     Info(info::InfoArgs),
+    /// Show one layer of a rendered EXR (radiance, albedo, normal, depth,
+    /// object): drawn in the terminal, or written as a PNG with `-o`.
+    View(view::ViewArgs),
     /// Write a generated mesh that an example scene needs (`heavy`).
     MakeMesh(render::MakeMeshArgs),
     /// Format TSL files in the canonical style (docs/fmt.md), in place;
@@ -221,6 +225,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::render(args),
         Command::Merge(args) => render::merge(args),
         Command::Info(args) => info::info(args),
+        Command::View(args) => view::view(args),
         Command::Query(args) => query::query(args),
         Command::MakeMesh(args) => render::make_mesh(args),
         Command::Fmt(args) => fmt(args),
