@@ -365,7 +365,7 @@ fn main() {
         return;
     }
     let start = Instant::now();
-    let mesh = render::mesh::Mesh::load_obj(&obj, render::Mat4::IDENTITY);
+    let mesh = render::mesh::Mesh::load(&obj, render::Mat4::IDENTITY);
     figure("heavy OBJ load", start.elapsed().as_secs_f64() * 1e3, "ms");
     if let Ok(mesh) = mesh {
         let bounds: Vec<_> = (0..mesh.triangles.len() as u32).map(|t| mesh.bounds(t)).collect();

@@ -125,6 +125,12 @@ impl<R: Read> BoundedText<R> {
         BoundedText { inner, max_bytes, max_line, read: 0, line_run: 0, lines: 0, limit: None }
     }
 
+    /// Stops bounding lines (the size bound stays): what follows is
+    /// binary, such as a PLY file's payload after its text header.
+    pub fn end_lines(&mut self) {
+        self.max_line = u64::MAX;
+    }
+
     /// The bound reading stopped at, if it did.
     pub fn limit(&self) -> Option<TextLimit> {
         self.limit

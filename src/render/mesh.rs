@@ -27,10 +27,10 @@ pub struct Mesh {
 }
 
 impl Mesh {
-    /// Loads an OBJ file (see [`MeshData::load_obj`]) and places it with
-    /// `to_world`.
-    pub fn load_obj(path: &Path, to_world: Mat4) -> Result<Mesh, String> {
-        Mesh::from_data(&MeshData::load_obj(path)?, to_world).map_err(|e| format!("the mesh {}: {e}", path.display()))
+    /// Loads a mesh file, `.obj` or `.ply` (see [`MeshData::load`]), and
+    /// places it with `to_world`.
+    pub fn load(path: &Path, to_world: Mat4) -> Result<Mesh, String> {
+        Mesh::from_data(&MeshData::load(path)?, to_world).map_err(|e| format!("the mesh {}: {e}", path.display()))
     }
 
     /// A mesh from arrays in object space; checks every number and index.
@@ -237,7 +237,7 @@ mod tests {
             "quad",
             "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1 4/4/1\n",
         );
-        let m = Mesh::load_obj(&path, Mat4::IDENTITY).unwrap();
+        let m = Mesh::load(&path, Mat4::IDENTITY).unwrap();
         let _ = std::fs::remove_file(&path);
         assert_eq!(m.triangles.len(), 2);
         assert!(m.normals.is_some() && m.uvs.is_some());
@@ -250,7 +250,7 @@ mod tests {
 
     #[test]
     fn bad_obj_files_and_transforms_are_clear_errors() {
-        let missing = Mesh::load_obj(Path::new("/no/such/dir/mesh.obj"), Mat4::IDENTITY).unwrap_err();
+        let missing = Mesh::load(Path::new("/no/such/dir/mesh.obj"), Mat4::IDENTITY).unwrap_err();
         assert!(missing.contains("cannot open") && missing.contains("mesh.obj"), "{missing}");
         let e =
             Mesh::from_parts(vec![Vec3::ZERO, Vec3::X, Vec3::Y], None, None, vec![[0, 1, 2]], Mat4::ZERO).unwrap_err();

@@ -644,7 +644,7 @@ impl<'a> Describer<'a> {
         if let Some(mesh) = reused {
             return Some(Prop::new(mesh, path.span));
         }
-        match MeshData::load_obj(&path.value) {
+        match MeshData::load(&path.value) {
             Ok(mesh) => Some(Prop::new(Arc::new(mesh), path.span)),
             Err(m) => {
                 self.error(path.span, m);

@@ -1,9 +1,11 @@
-//! Triangle meshes as read from Wavefront OBJ files (tobj), in the mesh's
-//! own frame, before any object transform.
+//! Triangle meshes as read from Wavefront OBJ files (tobj) and Stanford PLY
+//! files (`ply`), in the mesh's own frame, before any object transform.
 //!
 //! Invariant: a `MeshData` holds only finite numbers, at least one
 //! triangle, and in-range indices (checked when it is made), so whatever
 //! places it in the world never meets NaN input.
+
+mod ply;
 
 use super::Vec3;
 use crate::input_file::{self, BoundedText, TextLimit, size_in_words};
@@ -44,6 +46,22 @@ impl std::fmt::Debug for MeshData {
 }
 
 impl MeshData {
+    /// Loads a mesh file by its extension: `.obj` ([`MeshData::load_obj`])
+    /// or `.ply` (ASCII or binary, with normals and texture coordinates when
+    /// every vertex has them). Another extension is an error naming the
+    /// formats read.
+    pub fn load(path: &Path) -> Result<MeshData, String> {
+        let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match extension.as_deref() {
+            Some("obj") => MeshData::load_obj(path),
+            Some("ply") => ply::load_ply(path),
+            _ => Err(format!(
+                "the mesh {}: not a mesh format TSL reads (Wavefront .obj or Stanford .ply, by the file's extension)",
+                path.display()
+            )),
+        }
+    }
+
     /// Loads an OBJ file (all its objects and groups together; polygons
     /// triangulated; materials in `.mtl` files are ignored: TSL materials
     /// come from the scene). The error names the file as `path` spells it.
