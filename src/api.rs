@@ -39,6 +39,7 @@ mod material;
 mod outputs;
 mod param_value;
 mod prepared;
+mod profile;
 mod shader;
 mod surface;
 mod surfaces;
@@ -339,8 +340,10 @@ pub enum WordType {
     Bool,
 }
 
-impl From<crate::ir::Scalar> for WordType {
-    fn from(s: crate::ir::Scalar) -> WordType {
+impl WordType {
+    /// The word type of an IR scalar (the IR is not public API, so this is
+    /// no `From` impl).
+    pub(crate) fn of(s: crate::ir::Scalar) -> WordType {
         match s {
             crate::ir::Scalar::F32 => WordType::F32,
             crate::ir::Scalar::I32 => WordType::I32,
@@ -560,8 +563,9 @@ impl Program {
         Ok(out)
     }
 
-    /// [`Program::compile_reflection_sums`] for named materials of the
-    /// program (as [`Program::material`] accepts), for hosts and tests.
+    /// For each named material of the program (as [`Program::material`]
+    /// accepts), the entry `NAME.reflection_sum{lights}`: `reflection`
+    /// summed over `lights` light directions in one call, for hosts and tests.
     pub fn reflection_sums(&self, names: &[&str], lights: usize) -> Result<Vec<Function>, Error> {
         self.compile_reflection_sums(&self.material_tree_bodies(names)?, lights)
     }
@@ -574,14 +578,16 @@ impl Program {
         self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, &exprs))
     }
 
-    /// [`Program::compile_eval_pdf`] for named materials of the program,
-    /// for hosts and tests.
+    /// For each named material of the program, the entry `NAME.eval_pdf`:
+    /// `f · cos` and `pdf` of a light direction in one call, for hosts and
+    /// tests.
     pub fn eval_pdf(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
         self.compile_eval_pdf(&self.material_tree_bodies(names)?)
     }
 
-    /// [`Program::compile_delta_lobes`] for named materials of the program,
-    /// for hosts and tests.
+    /// For each named material of the program, the entry
+    /// `NAME.delta_lobes`: both perfect directions and their weights, for
+    /// hosts and tests.
     pub fn delta_lobes(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
         self.compile_delta_lobes(&self.material_tree_bodies(names)?)
     }
@@ -731,7 +737,7 @@ impl Function {
         Ok(Function { instance: Some(block), ..self.clone() })
     }
 
-    pub fn ir(&self) -> &IrFunction {
+    pub(crate) fn ir(&self) -> &IrFunction {
         &self.part.ir.functions[self.index]
     }
 
@@ -766,6 +772,23 @@ impl Function {
         self.words.0
     }
 
+    /// How many words of an instance parameter block the code reads: 0
+    /// for a function with its values folded in (a specialised instance,
+    /// a generator), more for a run-time-bound instance's methods, which
+    /// read their values from the block ([`Instance::bind`]).
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "material m = lambert;").compile()?;
+    /// let method = |m: &tsl::Material| m.method(tsl::check::Method::Reflection).expect("a method").instance_words();
+    /// let rough = p.shader("rough_conductor")?;
+    /// assert_eq!(method(&rough.instance().set("alpha", 0.3)?.specialise()?), 0);
+    /// assert!(method(&rough.instance().set("alpha", 0.3)?.bind()?) > 0);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn instance_words(&self) -> usize {
+        self.words.2
+    }
+
     /// What each result word [`Function::call_words`] writes holds, in
     /// order (its length is the number of result words).
     ///
@@ -777,13 +800,30 @@ impl Function {
     /// # Ok::<(), tsl::Error>(())
     /// ```
     pub fn result_types(&self) -> Vec<WordType> {
-        self.ir().results.iter().map(|&s| WordType::from(s)).collect()
+        self.ir().results.iter().map(|&s| WordType::of(s)).collect()
     }
 
     #[cold]
     fn words_error(&self) -> String {
         let (params, results, _) = self.words;
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
+    }
+
+    /// The instance block a call with `args` and `out` reads, or why the
+    /// call cannot be made (slices too short, no block given).
+    #[inline]
+    fn checked_call(&self, args: &[u32], out: &[u32]) -> Result<&[u32], String> {
+        let (params, results, instance_words) = self.words;
+        if args.len() < params || out.len() < results {
+            return Err(self.words_error());
+        }
+        // Code without instance words never reads the block; code with
+        // them was given one long enough (`with_instance`), or has none.
+        let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
+        if instance.len() < instance_words {
+            return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
+        }
+        Ok(instance)
     }
 
     pub(crate) fn entry(&self) -> &Entry {
@@ -803,16 +843,7 @@ impl Function {
         args: &[u32],
         out: &mut [u32],
     ) -> Result<(), String> {
-        let (params, results, instance_words) = self.words;
-        if args.len() < params || out.len() < results {
-            return Err(self.words_error());
-        }
-        // Code without instance words never reads the block; code with
-        // them was given one long enough (`with_instance`), or has none.
-        let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
-        if instance.len() < instance_words {
-            return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
-        }
+        let instance = self.checked_call(args, out)?;
         match backend {
             Backend::Interpreter => crate::interp::run_instance(self.ir(), &g.words(), args, instance, out),
             Backend::Jit => {

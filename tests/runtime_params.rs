@@ -7,7 +7,7 @@
 mod common;
 
 use common::{Rng, args, shading_point};
-use tsl::{Backend, ColorModel, Compiler, Material, ParamType, ParamValue, Program, Shader, ShadingGlobals};
+use tsl::{Backend, ColorModel, Compiler, Material, ParamType, ParamValue, Program, Shader, ShadingGlobals, WordType};
 
 /// A program of no templates of its own (an empty file is an error).
 const HOST: &str = "material host = lambert;";
@@ -37,8 +37,8 @@ fn non_default(p: &tsl::ParamInfo, k: usize, program: &Program) -> Option<ParamV
 }
 
 /// Whether two result words agree: equal, or floats within rounding.
-fn close(a: u32, b: u32, ty: tsl::ir::Scalar) -> bool {
-    if a == b || ty != tsl::ir::Scalar::F32 {
+fn close(a: u32, b: u32, ty: WordType) -> bool {
+    if a == b || ty != WordType::F32 {
         return a == b;
     }
     let (x, y) = (f32::from_bits(a), f32::from_bits(b));
@@ -56,11 +56,11 @@ fn assert_agree(bound: &Material, specialised: &Material, backend: Backend, what
         for method in tsl::check::Method::ALL {
             let (fa, fb) = (bound.method(method).unwrap(), specialised.method(method).unwrap());
             let words = args(&mut rng, fa.params(), bound.color_model());
-            let results = &fa.ir().results;
+            let results = fa.result_types();
             let (mut oa, mut ob) = (vec![0u32; results.len()], vec![0u32; results.len()]);
             fa.call_words(backend, &g, &words, &mut oa).unwrap();
             fb.call_words(backend, &g, &words, &mut ob).unwrap();
-            for (k, ((a, b), ty)) in oa.iter().zip(&ob).zip(results).enumerate() {
+            for (k, ((a, b), ty)) in oa.iter().zip(&ob).zip(&results).enumerate() {
                 assert!(
                     close(*a, *b, *ty),
                     "{what} {backend:?}: `{}` word {k}: bound {} vs specialised {}",
@@ -117,7 +117,7 @@ fn the_block_is_read_at_run_time_so_changing_a_value_compiles_nothing() {
         let m = metal.set("alpha", alpha).unwrap().bind().unwrap();
         peaks.push(m.reflection(&g, wi, &white, wo).to_rgb()[0]);
         // The same code, another block.
-        assert!(!m.method(tsl::check::Method::Reflection).unwrap().ir().instance_words.is_empty());
+        assert!(m.method(tsl::check::Method::Reflection).unwrap().instance_words() > 0);
     }
     assert_eq!(program.compiled_functions(), compiled, "binding new values compiled code");
     assert!(peaks[0] > peaks[1] && peaks[1] > peaks[2], "rougher is a lower mirror peak: {peaks:?}");

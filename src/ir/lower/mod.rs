@@ -39,7 +39,7 @@ use expr::{bind_args, bind_builtin_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
 
-pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with, method_name};
+pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with};
 pub use layout::{DeltaLobesLayout, EvalPdfLayout, SampleLayout};
 pub use spectral::curve_table_name;
 
@@ -82,14 +82,9 @@ pub struct Entry {
     pub ret: Ty,
 }
 
-/// Lowers every entry point of a checked program: each function whose
-/// parameters and result are plain values, and each interface method of
-/// each material that needs no arguments.
-pub fn lower_program(program: &Program, model: ColorModel) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    lower_entries(program, model, |_, _| true)
-}
-
-/// Lowers the entry points of the global names `keep` accepts.
+/// Lowers the entry points of the global names `keep` accepts: each
+/// function whose parameters and result are plain values, and each
+/// interface method of each material that needs no arguments.
 pub fn lower_entries(
     program: &Program,
     model: ColorModel,
