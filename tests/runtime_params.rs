@@ -189,3 +189,83 @@ fn a_required_parameter_without_a_value_is_an_error_when_bound() {
     let (bound, specialised) = (tinted.bind().unwrap(), tinted.specialise().unwrap());
     assert!(assert_agree(&bound, &specialised, Backend::Jit, "tinted") > 0);
 }
+
+/// A spectral host's colors: a `Color` of the program's model binds and
+/// specialises to the same results, and one made by `Program::rgb` gives
+/// what `rgb(...)` written in source gives (both convert as lowering
+/// converts a constant `rgb`). A required color given so binds too (its
+/// call is written with a stand-in the block replaces).
+#[test]
+fn a_spectral_color_binds_and_specialises_as_rgb_written_in_source() {
+    for model in [ColorModel::Spectral { samples: 8 }, ColorModel::Smits { samples: 8 }] {
+        let src = format!(
+            "{}\nmaterial tinted(color c) = lambert(kd: c);\nmaterial written = car_paint(base: rgb(0.7, 0.25, 0.1));\nmaterial written_tint = tinted(c: rgb(0.7, 0.25, 0.1));",
+            common::CAR_PAINT
+        );
+        let program = program(&src, model);
+        let base = program.rgb(0.7, 0.25, 0.1);
+        for (shader, param, written) in [("car_paint", "base", "written"), ("tinted", "c", "written_tint")] {
+            let mut instance = program.shader(shader).unwrap().instance();
+            instance.set(param, base).unwrap();
+            let what = format!("{model:?} {shader}");
+            let (bound, specialised) = (instance.bind().unwrap(), instance.specialise().unwrap());
+            let written = program.material(written).unwrap();
+            for backend in [Backend::Jit, Backend::Interpreter] {
+                assert!(assert_agree(&bound, &specialised, backend, &what) > 0);
+                assert!(assert_agree(&specialised, &written, backend, &what) > 0);
+            }
+            // Folded in, not read: the specialised code takes no block.
+            let reflection = |m: &Material| m.method(tsl::check::Method::Reflection).unwrap().instance_words();
+            assert_eq!(reflection(&specialised), 0, "{what}");
+            assert!(reflection(&bound) >= model.lanes(), "{what}");
+        }
+    }
+}
+
+/// A spectrum that no RGB upsamples to is used lane by lane: Lambert's
+/// reflection under a flat light is `kd / π` in every lane.
+#[test]
+fn a_spectrum_is_used_lane_by_lane() {
+    let model = ColorModel::Spectral { samples: 8 };
+    let program = program(HOST, model);
+    let ramp: Vec<f32> = (1..=8).map(|i| 0.1 * i as f32).collect();
+    let mut lambert = program.shader("lambert").unwrap().instance();
+    lambert.set("kd", tsl::Color::from_lanes(model, &ramp)).unwrap();
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+    let flat = tsl::Color::from_lanes(model, &[1.0; 8]);
+    let up = [0.0, 0.0, 1.0];
+    let (bound, specialised) = (lambert.bind().unwrap(), lambert.specialise().unwrap());
+    for m in [&bound, &specialised] {
+        let f = m.reflection(&g, up, &flat, up);
+        for (got, kd) in f.lanes().iter().zip(&ramp) {
+            let want = kd / std::f32::consts::PI;
+            assert!((got - want).abs() <= 1e-5, "{:?}: {got} vs {want}", f.lanes());
+        }
+    }
+    for backend in [Backend::Jit, Backend::Interpreter] {
+        assert!(assert_agree(&bound, &specialised, backend, "ramp") > 0);
+    }
+}
+
+#[test]
+fn a_color_of_another_model_is_an_error() {
+    let model = ColorModel::Spectral { samples: 8 };
+    let program = program(common::CAR_PAINT, model);
+    let mut lambert = program.shader("lambert").unwrap().instance();
+    let others = [
+        tsl::Color::black(ColorModel::Rgb),
+        tsl::Color::from_lanes(ColorModel::Spectral { samples: 16 }, &[0.5; 16]),
+        tsl::Color::from_lanes(ColorModel::Smits { samples: 8 }, &[0.5; 8]),
+    ];
+    for other in others {
+        let err = lambert.set("kd", other).unwrap_err().to_string();
+        let want = "`kd` of `lambert` takes a color of the program's model (Spectral { samples: 8 }, 8 lanes), not";
+        assert!(err.contains(want), "{err}");
+        assert!(err.contains("give RGB as `[f32; 3]`"), "{err}");
+    }
+    assert!(lambert.values().iter().all(Option::is_none), "failed sets change nothing");
+    // A material value's own lanes have no text for the outer call.
+    lambert.set("kd", program.rgb(0.2, 0.3, 0.4)).unwrap();
+    let err = program.shader("car_paint").unwrap().instance().set("under", &lambert).unwrap_err().to_string();
+    assert!(err.contains("`under` of `car_paint`: the instance's `kd` is a spectral color"), "{err}");
+}

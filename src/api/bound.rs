@@ -9,7 +9,11 @@
 //! The block's layout is computed here, once per compiled combination:
 //! the run-time parameters in declaration order, each as many words as
 //! its type has lanes in the program's color model (a color: the model's
-//! lanes, converted from RGB as [`Program::rgb`] does).
+//! lanes, converted from RGB as [`Program::rgb`] does, which is what
+//! lowering folds a constant `rgb(...)` to; a [`Color`](crate::Color) of
+//! the model, its lanes). A specialised instance given a value TSL has no
+//! text for (a spectral color's lanes) folds the same words in as
+//! constants ([`Instance::constant_block`]).
 
 use super::param_value::{ParamType, ParamValue};
 use super::shader::{Instance, ParamInfo};
@@ -17,6 +21,7 @@ use super::{Error, Function, Material, MaterialFacts, Program};
 use crate::check::check_material_expr;
 use crate::color::ColorModel;
 use crate::diag::Diagnostic;
+use crate::diag::Span;
 use crate::ir::Scalar;
 use crate::ir::lower::{InstanceBlock, lower_material_with_instance};
 use std::sync::Arc;
@@ -128,7 +133,7 @@ impl Instance {
         let mut code_args = Vec::new();
         for ((p, v), read) in params.iter().zip(self.values()).zip(&in_block) {
             let Some(v) = v else { continue };
-            let arg = format!("{}: {}", p.name, v.source(p.ty).unwrap_or_default());
+            let arg = format!("{}: {}", p.name, v.call_text(p.ty));
             if !read {
                 code_args.push(arg.clone());
             }
@@ -185,17 +190,7 @@ impl Instance {
     fn compile_bound(&self, source: &str, in_block: &[bool]) -> Result<InstanceCode, Error> {
         let program = self.shader().program();
         let model = program.color_model();
-        let mut offsets = Vec::new();
-        let mut words = Vec::new();
-        for (p, read) in self.shader().params().iter().zip(in_block) {
-            match block_words(p, model).filter(|_| *read) {
-                Some(w) => {
-                    offsets.push(Some(words.len() as u32));
-                    words.extend(w);
-                }
-                None => offsets.push(None),
-            }
-        }
+        let (offsets, words) = self.layout(in_block);
         let name = format!("<bound instance of {}>", self.shader().name());
         let checked = check_material_expr(program.checked(), &name, source);
         let to_error =
@@ -204,7 +199,7 @@ impl Instance {
             return Err(to_error(checked.diagnostics.clone()));
         };
         let entry = format!("@{}", self.shader().name());
-        let block = InstanceBlock { root: expr.span, offsets: offsets.clone(), words: words.clone() };
+        let block = InstanceBlock { root: expr.span, offsets: offsets.clone(), words: words.clone(), constants: None };
         let (ir, entries, diags) = lower_material_with_instance(&checked.program, model, &entry, expr, block);
         if !diags.is_empty() {
             return Err(to_error(diags));
@@ -218,6 +213,50 @@ impl Instance {
         );
         let facts = unbound.facts().clone();
         Ok(InstanceCode { methods, offsets, words: words.len(), facts })
+    }
+}
+
+impl Instance {
+    /// The block layout of the parameters `in_block` marks: each one's
+    /// first word (by parameter index) and the words' types.
+    fn layout(&self, in_block: &[bool]) -> (Vec<Option<u32>>, Vec<Scalar>) {
+        let model = self.shader().program().color_model();
+        let mut offsets = Vec::new();
+        let mut words = Vec::new();
+        for (p, read) in self.shader().params().iter().zip(in_block) {
+            match block_words(p, model).filter(|_| *read) {
+                Some(w) => {
+                    offsets.push(Some(words.len() as u32));
+                    words.extend(w);
+                }
+                None => offsets.push(None),
+            }
+        }
+        (offsets, words)
+    }
+
+    /// The parameters `which` marks (each with a value set) as a block of
+    /// constants for the instance's call at `root`: their words as
+    /// [`Instance::bind`] writes them, folded into the code instead of
+    /// read. An error if a value's words do not fill its place.
+    pub(super) fn constant_block(&self, root: Span, which: &[bool]) -> Result<InstanceBlock, Error> {
+        let program = self.shader().program();
+        let (offsets, words) = self.layout(which);
+        let mut constants = Vec::with_capacity(words.len());
+        for ((p, v), offset) in self.shader().params().iter().zip(self.values()).zip(&offsets) {
+            if let (Some(_), Some(value)) = (offset, v) {
+                encode(program, p.ty, value, &mut constants);
+            }
+        }
+        if constants.len() != words.len() {
+            return Err(Error::plain(format!(
+                "internal error: `{}`'s folded values have {} words, not {}",
+                self.shader().name(),
+                constants.len(),
+                words.len()
+            )));
+        }
+        Ok(InstanceBlock { root, offsets, words, constants: Some(constants) })
     }
 }
 

@@ -208,6 +208,11 @@ pub struct InstanceBlock {
     /// The block's word types, which every function lowered reads by
     /// (its `instance_words`).
     pub words: Vec<Scalar>,
+    /// The block's words when they are known now: lowered as constants,
+    /// which fold as a literal's lanes do, and the functions read no
+    /// block. A specialised instance given a value TSL has no text for (a
+    /// spectral color's lanes) is compiled so.
+    pub constants: Option<Vec<u32>>,
 }
 
 /// [`lower_material_exprs`] of one material call whose value parameters
@@ -236,7 +241,7 @@ fn lower_methods_with<'p>(
         for im in Method::ALL.into_iter().filter(|m| keep(k, *m)).map(Method::interface) {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
-            if let Some(block) = &lw.instance_block {
+            if let Some(block) = lw.instance_block.as_ref().filter(|block| block.constants.is_none()) {
                 b.func.instance_words = block.words.clone();
             }
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();
