@@ -269,3 +269,36 @@ fn a_color_of_another_model_is_an_error() {
     let err = program.shader("car_paint").unwrap().instance().set("under", &lambert).unwrap_err().to_string();
     assert!(err.contains("`under` of `car_paint`: the instance's `kd` is a spectral color"), "{err}");
 }
+
+/// Hero sampling draws each lane's wavelength per camera sample: a bound
+/// RGB color, set or a default, is upsampled at the hit's wavelengths, as
+/// the specialised `rgb(...)` is, not at the default ones.
+#[test]
+fn a_hero_program_binds_rgb_at_the_hits_wavelengths() {
+    let program = program(HOST, ColorModel::Hero);
+    let mut set = program.shader("lambert").unwrap().instance();
+    set.set("kd", [0.8, 0.2, 0.1]).unwrap();
+    let mut metal = program.shader("rough_conductor").unwrap().instance();
+    metal.set("alpha", 0.3).unwrap();
+    let defaults = program.shader("lambert").unwrap().instance();
+    let flat = tsl::Color::from_lanes(ColorModel::Hero, &[1.0; 4]);
+    let up = [0.0, 0.0, 1.0];
+    let wi = [0.6, 0.0, 0.8];
+    for instance in [&set, &metal, &defaults] {
+        let (bound, specialised) = (instance.bind().unwrap(), instance.specialise().unwrap());
+        for wavelengths in [[430.0, 530.0, 630.0, 730.0], [400.0, 480.0, 560.0, 640.0]] {
+            let g = ShadingGlobals { n: up, ng: up, wavelengths, ..Default::default() };
+            let (b, s) = (bound.reflection(&g, wi, &flat, up), specialised.reflection(&g, wi, &flat, up));
+            assert!(s.lanes().iter().any(|x| *x > 0.0));
+            for (x, y) in b.lanes().iter().zip(s.lanes()) {
+                assert!(
+                    (x - y).abs() <= 1e-5 * x.abs().max(1.0),
+                    "{} at {wavelengths:?}: bound {:?}, specialised {:?}",
+                    instance.source(),
+                    b.lanes(),
+                    s.lanes()
+                );
+            }
+        }
+    }
+}

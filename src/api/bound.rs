@@ -11,7 +11,9 @@
 //! its type has lanes in the program's color model (a color: the model's
 //! lanes, converted from RGB as [`Program::rgb`] does, which is what
 //! lowering folds a constant `rgb(...)` to; a [`Color`](crate::Color) of
-//! the model, its lanes). A specialised instance given a value TSL has no
+//! the model, its lanes; in the `Hero` model, whose lanes' wavelengths
+//! are drawn per camera sample, RGB, upsampled by the code at the hit's
+//! wavelengths as a run-time `rgb(...)` is). A specialised instance given a value TSL has no
 //! text for (a spectral color's lanes) folds the same words in as
 //! constants ([`Instance::constant_block`]).
 
@@ -60,6 +62,8 @@ fn block_words(p: &ParamInfo, model: ColorModel) -> Option<Vec<Scalar>> {
         ParamType::Bool => vec![Scalar::Bool],
         ParamType::Vector | ParamType::Point | ParamType::Normal => vec![Scalar::F32; 3],
         ParamType::Vec2 => vec![Scalar::F32; 2],
+        // Hero: RGB, upsampled in the code at the hit's wavelengths.
+        ParamType::Color if model == ColorModel::Hero => vec![Scalar::F32; 3],
         ParamType::Color => vec![Scalar::F32; model.lanes()],
         ParamType::Matrix | ParamType::BsdfSample | ParamType::String | ParamType::Material => return None,
     })
@@ -68,11 +72,16 @@ fn block_words(p: &ParamInfo, model: ColorModel) -> Option<Vec<Scalar>> {
 /// `value`'s block words (checked against the parameter's type when set;
 /// a default is of that type).
 fn encode(program: &Program, ty: ParamType, value: &ParamValue, out: &mut Vec<u32>) {
+    let hero = program.color_model() == ColorModel::Hero;
     match value {
         ParamValue::Float(x) => out.push(x.to_bits()),
         ParamValue::Int(i) if ty == ParamType::Float => out.push((*i as f32).to_bits()),
         ParamValue::Int(i) => out.push(*i as u32),
         ParamValue::Bool(b) => out.push(u32::from(*b)),
+        ParamValue::Triple(rgb) if ty == ParamType::Color && hero => out.extend(rgb.iter().map(|x| x.to_bits())),
+        // Not reached: a Hero program takes RGB, and its color defaults
+        // stay in the code (see `bind`); the words' count still holds.
+        ParamValue::Color(c) if hero => out.extend(c.to_rgb().iter().map(|x| x.to_bits())),
         ParamValue::Triple([r, g, b]) if ty == ParamType::Color => {
             out.extend(program.rgb(*r, *g, *b).lanes().iter().map(|x| x.to_bits()));
         }
@@ -98,7 +107,9 @@ impl Instance {
     ///
     /// A parameter whose default is not one constant (it reads the
     /// shading point) and that has no value keeps its default in the code;
-    /// setting it later compiles once more for that combination.
+    /// setting it later compiles once more for that combination. So does
+    /// a color's default in the `Hero` model, where the block holds a set
+    /// color as RGB, upsampled at each hit's wavelengths.
     ///
     /// ```
     /// use tsl::{Compiler, ShadingGlobals};
@@ -120,11 +131,14 @@ impl Instance {
         let model = program.color_model();
         let params = self.shader().params();
         // Which parameters the block holds: those of a plain type with a
-        // value to write (set, or a constant default).
+        // value to write (set, or a constant default). A Hero color's
+        // default is evaluated at the default wavelengths, so it stays in
+        // the code, which evaluates it at the hit's.
+        let hero_color = |p: &ParamInfo| p.ty == ParamType::Color && model == ColorModel::Hero;
         let in_block: Vec<bool> = params
             .iter()
             .zip(self.values())
-            .map(|(p, v)| block_words(p, model).is_some() && (v.is_some() || p.default.is_some()))
+            .map(|(p, v)| block_words(p, model).is_some() && (v.is_some() || (p.default.is_some() && !hero_color(p))))
             .collect();
         // Code-changing values by name, and which parameters are in the
         // block: the cache key. A required run-time parameter is written

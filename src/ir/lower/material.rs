@@ -264,7 +264,6 @@ impl<'p> Lowerer<'p> {
         let mut read = Vec::new();
         for (k, (p, first)) in params.iter().zip(offsets).enumerate() {
             let Some(first) = first else { continue };
-            let words = self.words(&Ty::from_ast(&p.ty));
             // Known words are constants (the API writes every one; a
             // missing word is 0, never a read of a block the code has not).
             let word = |b: &mut Builder, i: u32, ty: Scalar| match &constants {
@@ -278,7 +277,16 @@ impl<'p> Lowerer<'p> {
                 }
                 None => b.def(ty, Op::InstanceWord(first + i)),
             };
-            let lanes = (0..).zip(words).map(|(i, ty)| word(b, i, ty)).collect();
+            let ty = Ty::from_ast(&p.ty);
+            if ty == Ty::Color && self.model == ColorModel::Hero {
+                // Hero lanes are at the hit's wavelengths: the block holds
+                // RGB, upsampled here as a run-time `rgb(...)` is.
+                let rgb = [0, 1, 2].map(|i| word(b, i, Scalar::F32));
+                let lanes = self.rgb_to_lanes(b, rgb);
+                read.push((k, Val::Lanes(lanes)));
+                continue;
+            }
+            let lanes = (0..).zip(self.words(&ty)).map(|(i, ty)| word(b, i, ty)).collect();
             read.push((k, Val::Lanes(lanes)));
         }
         Some(read)
