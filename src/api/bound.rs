@@ -11,19 +11,18 @@
 //! its type has lanes in the program's color model (a color: the model's
 //! lanes, converted from RGB as [`Program::rgb`] does, which is what
 //! lowering folds a constant `rgb(...)` to; a [`Color`](crate::Color) of
-//! the model, its lanes; in the `Hero` model, whose lanes' wavelengths
-//! are drawn per camera sample, RGB, upsampled by the code at the hit's
-//! wavelengths as a run-time `rgb(...)` is). A specialised instance given a value TSL has no
-//! text for (a spectral color's lanes) folds the same words in as
-//! constants ([`Instance::constant_block`]).
+//! the model, its lanes). In the `Hero` model, whose lanes' wavelengths
+//! are drawn per camera sample, a color is RGB, upsampled by the code at
+//! the hit's wavelengths as a run-time `rgb(...)` is. A specialised
+//! instance given a value TSL has no text for (a spectral color's lanes)
+//! folds the same words in as constants ([`Instance::constant_block`]).
 
 use super::param_value::{ParamType, ParamValue};
 use super::shader::{Instance, ParamInfo};
 use super::{Error, Function, Material, MaterialFacts, Program};
 use crate::check::check_material_expr;
 use crate::color::ColorModel;
-use crate::diag::Diagnostic;
-use crate::diag::Span;
+use crate::diag::{Diagnostic, Span};
 use crate::ir::Scalar;
 use crate::ir::lower::{InstanceBlock, lower_material_with_instance};
 use std::sync::Arc;
@@ -228,9 +227,7 @@ impl Instance {
         let facts = unbound.facts().clone();
         Ok(InstanceCode { methods, offsets, words: words.len(), facts })
     }
-}
 
-impl Instance {
     /// The block layout of the parameters `in_block` marks: each one's
     /// first word (by parameter index) and the words' types.
     fn layout(&self, in_block: &[bool]) -> (Vec<Option<u32>>, Vec<Scalar>) {
