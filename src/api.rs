@@ -809,18 +809,13 @@ impl Function {
         format!("`{}` takes {params} argument words and gives {results} result words", self.ir().name)
     }
 
-    /// The instance block a call with `args` and `out` reads, or why the
-    /// call cannot be made (slices too short, no block given).
+    /// The instance parameter block the code reads. Code without instance
+    /// words never reads it; code with them was given one long enough
+    /// (`with_instance`), or has none: an error.
     #[inline]
-    fn checked_call(&self, args: &[u32], out: &[u32]) -> Result<&[u32], String> {
-        let (params, results, instance_words) = self.words;
-        if args.len() < params || out.len() < results {
-            return Err(self.words_error());
-        }
-        // Code without instance words never reads the block; code with
-        // them was given one long enough (`with_instance`), or has none.
+    fn instance_block(&self) -> Result<&[u32], String> {
         let instance: &[u32] = self.instance.as_deref().unwrap_or(&[]);
-        if instance.len() < instance_words {
+        if instance.len() < self.words.2 {
             return Err(format!("`{}` reads an instance parameter block and was given none", self.ir().name));
         }
         Ok(instance)
@@ -843,7 +838,11 @@ impl Function {
         args: &[u32],
         out: &mut [u32],
     ) -> Result<(), String> {
-        let instance = self.checked_call(args, out)?;
+        let (params, results, _) = self.words;
+        if args.len() < params || out.len() < results {
+            return Err(self.words_error());
+        }
+        let instance = self.instance_block()?;
         match backend {
             Backend::Interpreter => crate::interp::run_instance(self.ir(), &g.words(), args, instance, out),
             Backend::Jit => {

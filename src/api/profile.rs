@@ -26,7 +26,11 @@ impl Function {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn count_ops(&self, g: &ShadingGlobals, args: &[u32], out: &mut [u32]) -> Result<OpCounts, String> {
-        let instance = self.checked_call(args, out)?;
+        let (params, results, _) = self.words;
+        if args.len() < params || out.len() < results {
+            return Err(self.words_error());
+        }
+        let instance = self.instance_block()?;
         Ok(interp::run_counting(self.ir(), &g.words(), args, instance, out))
     }
 }
