@@ -16,7 +16,7 @@
 //! get), in turn, three times each; the medians, their ratios, the scene
 //! builds, and the noise evaluated at
 //! each camera hit of a textured object by the path tracer's calls there
-//! (run through the interpreter, which counts).
+//! (`Function::count_ops`: the interpreter, which counts).
 
 use std::path::Path;
 use std::time::Instant;
@@ -57,13 +57,16 @@ fn bench_scene(name: &str, file: &Path, spp: Option<u32>) {
 }
 
 /// Noise evaluated at the first hit of camera rays over the image, by the
-/// path tracer's calls there, run through the interpreter (which counts):
+/// path tracer's calls there, counted by [`tsl::Function::count_ops`]:
 /// `prepare` and the group's methods for a prepared object; otherwise
 /// `sample`, the delta lobes, and for the lights either one `eval_pdf` each
 /// or the reflection sum over the delta lights. Returns the mean per hit of
 /// a textured object (one whose methods evaluate noise), and how many hits.
 fn noise_per_hit(scene: &Scene) -> (f64, usize) {
-    use tsl::interp::{Counts, run_counting};
+    // Runs `f` through the interpreter, adding what it evaluated to `c`.
+    fn run_counting(f: &tsl::Function, g: &tsl::ShadingGlobals, args: &[u32], out: &mut [u32], c: &mut tsl::OpCounts) {
+        *c += f.count_ops(g, args, out).expect("the bench passes enough words");
+    }
     let lanes = scene.model.lanes();
     let (width, height) = (scene.settings.width, scene.settings.height);
     let (mut total, mut hits) = (0.0, 0);
@@ -73,18 +76,17 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
         for px in (0..width).step_by(4) {
             let Some((k, g, wo)) = render::camera_hit(scene, px, py) else { continue };
             let o = &scene.objects[k];
-            let globals = g.words();
             let eta = vec![1.0f32; lanes];
             let hit_inputs = words(&[&wo[..], &eta[..]].concat());
             let (wi, u) = (words(&g.n), words(&[0.37, 0.61, 0.29]));
-            let mut c = Counts::default();
+            let mut c = tsl::OpCounts::default();
             let lights = scene.lights.len();
             let [eval_pdf, delta_lobes, reflection_sum] = o.material.combined_functions();
             let facts = o.material.facts();
             match o.material.hit_group() {
                 Some(h) => {
                     let mut record = vec![0u32; h.record_words()];
-                    run_counting(h.prepare_function().ir(), &globals, &hit_inputs, &mut record, &mut c);
+                    run_counting(h.prepare_function(), &g, &hit_inputs, &mut record, &mut c);
                     let own = |m| match m {
                         tsl::HitMethod::EvalPdf => (wi.clone(), lights),
                         tsl::HitMethod::DeltaLobes => (Vec::new(), usize::from(facts.reflects || facts.refracts)),
@@ -95,7 +97,7 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                         let args = [&record[..], &args[..]].concat();
                         for _ in 0..times {
                             if let Some(f) = h.method_function(*m) {
-                                run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                                run_counting(f, &g, &args, &mut out, &mut c);
                             }
                         }
                     }
@@ -103,10 +105,10 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                 None => {
                     let sample_args = [&hit_inputs[..], &u[..]].concat();
                     if let Some(f) = o.material.method(tsl::check::Method::Sample) {
-                        run_counting(f.ir(), &globals, &sample_args, &mut out, &mut c);
+                        run_counting(f, &g, &sample_args, &mut out, &mut c);
                     }
                     if let Some(f) = delta_lobes {
-                        run_counting(f.ir(), &globals, &hit_inputs, &mut out, &mut c);
+                        run_counting(f, &g, &hit_inputs, &mut out, &mut c);
                     }
                     let delta = scene.lights.iter().filter(|l| l.is_delta()).count();
                     let summed = reflection_sum.filter(|_| delta > 0);
@@ -117,13 +119,13 @@ fn noise_per_hit(scene: &Scene) -> (f64, usize) {
                             args.extend(words(&eta));
                         }
                         args.extend(words(&wo));
-                        run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                        run_counting(f, &g, &args, &mut out, &mut c);
                     }
                     let unsummed = if summed.is_some() { lights - delta } else { lights };
                     if let Some(f) = eval_pdf {
                         let args = [&wi[..], &hit_inputs[..]].concat();
                         for _ in 0..unsummed {
-                            run_counting(f.ir(), &globals, &args, &mut out, &mut c);
+                            run_counting(f, &g, &args, &mut out, &mut c);
                         }
                     }
                 }

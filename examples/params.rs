@@ -2,7 +2,8 @@
 //! `rough_conductor`'s parameters with their types, defaults and docs,
 //! instances at alpha 0.05, 0.2 and 0.6 bound at run time to one compiled
 //! shader shading one point (the compile count shows nothing compiled
-//! after the first), and the errors of a wrong name and a wrong type.
+//! after the first), a spectral host's own spectrum as a `color` value,
+//! and the errors of a wrong name and a wrong type.
 //!
 //! `cargo run --example params`
 
@@ -51,6 +52,14 @@ fn main() -> Result<(), tsl::Error> {
         gold.set("alpha", 0.05 + k as f32 * 1e-4)?.bind()?;
     }
     println!("  one bind: {:.1} us", start.elapsed().as_secs_f64() * 1e6 / f64::from(binds));
+
+    // A spectral host gives a color as a spectrum of the program's model.
+    let model = ColorModel::Spectral { samples: 8 };
+    let spectral = Compiler::new().color_model(model).source("host.tsl", "material host = lambert;").compile()?;
+    let ramp: Vec<f32> = (1..=8).map(|i| 0.1 * i as f32).collect();
+    let lambert = spectral.shader("lambert")?.instance().set("kd", tsl::Color::from_lanes(model, &ramp))?.bind()?;
+    let f = lambert.reflection(&g, wi, &tsl::Color::from_lanes(model, &[1.0; 8]), wo);
+    println!("\nlambert, kd a ramp over 8 bins (spectral), reflection per bin: {:.4?}", f.lanes());
 
     println!("\nmistakes a host makes, caught when the value is set:");
     let mut instance = shader.instance();

@@ -40,6 +40,7 @@ mod material;
 mod outputs;
 mod param_value;
 mod prepared;
+mod profile;
 mod shader;
 mod surface;
 mod surface_batch;
@@ -352,8 +353,10 @@ pub enum WordType {
     Bool,
 }
 
-impl From<crate::ir::Scalar> for WordType {
-    fn from(s: crate::ir::Scalar) -> WordType {
+impl WordType {
+    /// The word type of an IR scalar (the IR is not public API, so this is
+    /// no `From` impl).
+    pub(crate) fn of(s: crate::ir::Scalar) -> WordType {
         match s {
             crate::ir::Scalar::F32 => WordType::F32,
             crate::ir::Scalar::I32 => WordType::I32,
@@ -573,8 +576,9 @@ impl Program {
         Ok(out)
     }
 
-    /// [`Program::compile_reflection_sums`] for named materials of the
-    /// program (as [`Program::material`] accepts), for hosts and tests.
+    /// For each named material of the program (as [`Program::material`]
+    /// accepts), the entry `NAME.reflection_sum{lights}`: `reflection`
+    /// summed over `lights` light directions in one call, for hosts and tests.
     pub fn reflection_sums(&self, names: &[&str], lights: usize) -> Result<Vec<Function>, Error> {
         self.compile_reflection_sums(&self.material_tree_bodies(names)?, lights)
     }
@@ -587,14 +591,16 @@ impl Program {
         self.compile_lowered(crate::ir::lower::lower_eval_pdf(&self.inner.program, self.inner.model, &exprs))
     }
 
-    /// [`Program::compile_eval_pdf`] for named materials of the program,
-    /// for hosts and tests.
+    /// For each named material of the program, the entry `NAME.eval_pdf`:
+    /// `f · cos` and `pdf` of a light direction in one call, for hosts and
+    /// tests.
     pub fn eval_pdf(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
         self.compile_eval_pdf(&self.material_tree_bodies(names)?)
     }
 
-    /// [`Program::compile_delta_lobes`] for named materials of the program,
-    /// for hosts and tests.
+    /// For each named material of the program, the entry
+    /// `NAME.delta_lobes`: both perfect directions and their weights, for
+    /// hosts and tests.
     pub fn delta_lobes(&self, names: &[&str]) -> Result<Vec<Function>, Error> {
         self.compile_delta_lobes(&self.material_tree_bodies(names)?)
     }
@@ -744,7 +750,7 @@ impl Function {
         Ok(Function { instance: Some(block), ..self.clone() })
     }
 
-    pub fn ir(&self) -> &IrFunction {
+    pub(crate) fn ir(&self) -> &IrFunction {
         &self.part.ir.functions[self.index]
     }
 
@@ -779,6 +785,23 @@ impl Function {
         self.words.0
     }
 
+    /// How many words of an instance parameter block the code reads: 0
+    /// for a function with its values folded in (a specialised instance,
+    /// a generator), more for a run-time-bound instance's methods, which
+    /// read their values from the block ([`Instance::bind`]).
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "material m = lambert;").compile()?;
+    /// let method = |m: &tsl::Material| m.method(tsl::check::Method::Reflection).expect("a method").instance_words();
+    /// let rough = p.shader("rough_conductor")?;
+    /// assert_eq!(method(&rough.instance().set("alpha", 0.3)?.specialise()?), 0);
+    /// assert!(method(&rough.instance().set("alpha", 0.3)?.bind()?) > 0);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn instance_words(&self) -> usize {
+        self.words.2
+    }
+
     /// What each result word [`Function::call_words`] writes holds, in
     /// order (its length is the number of result words).
     ///
@@ -790,7 +813,7 @@ impl Function {
     /// # Ok::<(), tsl::Error>(())
     /// ```
     pub fn result_types(&self) -> Vec<WordType> {
-        self.ir().results.iter().map(|&s| WordType::from(s)).collect()
+        self.ir().results.iter().map(|&s| WordType::of(s)).collect()
     }
 
     #[cold]

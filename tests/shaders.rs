@@ -147,8 +147,12 @@ fn instance_values_are_checked_once_with_clear_errors() {
     let not_material = message(layered.instance().set("top", 0.5));
     assert!(not_material.contains("is a `material`, not a float"), "{not_material}");
 
+    // A spectral program takes its own model's lanes (tests/runtime_params.rs);
+    // a Hero program's lanes have no fixed wavelengths, so it takes RGB.
     let spectral = self::program(HOST, ColorModel::Spectral { samples: 8 });
-    let lanes = message(spectral.shader("lambert").unwrap().instance().set("kd", spectral.rgb(0.5, 0.5, 0.5)));
+    assert!(spectral.shader("lambert").unwrap().instance().set("kd", spectral.rgb(0.5, 0.5, 0.5)).is_ok());
+    let hero = self::program(HOST, ColorModel::Hero);
+    let lanes = message(hero.shader("lambert").unwrap().instance().set("kd", hero.rgb(0.5, 0.5, 0.5)));
     assert!(lanes.contains("takes a color's RGB ([f32; 3])"), "{lanes}");
     let mixed = message(metal.instance().set("eta", spectral.rgb(0.5, 0.5, 0.5)));
     assert!(mixed.contains("takes a color of the program's model"), "{mixed}");

@@ -9,14 +9,20 @@
 //! The block's layout is computed here, once per compiled combination:
 //! the run-time parameters in declaration order, each as many words as
 //! its type has lanes in the program's color model (a color: the model's
-//! lanes, converted from RGB as [`Program::rgb`] does).
+//! lanes, converted from RGB as [`Program::rgb`] does, which is what
+//! lowering folds a constant `rgb(...)` to; a [`Color`](crate::Color) of
+//! the model, its lanes). In the `Hero` model, whose lanes' wavelengths
+//! are drawn per camera sample, a color is RGB, upsampled by the code at
+//! the hit's wavelengths as a run-time `rgb(...)` is. A specialised
+//! instance given a value TSL has no text for (a spectral color's lanes)
+//! folds the same words in as constants ([`Instance::constant_block`]).
 
 use super::param_value::{ParamType, ParamValue};
 use super::shader::{Instance, ParamInfo};
 use super::{Error, Function, Material, MaterialFacts, Program};
 use crate::check::check_material_expr;
 use crate::color::ColorModel;
-use crate::diag::Diagnostic;
+use crate::diag::{Diagnostic, Span};
 use crate::ir::Scalar;
 use crate::ir::lower::{InstanceBlock, lower_material_with_instance};
 use std::sync::Arc;
@@ -55,6 +61,8 @@ fn block_words(p: &ParamInfo, model: ColorModel) -> Option<Vec<Scalar>> {
         ParamType::Bool => vec![Scalar::Bool],
         ParamType::Vector | ParamType::Point | ParamType::Normal => vec![Scalar::F32; 3],
         ParamType::Vec2 => vec![Scalar::F32; 2],
+        // Hero: RGB, upsampled in the code at the hit's wavelengths.
+        ParamType::Color if model == ColorModel::Hero => vec![Scalar::F32; 3],
         ParamType::Color => vec![Scalar::F32; model.lanes()],
         ParamType::Matrix | ParamType::BsdfSample | ParamType::String | ParamType::Material => return None,
     })
@@ -63,11 +71,16 @@ fn block_words(p: &ParamInfo, model: ColorModel) -> Option<Vec<Scalar>> {
 /// `value`'s block words (checked against the parameter's type when set;
 /// a default is of that type).
 fn encode(program: &Program, ty: ParamType, value: &ParamValue, out: &mut Vec<u32>) {
+    let hero = program.color_model() == ColorModel::Hero;
     match value {
         ParamValue::Float(x) => out.push(x.to_bits()),
         ParamValue::Int(i) if ty == ParamType::Float => out.push((*i as f32).to_bits()),
         ParamValue::Int(i) => out.push(*i as u32),
         ParamValue::Bool(b) => out.push(u32::from(*b)),
+        ParamValue::Triple(rgb) if ty == ParamType::Color && hero => out.extend(rgb.iter().map(|x| x.to_bits())),
+        // Not reached: a Hero program takes RGB, and its color defaults
+        // stay in the code (see `bind`); the words' count still holds.
+        ParamValue::Color(c) if hero => out.extend(c.to_rgb().iter().map(|x| x.to_bits())),
         ParamValue::Triple([r, g, b]) if ty == ParamType::Color => {
             out.extend(program.rgb(*r, *g, *b).lanes().iter().map(|x| x.to_bits()));
         }
@@ -93,7 +106,9 @@ impl Instance {
     ///
     /// A parameter whose default is not one constant (it reads the
     /// shading point) and that has no value keeps its default in the code;
-    /// setting it later compiles once more for that combination.
+    /// setting it later compiles once more for that combination. So does
+    /// a color's default in the `Hero` model, where the block holds a set
+    /// color as RGB, upsampled at each hit's wavelengths.
     ///
     /// ```
     /// use tsl::{Compiler, ShadingGlobals};
@@ -115,11 +130,14 @@ impl Instance {
         let model = program.color_model();
         let params = self.shader().params();
         // Which parameters the block holds: those of a plain type with a
-        // value to write (set, or a constant default).
+        // value to write (set, or a constant default). A Hero color's
+        // default is evaluated at the default wavelengths, so it stays in
+        // the code, which evaluates it at the hit's.
+        let hero_color = |p: &ParamInfo| p.ty == ParamType::Color && model == ColorModel::Hero;
         let in_block: Vec<bool> = params
             .iter()
             .zip(self.values())
-            .map(|(p, v)| block_words(p, model).is_some() && (v.is_some() || p.default.is_some()))
+            .map(|(p, v)| block_words(p, model).is_some() && (v.is_some() || (p.default.is_some() && !hero_color(p))))
             .collect();
         // Code-changing values by name, and which parameters are in the
         // block: the cache key. A required run-time parameter is written
@@ -128,7 +146,7 @@ impl Instance {
         let mut code_args = Vec::new();
         for ((p, v), read) in params.iter().zip(self.values()).zip(&in_block) {
             let Some(v) = v else { continue };
-            let arg = format!("{}: {}", p.name, v.source(p.ty).unwrap_or_default());
+            let arg = format!("{}: {}", p.name, v.call_text(p.ty));
             if !read {
                 code_args.push(arg.clone());
             }
@@ -185,17 +203,7 @@ impl Instance {
     fn compile_bound(&self, source: &str, in_block: &[bool]) -> Result<InstanceCode, Error> {
         let program = self.shader().program();
         let model = program.color_model();
-        let mut offsets = Vec::new();
-        let mut words = Vec::new();
-        for (p, read) in self.shader().params().iter().zip(in_block) {
-            match block_words(p, model).filter(|_| *read) {
-                Some(w) => {
-                    offsets.push(Some(words.len() as u32));
-                    words.extend(w);
-                }
-                None => offsets.push(None),
-            }
-        }
+        let (offsets, words) = self.layout(in_block);
         let name = format!("<bound instance of {}>", self.shader().name());
         let checked = check_material_expr(program.checked(), &name, source);
         let to_error =
@@ -204,7 +212,7 @@ impl Instance {
             return Err(to_error(checked.diagnostics.clone()));
         };
         let entry = format!("@{}", self.shader().name());
-        let block = InstanceBlock { root: expr.span, offsets: offsets.clone(), words: words.clone() };
+        let block = InstanceBlock { root: expr.span, offsets: offsets.clone(), words: words.clone(), constants: None };
         let (ir, entries, diags) = lower_material_with_instance(&checked.program, model, &entry, expr, block);
         if !diags.is_empty() {
             return Err(to_error(diags));
@@ -218,6 +226,48 @@ impl Instance {
         );
         let facts = unbound.facts().clone();
         Ok(InstanceCode { methods, offsets, words: words.len(), facts })
+    }
+
+    /// The block layout of the parameters `in_block` marks: each one's
+    /// first word (by parameter index) and the words' types.
+    fn layout(&self, in_block: &[bool]) -> (Vec<Option<u32>>, Vec<Scalar>) {
+        let model = self.shader().program().color_model();
+        let mut offsets = Vec::new();
+        let mut words = Vec::new();
+        for (p, read) in self.shader().params().iter().zip(in_block) {
+            match block_words(p, model).filter(|_| *read) {
+                Some(w) => {
+                    offsets.push(Some(words.len() as u32));
+                    words.extend(w);
+                }
+                None => offsets.push(None),
+            }
+        }
+        (offsets, words)
+    }
+
+    /// The parameters `which` marks (each with a value set) as a block of
+    /// constants for the instance's call at `root`: their words as
+    /// [`Instance::bind`] writes them, folded into the code instead of
+    /// read. An error if a value's words do not fill its place.
+    pub(super) fn constant_block(&self, root: Span, which: &[bool]) -> Result<InstanceBlock, Error> {
+        let program = self.shader().program();
+        let (offsets, words) = self.layout(which);
+        let mut constants = Vec::with_capacity(words.len());
+        for ((p, v), offset) in self.shader().params().iter().zip(self.values()).zip(&offsets) {
+            if let (Some(_), Some(value)) = (offset, v) {
+                encode(program, p.ty, value, &mut constants);
+            }
+        }
+        if constants.len() != words.len() {
+            return Err(Error::plain(format!(
+                "internal error: `{}`'s folded values have {} words, not {}",
+                self.shader().name(),
+                constants.len(),
+                words.len()
+            )));
+        }
+        Ok(InstanceBlock { root, offsets, words, constants: Some(constants) })
     }
 }
 

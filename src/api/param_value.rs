@@ -84,6 +84,33 @@ impl fmt::Display for ParamType {
 /// `i32`, `bool`, `[f32; 3]` (a vector, point or normal, or an RGB color),
 /// `[f32; 2]`, [`Color`], `&str` or an [`Instance`] (for `material`
 /// parameters).
+///
+/// A `color` parameter takes RGB (`[f32; 3]`, converted into the program's
+/// model as `rgb(...)` in source is) or a [`Color`] of the program's own
+/// model, whose lanes are used as they are, by
+/// [`Instance::specialise`](super::Instance::specialise) and
+/// [`Instance::bind`](super::Instance::bind) alike (a spectral host passes
+/// its spectra; [`Program::rgb`](super::Program::rgb) makes the same lanes
+/// as the `rgb(...)` literal). A `Color` of another model is an error.
+///
+/// ```
+/// use tsl::{ColorModel, Compiler, ShadingGlobals};
+/// let model = ColorModel::Spectral { samples: 8 };
+/// let p = Compiler::new().color_model(model).source("m.tsl", "material m = lambert;").compile()?;
+/// let ramp: Vec<f32> = (0..8).map(|i| 0.1 * i as f32).collect();
+/// let kd = tsl::Color::from_lanes(model, &ramp);
+/// let mut lambert = p.shader("lambert")?.instance();
+/// lambert.set("kd", kd)?;
+/// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..Default::default() };
+/// let (flat, up) = (tsl::Color::from_lanes(model, &[1.0; 8]), [0.0, 0.0, 1.0]);
+/// for m in [lambert.specialise()?, lambert.bind()?] {
+///     let f = m.reflection(&g, up, &flat, up);
+///     assert!((f.lanes()[7] / f.lanes()[1] - 7.0).abs() < 1e-4, "the lanes given: {f:?}");
+/// }
+/// // A color of another model is refused.
+/// assert!(lambert.set("kd", tsl::Color::black(ColorModel::Rgb)).is_err());
+/// # Ok::<(), tsl::Error>(())
+/// ```
 // A color holds MAX_SAMPLES lanes inline; values are few (one per
 // parameter) and a boxed color would make every host unbox it.
 #[allow(clippy::large_enum_variant)]
@@ -155,9 +182,21 @@ impl ParamValue {
     /// same f64 and lowering rounds to the same f32. `None` for a value
     /// TSL cannot write (a spectral color's lanes; see [`Instance::set`]).
     pub(super) fn source(&self, ty: ParamType) -> Option<String> {
+        Some(match self {
+            ParamValue::Color(c) if c.model() != ColorModel::Rgb => return None,
+            ParamValue::Matrix(_) => return None,
+            _ => self.call_text(ty),
+        })
+    }
+
+    /// The value's text in an instance's call: [`ParamValue::source`], or
+    /// for a spectral color, which TSL cannot write, `rgb(...)` of its
+    /// [`Color::to_rgb`]: a stand-in that the instance's code replaces by
+    /// the lanes themselves ([`Instance::specialise`], [`Instance::bind`]).
+    pub(super) fn call_text(&self, ty: ParamType) -> String {
         let float = |x: f32| format!("{:?}", f64::from(x));
         let floats = |xs: &[f32]| xs.iter().map(|x| float(*x)).collect::<Vec<_>>().join(", ");
-        Some(match self {
+        match self {
             ParamValue::Float(x) => float(*x),
             // The lexer reads digits as a positive i32, and i32::MIN has none.
             ParamValue::Int(i32::MIN) => "(-2147483647 - 1)".into(),
@@ -167,10 +206,12 @@ impl ParamValue {
             ParamValue::Triple(t) => format!("{}({})", ty.keyword(), floats(t)),
             ParamValue::Vec2(v) => format!("vec2({})", floats(v)),
             ParamValue::Color(c) if c.model() == ColorModel::Rgb => format!("rgb({})", floats(c.lanes())),
-            ParamValue::Color(_) | ParamValue::Matrix(_) => return None,
+            ParamValue::Color(c) => format!("rgb({})", floats(&c.to_rgb())),
+            // Matrices are set in source only (`Instance::set` refuses them).
+            ParamValue::Matrix(_) => String::new(),
             ParamValue::String(s) => format!("\"{s}\""),
             ParamValue::Material(instance) => instance.source(),
-        })
+        }
     }
 }
 

@@ -334,11 +334,13 @@ impl Instance {
     /// did-you-mean), a value of the wrong type, a string outside the
     /// declared options, or a non-finite number is an error and the
     /// instance is unchanged. A `float` parameter takes an `f32` or an
-    /// `i32`; a `color` a [`Color`](crate::Color) of the program's model
-    /// or RGB as `[f32; 3]` (a program in a spectral model takes RGB: a
-    /// color's lanes have no TSL text to specialise with); a vector, point
-    /// or normal `[f32; 3]`; a `material` an instance of a shader of the
-    /// same program. Array and matrix parameters are set in TSL source.
+    /// `i32`; a `color` RGB as `[f32; 3]` or a [`Color`](crate::Color) of
+    /// the program's model, its lanes used as given (not in the `Hero`
+    /// model, whose lanes' wavelengths change per camera sample: it takes
+    /// RGB); a vector, point or normal `[f32; 3]`; a `material` an instance
+    /// of a shader of the same program (whose colors, if it has spectral
+    /// ones, must be RGB: only an instance's own call folds lanes in).
+    /// Array and matrix parameters are set in TSL source.
     pub fn set(&mut self, name: &str, value: impl Into<ParamValue>) -> Result<&mut Self, Error> {
         let value = value.into();
         let shader = &self.shader;
@@ -396,13 +398,19 @@ impl Instance {
                 }
             }
             (ParamType::Color, ParamValue::Color(c)) => {
-                if c.model() != model {
-                    let message =
-                        format!("{whose} takes a color of the program's model ({model:?}), not {:?}", c.model());
-                    Err(shader.error(param.span, message, Some("make it with `Program::rgb`".into())))
-                } else if model != crate::ColorModel::Rgb {
-                    let message =
-                        format!("{whose}: a {model:?} program takes a color's RGB ([f32; 3]) for specialising");
+                if c.model() != model || c.lanes().len() != model.lanes() {
+                    let message = format!(
+                        "{whose} takes a color of the program's model ({model:?}, {} lanes), not {:?} ({} lanes)",
+                        model.lanes(),
+                        c.model(),
+                        c.lanes().len()
+                    );
+                    let help = "make it with `Program::rgb` or `Color::from_lanes` in the program's model, or give RGB as `[f32; 3]`";
+                    Err(shader.error(param.span, message, Some(help.into())))
+                } else if model == crate::ColorModel::Hero {
+                    let message = format!(
+                        "{whose}: a Hero program's lanes are at wavelengths drawn per camera sample: it takes a color's RGB ([f32; 3])"
+                    );
                     Err(shader.error(param.span, message, None))
                 } else if !finite(c.lanes()) {
                     not_finite()
@@ -412,11 +420,16 @@ impl Instance {
             }
             (ParamType::String, ParamValue::String(s)) => self.checked_option(param, &whose, s).map(|()| value),
             (ParamType::Material, ParamValue::Material(m)) => {
-                if Arc::ptr_eq(&m.shader.program.inner, &shader.program.inner) {
-                    Ok(value)
-                } else {
+                if !Arc::ptr_eq(&m.shader.program.inner, &shader.program.inner) {
                     let message = format!("{whose} takes an instance of a shader of the same program");
                     Err(shader.error(param.span, message, None))
+                } else if let Some(inner) = m.lanes_only_value() {
+                    let message = format!(
+                        "{whose}: the instance's `{inner}` is a spectral color, whose lanes only an instance's own call takes"
+                    );
+                    Err(shader.error(param.span, message, Some(format!("give `{inner}` as RGB ([f32; 3])"))))
+                } else {
+                    Ok(value)
                 }
             }
             (ParamType::Color, _) => wrong(Some("give a `Color` or RGB as `[f32; 3]`".into())),
@@ -439,8 +452,22 @@ impl Instance {
         Err(shader.error(param.span, message, help))
     }
 
+    /// The name of the first parameter whose value TSL has no text for (a
+    /// spectral [`Color`](crate::Color)), in this instance or a material
+    /// value of it.
+    fn lanes_only_value(&self) -> Option<String> {
+        self.shader.params().iter().zip(&self.values).find_map(|(p, v)| match v.as_ref()? {
+            ParamValue::Material(m) => m.lanes_only_value().map(|inner| format!("{}.{inner}", p.name)),
+            v if v.source(p.ty).is_none() => Some(p.name.clone()),
+            _ => None,
+        })
+    }
+
     /// The instance as the TSL call it stands for: the values set, by
-    /// name, in declaration order (`rough_conductor(alpha: 0.05)`).
+    /// name, in declaration order (`rough_conductor(alpha: 0.05)`). A
+    /// spectral [`Color`](crate::Color), which TSL cannot write, is
+    /// written as the `rgb(...)` of its [`Color::to_rgb`](crate::Color::to_rgb);
+    /// the instance's code uses the lanes themselves.
     pub fn source(&self) -> String {
         let args: Vec<String> = self
             .shader
@@ -449,8 +476,7 @@ impl Instance {
             .zip(&self.values)
             .filter_map(|(p, v)| {
                 let v = v.as_ref()?;
-                // Values were checked, so each has text.
-                Some(format!("{}: {}", p.name, v.source(p.ty).unwrap_or_default()))
+                Some(format!("{}: {}", p.name, v.call_text(p.ty)))
             })
             .collect();
         format!("{}({})", self.shader.name(), args.join(", "))
@@ -458,7 +484,10 @@ impl Instance {
 
     /// Compiles the instance with its values folded in as constants: the
     /// same code as [`Instance::source`] written as a scene object's
-    /// material, so the same results. Each call compiles again (a host
+    /// material, so the same results. A spectral [`Color`](crate::Color)
+    /// is folded in as its lanes, the constants a literal's lanes are
+    /// (so a color from [`Program::rgb`](crate::Program::rgb) gives what
+    /// `rgb(...)` in source gives). Each call compiles again (a host
     /// keeps the [`Material`]); the code lives as long as the material.
     /// An error when a required parameter has no value.
     pub fn specialise(&self) -> Result<Material, Error> {
@@ -473,8 +502,18 @@ impl Instance {
             return Err(to_error(checked.diagnostics.clone()));
         };
         let entry = format!("@{}", shader.name());
-        let (ir, entries, diags) =
-            crate::ir::lower::lower_material_exprs(&checked.program, program.color_model(), &[(entry.clone(), expr)]);
+        let model = program.color_model();
+        // Values without TSL text (a spectral color's lanes) replace their
+        // stand-in text as the constants of a block the code never reads.
+        let lanes_only: Vec<bool> = (shader.params().iter().zip(&self.values))
+            .map(|(p, v)| v.as_ref().is_some_and(|v| v.source(p.ty).is_none()))
+            .collect();
+        let (ir, entries, diags) = if lanes_only.contains(&true) {
+            let block = self.constant_block(expr.span, &lanes_only)?;
+            crate::ir::lower::lower_material_with_instance(&checked.program, model, &entry, expr, block)
+        } else {
+            crate::ir::lower::lower_material_exprs(&checked.program, model, &[(entry.clone(), expr)])
+        };
         if !diags.is_empty() {
             return Err(to_error(diags));
         }

@@ -7,7 +7,7 @@
 //! over `[0, 1]` on the models' 380–780 nm), with `sigmoid(x) = 1/2 +
 //! x / (2 √(1 + x²))`: bounded in `(0, 1)`, and the three coefficients are
 //! chosen so that the spectrum, lit by D65 and seen through the CIE 1931
-//! observer, *is* `rgb` in linear sRGB ([`super::reflectance_to_rgb`]).
+//! observer, *is* `rgb` in linear sRGB ([`reflectance_to_rgb`]).
 //!
 //! The coefficients come from a precomputed table over RGB, as in the
 //! paper: three blocks (which channel is largest), each `RES³` cells over
@@ -306,7 +306,7 @@ pub fn coordinates(rgb: [f32; 3]) -> (usize, [f32; 3]) {
 }
 
 impl Table {
-    /// Reads the table file format (see [`TABLE_BYTES`]).
+    /// Reads the table file format (the embedded `TABLE_BYTES` is one).
     pub fn from_bytes(bytes: &[u8]) -> Result<Table, String> {
         if bytes.len() < 8 || &bytes[..4] != MAGIC {
             return Err("not a coefficient table (no JHg2 header)".into());
@@ -386,7 +386,7 @@ pub fn reflectance_to_rgb(spectrum: impl Fn(f64) -> f64) -> [f64; 3] {
 // Fitting.
 
 /// What fitting one cell measures: the reflectance's linear sRGB
-/// ([`super::reflectance_to_rgb`]) at quadrature nodes.
+/// ([`reflectance_to_rgb`]) at quadrature nodes.
 struct Fitter {
     /// Normalised wavelength `t` of each node.
     t: Vec<f64>,

@@ -26,18 +26,42 @@ pub fn run_instance(func: &Function, globals: &[u32], args: &[u32], instance: &[
     run_with(func, globals, args, instance, out, None);
 }
 
-/// What a run evaluated, for benchmarks ([`run_counting`]).
+/// What one interpreted call evaluated: the profile
+/// [`Function::count_ops`](crate::Function::count_ops) returns, as OSL's
+/// shader profiling counts what a shading call ran. Counts depend on the
+/// program, the arguments and the shading point, never on timing; add
+/// them up over calls with `+=`.
 #[derive(Debug, Default, Clone, Copy, PartialEq)]
-pub struct Counts {
+pub struct OpCounts {
+    /// IR operations evaluated (arithmetic, comparisons, loads, constants,
+    /// native calls), each loop body's once per trip.
+    pub operations: u64,
+    /// Calls of native functions (math beyond the IR's instructions, cell
+    /// noise, noise at the sites past the ones lowering expands inline).
+    pub native_calls: u64,
+    /// Texture lookups (`texture()` calls evaluated).
+    pub texture_lookups: u64,
     /// Noise evaluations: native calls (`tsl_noise3`, `tsl_cellnoise3`, ...)
     /// and inline expansions, each of which reads its gradient table at the
-    /// 2, 4 or 8 corners of a 1D, 2D or 3D lattice cell.
+    /// 2, 4 or 8 corners of a 1D, 2D or 3D lattice cell and counts as
+    /// 1/2, 1/4 or 1/8 per read (so a whole expansion counts 1).
     pub noise: f64,
 }
 
-/// [`run`], adding what it evaluated to `counts`.
-pub fn run_counting(func: &Function, globals: &[u32], args: &[u32], out: &mut [u32], counts: &mut Counts) {
-    run_with(func, globals, args, &[], out, Some(counts));
+impl std::ops::AddAssign for OpCounts {
+    fn add_assign(&mut self, other: OpCounts) {
+        self.operations += other.operations;
+        self.native_calls += other.native_calls;
+        self.texture_lookups += other.texture_lookups;
+        self.noise += other.noise;
+    }
+}
+
+/// [`run_instance`], returning what it evaluated.
+pub fn run_counting(func: &Function, globals: &[u32], args: &[u32], instance: &[u32], out: &mut [u32]) -> OpCounts {
+    let mut counts = OpCounts::default();
+    run_with(func, globals, args, instance, out, Some(&mut counts));
+    counts
 }
 
 fn run_with(
@@ -46,7 +70,7 @@ fn run_with(
     args: &[u32],
     instance: &[u32],
     out: &mut [u32],
-    counts: Option<&mut Counts>,
+    counts: Option<&mut OpCounts>,
 ) {
     // A bool argument is true when its word is non-zero, as in the JIT.
     let args: Vec<u32> = args
@@ -85,7 +109,7 @@ struct Machine<'a, 'o> {
     /// Loop iterations this call may still run, over all loops.
     budget: i64,
     out: &'o mut [u32],
-    counts: Option<&'o mut Counts>,
+    counts: Option<&'o mut OpCounts>,
 }
 
 fn f(x: u32) -> f32 {
@@ -117,6 +141,9 @@ impl Machine<'_, '_> {
         for inst in body {
             match inst {
                 Inst::Def(v, op) => {
+                    if let Some(c) = &mut self.counts {
+                        c.operations += 1;
+                    }
                     let x = self.op(op);
                     self.values[v.0 as usize] = x;
                 }
@@ -128,6 +155,9 @@ impl Machine<'_, '_> {
                 }
                 Inst::Output(k, v) => self.out[*k as usize] = self.v(*v),
                 Inst::Texture { sampler, coords, out } => {
+                    if let Some(c) = &mut self.counts {
+                        c.texture_lookups += 1;
+                    }
                     let c: Vec<f32> = coords.iter().map(|&c| f(self.v(c))).collect();
                     let q = Lookup { s: c[0], t: c[1], dsdx: c[2], dtdx: c[3], dsdy: c[4], dtdy: c[5] };
                     let result: Vec<f32> = if sampler.0.spectral.is_some() {
@@ -213,7 +243,6 @@ impl Machine<'_, '_> {
                     UnOp::Not => bw(a == 0),
                     UnOp::IToF => fw(i(a) as f32),
                     UnOp::FToI => iw(float_to_int(f(a))),
-                    UnOp::BToI => a,
                 }
             }
             Op::Binary(b, x, y) => {
@@ -249,10 +278,11 @@ impl Machine<'_, '_> {
                 }
             }
             Op::Call { native: name, args } => {
-                if let Some(c) = &mut self.counts
-                    && name.contains("noise")
-                {
-                    c.noise += 1.0;
+                if let Some(c) = &mut self.counts {
+                    c.native_calls += 1;
+                    if name.contains("noise") {
+                        c.noise += 1.0;
+                    }
                 }
                 let a: Vec<f32> = args.iter().map(|v| f(self.v(*v))).collect();
                 let r = native(name).filter(|n| a.len() >= n.arity).map_or(f32::NAN, |n| n.f.call(&a));

@@ -316,7 +316,6 @@ impl Builder {
                     (UnOp::Not, B(x)) => B(!x),
                     (UnOp::IToF, I(x)) => F(x as f32),
                     (UnOp::FToI, F(x)) => I(semantics::float_to_int(x)),
-                    (UnOp::BToI, B(x)) => I(i32::from(x)),
                     _ => return None,
                 })
             }
@@ -392,7 +391,7 @@ impl Builder {
     pub(crate) fn un(&mut self, op: UnOp, a: Value) -> Value {
         let ty = match op {
             UnOp::FNeg | UnOp::FAbs | UnOp::Sqrt | UnOp::Floor | UnOp::Ceil | UnOp::Trunc | UnOp::IToF => Scalar::F32,
-            UnOp::INeg | UnOp::FToI | UnOp::BToI => Scalar::I32,
+            UnOp::INeg | UnOp::FToI => Scalar::I32,
             UnOp::Not => Scalar::Bool,
         };
         self.def(ty, Op::Unary(op, a))

@@ -33,11 +33,8 @@ pub mod split;
 mod tests;
 pub mod verify;
 
-pub use adce::eliminate_dead_code_aggressive;
 pub use builder::MAX_FUNCTION_VALUES;
-pub use gvn::value_number;
 pub use semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
-pub use verify::{VerifyError, verify_function, verify_module};
 
 use std::fmt::{self, Write};
 
@@ -79,8 +76,6 @@ pub enum UnOp {
     IToF,
     /// float → int, saturating; NaN gives 0.
     FToI,
-    /// bool → int (0 or 1).
-    BToI,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -263,6 +258,8 @@ pub struct Module {
 }
 
 impl Module {
+    /// The function named `name` (tests look entry points up by name).
+    #[cfg(test)]
     pub fn function(&self, name: &str) -> Option<&Function> {
         self.functions.iter().find(|f| f.name == name)
     }

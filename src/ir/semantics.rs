@@ -7,7 +7,7 @@
 //! the interpreter and lowering's folding call these functions, and the JIT
 //! emits code that computes the same (its comments point back here).
 
-/// The most iterations one [`Inst::Loop`](super::Inst::Loop) runs, however
+/// The most iterations one IR loop (`Inst::Loop`) runs, however
 /// far apart its bounds are (2^16). The checker warns about constant bounds
 /// beyond it.
 pub const MAX_LOOP_ITERATIONS: i64 = 1 << 16;

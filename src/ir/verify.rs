@@ -429,7 +429,6 @@ fn unary_types(op: UnOp) -> (Scalar, Scalar) {
         UnOp::Not => (Bool, Bool),
         UnOp::IToF => (I32, F32),
         UnOp::FToI => (F32, I32),
-        UnOp::BToI => (Bool, I32),
     }
 }
 

@@ -610,7 +610,6 @@ impl<'a, 'b> Gen<'a, 'b> {
                     UnOp::IToF => ins.fcvt_from_sint(types::F32, a),
                     // Saturating, NaN to 0: `ir::semantics::float_to_int`.
                     UnOp::FToI => ins.fcvt_to_sint_sat(types::I32, a),
-                    UnOp::BToI => ins.uextend(types::I32, a),
                 }
             }
             Op::Binary(bop, x, y) => {

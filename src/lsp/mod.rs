@@ -5,7 +5,7 @@
 //! `transport` reads and writes the framed messages (a bad message is
 //! answered and the server goes on). The main loop owns the open
 //! documents and answers requests on its own thread from an
-//! [`analysis::Analysis`] of the current text (the compiler's front end,
+//! `analysis::Analysis` of the current text (the compiler's front end,
 //! cached per document version). Diagnostics are computed by a pool of
 //! workers (`scheduler`), as `tslc check` would report them, when a
 //! document opens or is saved and 150 ms after the last change, so typing

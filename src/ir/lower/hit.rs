@@ -28,11 +28,14 @@ pub enum HitMethod {
     /// An interface method (`reflection`, `sample`, `emission`, ...).
     Interface(Method),
     /// `f · cos` for unit light from `wi` and the material's pdf
-    /// (see [`lower_eval_pdf`]): argument `wi`.
+    /// (as [`Program::eval_pdf`](crate::Program::eval_pdf) compiles it
+    /// alone): argument `wi`.
     EvalPdf,
-    /// Both perfect directions and their weights (see [`lower_delta_lobes`]).
+    /// Both perfect directions and their weights (as
+    /// [`Program::delta_lobes`](crate::Program::delta_lobes) compiles them alone).
     DeltaLobes,
-    /// `reflection` summed over this many lights (see [`lower_reflection_sums`]):
+    /// `reflection` summed over this many lights (as
+    /// [`Program::reflection_sums`](crate::Program::reflection_sums) compiles it alone):
     /// arguments `wi_1, light_1, ...`.
     ReflectionSum(usize),
 }

@@ -260,12 +260,33 @@ impl<'p> Lowerer<'p> {
         params: &[ast::Param],
     ) -> Option<Vec<(usize, Val<'p>)>> {
         let block = self.instance_block.as_ref().filter(|block| block.root == at)?;
-        let offsets = block.offsets.clone();
+        let (offsets, constants) = (block.offsets.clone(), block.constants.clone());
         let mut read = Vec::new();
         for (k, (p, first)) in params.iter().zip(offsets).enumerate() {
             let Some(first) = first else { continue };
-            let words = self.words(&Ty::from_ast(&p.ty));
-            let lanes = (0..).zip(words).map(|(i, ty)| b.def(ty, Op::InstanceWord(first + i))).collect();
+            // Known words are constants (the API writes every one; a
+            // missing word is 0, never a read of a block the code has not).
+            let word = |b: &mut Builder, i: u32, ty: Scalar| match &constants {
+                Some(c) => {
+                    let w = c.get((first + i) as usize).copied().unwrap_or(0);
+                    match ty {
+                        Scalar::F32 => b.f(f32::from_bits(w)),
+                        Scalar::I32 => b.i(w as i32),
+                        Scalar::Bool => b.b(w != 0),
+                    }
+                }
+                None => b.def(ty, Op::InstanceWord(first + i)),
+            };
+            let ty = Ty::from_ast(&p.ty);
+            if ty == Ty::Color && self.model == ColorModel::Hero {
+                // Hero lanes are at the hit's wavelengths: the block holds
+                // RGB, upsampled here as a run-time `rgb(...)` is.
+                let rgb = [0, 1, 2].map(|i| word(b, i, Scalar::F32));
+                let lanes = self.rgb_to_lanes(b, rgb);
+                read.push((k, Val::Lanes(lanes)));
+                continue;
+            }
+            let lanes = (0..).zip(self.words(&ty)).map(|(i, ty)| word(b, i, ty)).collect();
             read.push((k, Val::Lanes(lanes)));
         }
         Some(read)

@@ -39,7 +39,7 @@ use expr::{bind_args, bind_builtin_args, mat_inverse, transform_point};
 use stmt::assigned_names;
 use tree::empty_def;
 
-pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with, method_name};
+pub use hit::{HitEntry, HitGroup, HitMethod, hit_inputs, lower_hit_groups, lower_hit_groups_with};
 pub use layout::{DeltaLobesLayout, EvalPdfLayout, SampleLayout};
 pub use spectral::curve_table_name;
 
@@ -82,14 +82,9 @@ pub struct Entry {
     pub ret: Ty,
 }
 
-/// Lowers every entry point of a checked program: each function whose
-/// parameters and result are plain values, and each interface method of
-/// each material that needs no arguments.
-pub fn lower_program(program: &Program, model: ColorModel) -> (Module, Vec<Entry>, Vec<Diagnostic>) {
-    lower_entries(program, model, |_, _| true)
-}
-
-/// Lowers the entry points of the global names `keep` accepts.
+/// Lowers the entry points of the global names `keep` accepts: each
+/// function whose parameters and result are plain values, and each
+/// interface method of each material that needs no arguments.
 pub fn lower_entries(
     program: &Program,
     model: ColorModel,
@@ -213,6 +208,11 @@ pub struct InstanceBlock {
     /// The block's word types, which every function lowered reads by
     /// (its `instance_words`).
     pub words: Vec<Scalar>,
+    /// The block's words when they are known now: lowered as constants,
+    /// which fold as a literal's lanes do, and the functions read no
+    /// block. A specialised instance given a value TSL has no text for (a
+    /// spectral color's lanes) is compiled so.
+    pub constants: Option<Vec<u32>>,
 }
 
 /// [`lower_material_exprs`] of one material call whose value parameters
@@ -241,7 +241,7 @@ fn lower_methods_with<'p>(
         for im in Method::ALL.into_iter().filter(|m| keep(k, *m)).map(Method::interface) {
             let fname = format!("{name}.{}", im.name);
             let mut b = Builder::new(&fname);
-            if let Some(block) = &lw.instance_block {
+            if let Some(block) = lw.instance_block.as_ref().filter(|block| block.constants.is_none()) {
                 b.func.instance_words = block.words.clone();
             }
             let params: Vec<(String, Ty)> = im.params.iter().map(|(n, t)| (n.to_string(), t.clone())).collect();

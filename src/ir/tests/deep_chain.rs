@@ -26,7 +26,7 @@ fn binary_chain_100000_long_is_not_nesting() {
     let src = format!("float f(float x) {{ return x{}; }}", " - x * 0.5".repeat(DEEP));
     let checked = check(&src);
     assert!(checked.is_ok(), "{}", &checked.render_diagnostics()[..2000.min(checked.render_diagnostics().len())]);
-    let (module, _, diags) = crate::ir::lower::lower_program(&checked.program, crate::ColorModel::Rgb);
+    let (module, _, diags) = crate::ir::lower::lower_entries(&checked.program, crate::ColorModel::Rgb, |_, _| true);
     assert!(diags.is_empty(), "{diags:?}");
     let f = module.function("f").expect("f is lowered");
     let globals = crate::ShadingGlobals::default().words();
