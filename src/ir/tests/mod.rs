@@ -4,3 +4,4 @@
 mod bounded;
 mod deep_chain;
 mod lowering;
+mod scene_constants;
