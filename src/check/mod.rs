@@ -269,7 +269,7 @@ type Symbols = FxHashMap<String, Symbol>;
 fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Symbols) {
     let mut symbols = Symbols::default();
     let mut prelude = Symbols::default();
-    let mut from_prelude: FxHashMap<String, bool> = FxHashMap::default();
+    let mut from_prelude: FxHashMap<&str, bool> = FxHashMap::default();
     for (m, module) in loaded.modules.iter().enumerate() {
         for (i, item) in module.ast.items.iter().enumerate() {
             let (kind, name) = match item {
@@ -304,8 +304,8 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
             match symbols.get(name.name.as_str()) {
                 Some(_) if from_prelude[name.name.as_str()] && !module.is_prelude => {
                     // A user definition shadows the prelude's.
-                    symbols.insert(name.name.to_string(), symbol);
-                    from_prelude.insert(name.name.to_string(), false);
+                    symbols.insert(name.name.as_str().to_owned(), symbol);
+                    from_prelude.insert(name.name.as_str(), false);
                 }
                 Some(prev) => {
                     diags.push(
@@ -315,12 +315,13 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                     );
                 }
                 None => {
-                    symbols.insert(name.name.to_string(), symbol);
-                    from_prelude.insert(name.name.to_string(), module.is_prelude);
+                    // Not `to_string`, which formats: 100,000 names cost.
+                    symbols.insert(name.name.as_str().to_owned(), symbol);
+                    from_prelude.insert(name.name.as_str(), module.is_prelude);
                 }
             }
             if module.is_prelude {
-                prelude.entry(name.name.to_string()).or_insert(symbol);
+                prelude.entry(name.name.as_str().to_owned()).or_insert(symbol);
             }
         }
     }

@@ -7,15 +7,15 @@
 //! source order; otherwise the vector is sorted once when checking ends.
 
 use crate::diag::Span;
-use std::cmp::Reverse;
 
 /// The order of the entries: by file and start, an enclosing expression
-/// before the ones it contains.
+/// (the longer span) before the ones it contains. Packed into one integer,
+/// so a step of a bisection is one comparison.
 fn key(span: &Span) -> Key {
-    (span.file.0, span.start, Reverse(span.end))
+    (u128::from(span.file.0) << 64) | (u128::from(span.start) << 32) | u128::from(u32::MAX - span.end)
 }
 
-type Key = (u32, u32, Reverse<u32>);
+type Key = u128;
 
 #[derive(Debug, Clone)]
 pub struct SpanMap<T> {
@@ -45,10 +45,12 @@ impl<T> SpanMap<T> {
     pub fn within(&self, outer: &Span) -> SpanSlice<'_, T> {
         debug_assert!(self.ordered, "SpanMap searched before finish");
         let lo = key(outer);
-        // The first key of a span starting at `outer.end`: the longest.
-        let hi = (outer.file.0, outer.end, Reverse(u32::MAX));
+        // The first key of a span starting at `outer.end` (the longest).
+        let hi = key(&Span { start: outer.end, end: u32::MAX, ..*outer });
         let first = self.entries.partition_point(|(s, _)| key(s) < lo);
-        let count = self.entries[first..].partition_point(|(s, _)| key(s) < hi);
+        // The entries inside are the expression's own: walking them costs
+        // what using them does.
+        let count = self.entries[first..].iter().take_while(|(s, _)| key(s) < hi).count();
         SpanSlice { entries: &self.entries[first..first + count], lo, hi }
     }
 

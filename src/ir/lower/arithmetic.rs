@@ -42,7 +42,8 @@ impl<'p> Lowerer<'p> {
 
     /// `e`'s value as the lowering folds it, of the type the checker gave it.
     fn evaluate(&self, prelude: bool, e: &Expr) -> Option<Const> {
-        let ty = self.ty_of(e);
+        // The types of the constant being evaluated (`evaluate_directly`).
+        let ty = self.constant_types?.get(&e.span)?;
         let value = match &e.kind {
             ExprKind::Int(i) => Const::I(*i),
             ExprKind::Float(x) => Const::F(*x as f32),
@@ -62,8 +63,8 @@ impl<'p> Lowerer<'p> {
             }
             ExprKind::Unary { op: UnaryOp::Neg, operand } => {
                 match crate::syntax::ast::with_stack(|| self.evaluate(prelude, operand))? {
-                    Const::I(i) if ty == Ty::Int => Const::I(i.wrapping_neg()),
-                    Const::F(x) if ty == Ty::Float => Const::F(-x),
+                    Const::I(i) if *ty == Ty::Int => Const::I(i.wrapping_neg()),
+                    Const::F(x) if *ty == Ty::Float => Const::F(-x),
                     _ => return None,
                 }
             }
@@ -76,7 +77,7 @@ impl<'p> Lowerer<'p> {
                 let (l, r) = crate::syntax::ast::with_stack(|| {
                     Some((self.evaluate(prelude, lhs)?, self.evaluate(prelude, rhs)?))
                 })?;
-                match (&ty, l, r) {
+                match (ty, l, r) {
                     (Ty::Int, Const::I(x), Const::I(y)) => Const::I(match op {
                         Add => x.wrapping_add(y),
                         Sub => x.wrapping_sub(y),
