@@ -9,7 +9,8 @@ impl<'a> Checker<'a> {
     /// trees and constants is an error, reported once per cycle.
     pub(super) fn report_recursion(&mut self) {
         let mut nodes: Vec<Node> = self.graph.keys().cloned().collect();
-        nodes.sort();
+        // Distinct keys: an unstable sort gives the one order.
+        nodes.sort_unstable();
         let mut state: FxHashMap<Node, u8> = FxHashMap::default();
         for start in nodes {
             if state.contains_key(&start) {

@@ -32,9 +32,9 @@ pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin
 pub use instance::{CheckedExpr, check_material_expr};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, Method, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
-pub use span_map::SpanMap;
+pub use span_map::{SpanMap, SpanSlice};
 pub use ty::{SAMPLE_FIELDS, Ty};
-pub use types::ExprTypes;
+pub use types::{ExprTypes, ExprTypesWithin};
 
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
@@ -68,11 +68,13 @@ pub use crate::ir::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 #[derive(Debug, Clone, Default)]
 pub struct Program {
     pub loaded: Loaded,
-    pub symbols: HashMap<String, Symbol>,
+    /// The global items user code sees, by name. FxHash, not SipHash: every
+    /// name in the program is looked up here, several times.
+    pub symbols: FxHashMap<String, Symbol>,
     /// The prelude's own names: prelude code resolves against these, so a
     /// user definition that shadows a prelude name does not change the
     /// prelude's behaviour.
-    pub prelude_symbols: HashMap<String, Symbol>,
+    pub prelude_symbols: FxHashMap<String, Symbol>,
     pub expr_types: ExprTypes,
     /// The global item each name or call resolved to, keyed by its span.
     pub resolutions: SpanMap<Symbol>,
@@ -259,15 +261,15 @@ pub fn check(loaded: Loaded) -> (Program, Vec<Diagnostic>) {
     (program, diags)
 }
 
-type Symbols = HashMap<String, Symbol>;
+type Symbols = FxHashMap<String, Symbol>;
 
 /// Builds the global namespaces: the one user code sees (user items shadow
 /// prelude items of the same name) and the prelude's own. Two definitions in
 /// the same layer are an error.
 fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Symbols) {
-    let mut symbols: HashMap<String, Symbol> = HashMap::new();
-    let mut prelude: HashMap<String, Symbol> = HashMap::new();
-    let mut from_prelude: HashMap<String, bool> = HashMap::new();
+    let mut symbols = Symbols::default();
+    let mut prelude = Symbols::default();
+    let mut from_prelude: FxHashMap<&str, bool> = FxHashMap::default();
     for (m, module) in loaded.modules.iter().enumerate() {
         for (i, item) in module.ast.items.iter().enumerate() {
             let (kind, name) = match item {
@@ -302,8 +304,8 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
             match symbols.get(name.name.as_str()) {
                 Some(_) if from_prelude[name.name.as_str()] && !module.is_prelude => {
                     // A user definition shadows the prelude's.
-                    symbols.insert(name.name.to_string(), symbol);
-                    from_prelude.insert(name.name.to_string(), false);
+                    symbols.insert(name.name.as_str().to_owned(), symbol);
+                    from_prelude.insert(name.name.as_str(), false);
                 }
                 Some(prev) => {
                     diags.push(
@@ -313,12 +315,13 @@ fn collect_symbols(loaded: &Loaded, diags: &mut Vec<Diagnostic>) -> (Symbols, Sy
                     );
                 }
                 None => {
-                    symbols.insert(name.name.to_string(), symbol);
-                    from_prelude.insert(name.name.to_string(), module.is_prelude);
+                    // Not `to_string`, which formats: 100,000 names cost.
+                    symbols.insert(name.name.as_str().to_owned(), symbol);
+                    from_prelude.insert(name.name.as_str(), module.is_prelude);
                 }
             }
             if module.is_prelude {
-                prelude.entry(name.name.to_string()).or_insert(symbol);
+                prelude.entry(name.name.as_str().to_owned()).or_insert(symbol);
             }
         }
     }

@@ -7,13 +7,15 @@
 //! source order; otherwise the vector is sorted once when checking ends.
 
 use crate::diag::Span;
-use std::cmp::Reverse;
 
 /// The order of the entries: by file and start, an enclosing expression
-/// before the ones it contains.
-fn key(span: &Span) -> (u32, u32, Reverse<u32>) {
-    (span.file.0, span.start, Reverse(span.end))
+/// (the longer span) before the ones it contains. Packed into one integer,
+/// so a step of a bisection is one comparison.
+fn key(span: &Span) -> Key {
+    (u128::from(span.file.0) << 64) | (u128::from(span.start) << 32) | u128::from(u32::MAX - span.end)
 }
+
+type Key = u128;
 
 #[derive(Debug, Clone)]
 pub struct SpanMap<T> {
@@ -35,6 +37,21 @@ impl<T> SpanMap<T> {
         let k = key(span);
         let at = self.entries.binary_search_by(|(s, _)| key(s).cmp(&k)).ok()?;
         Some(&self.entries[at].1)
+    }
+
+    /// The entries of `outer` and of every span that starts inside it, to
+    /// look up many spans of one expression by bisecting only its own
+    /// entries (a constant's value among a million expressions).
+    pub fn within(&self, outer: &Span) -> SpanSlice<'_, T> {
+        debug_assert!(self.ordered, "SpanMap searched before finish");
+        let lo = key(outer);
+        // The first key of a span starting at `outer.end` (the longest).
+        let hi = key(&Span { start: outer.end, end: u32::MAX, ..*outer });
+        let first = self.entries.partition_point(|(s, _)| key(s) < lo);
+        // The entries inside are the expression's own: walking them costs
+        // what using them does.
+        let count = self.entries[first..].iter().take_while(|(s, _)| key(s) < hi).count();
+        SpanSlice { entries: &self.entries[first..first + count], lo, hi }
     }
 
     /// Every span and its value, in span order.
@@ -99,6 +116,46 @@ impl<T> SpanMap<T> {
     }
 }
 
+/// The part of a [`SpanMap`] that [`SpanMap::within`] returns: the
+/// entries whose keys lie in `lo..hi`.
+#[derive(Debug)]
+pub struct SpanSlice<'a, T> {
+    entries: &'a [(Span, T)],
+    lo: Key,
+    hi: Key,
+}
+
+// Not derived: a slice is `Copy` whatever `T` is.
+impl<T> Clone for SpanSlice<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for SpanSlice<'_, T> {}
+
+impl<'a, T> SpanSlice<'a, T> {
+    /// The value of `span` if it lies in this part of the map; `None` when
+    /// it lies outside (the whole map may still have it) or has no entry.
+    pub fn get(&self, span: &Span) -> Option<&'a T> {
+        let k = key(span);
+        if k < self.lo || k >= self.hi {
+            return None;
+        }
+        let at = self.entries.binary_search_by(|(s, _)| key(s).cmp(&k)).ok()?;
+        Some(&self.entries[at].1)
+    }
+
+    /// How many entries this part holds.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
 impl<'a, T> IntoIterator for &'a SpanMap<T> {
     type Item = (&'a Span, &'a T);
     type IntoIter = std::iter::Map<std::slice::Iter<'a, (Span, T)>, fn(&'a (Span, T)) -> (&'a Span, &'a T)>;
@@ -134,5 +191,32 @@ mod tests {
         assert_eq!(map.get(&span(1, 4)), None);
         let order: Vec<char> = map.iter().map(|(_, v)| *v).collect();
         assert_eq!(order, ['a', 'e', 'd', 'c']);
+    }
+
+    #[test]
+    fn a_slice_within_a_span_finds_what_the_map_finds_inside_it_and_nothing_outside() {
+        let mut map = SpanMap::default();
+        // An expression `0..10` holding `0..4` (holding `1..3`) and `5..10`;
+        // then `10..12`, which starts where it ends, and one in another file.
+        for (k, (start, end)) in [(0, 10), (0, 4), (1, 3), (5, 10), (10, 12), (12, 20)].into_iter().enumerate() {
+            map.insert(span(start, end), k);
+        }
+        map.insert(Span { file: FileId(1), start: 2, end: 3 }, 6);
+        map.finish();
+        let whole = map.within(&span(0, 10));
+        assert_eq!(whole.len(), 4);
+        for (start, end) in [(0, 10), (0, 4), (1, 3), (5, 10)] {
+            assert_eq!(whole.get(&span(start, end)), map.get(&span(start, end)));
+            assert!(whole.get(&span(start, end)).is_some());
+        }
+        for outside in [span(10, 12), span(12, 20), Span { file: FileId(1), start: 2, end: 3 }, span(0, 11)] {
+            assert_eq!(whole.get(&outside), None, "{outside:?}");
+        }
+        let inner = map.within(&span(0, 4));
+        assert_eq!(inner.len(), 2);
+        assert_eq!(inner.get(&span(1, 3)), Some(&2));
+        assert_eq!(inner.get(&span(0, 10)), None);
+        assert_eq!(inner.get(&span(5, 10)), None);
+        assert!(map.within(&span(30, 40)).is_empty());
     }
 }

@@ -7,7 +7,7 @@
 //! longest first) when every expression is checked once, in source order.
 
 use super::Ty;
-use super::span_map::SpanMap;
+use super::span_map::{SpanMap, SpanSlice};
 use crate::diag::Span;
 
 /// The types without parameters, in code order.
@@ -45,6 +45,12 @@ impl ExprTypes {
     /// The type of the expression written at `span`.
     pub fn get(&self, span: &Span) -> Option<&Ty> {
         self.codes.get(span).map(|code| self.ty(*code))
+    }
+
+    /// The types of the expression written at `outer` and of the
+    /// expressions inside it, found without searching the whole program.
+    pub fn within(&self, outer: &Span) -> ExprTypesWithin<'_> {
+        ExprTypesWithin { codes: self.codes.within(outer), types: self }
     }
 
     pub fn contains_key(&self, span: &Span) -> bool {
@@ -103,6 +109,22 @@ impl ExprTypes {
     fn ty(&self, code: u32) -> &Ty {
         let code = code as usize;
         PLAIN.get(code).unwrap_or_else(|| &self.arrays[code - PLAIN.len()])
+    }
+}
+
+/// The types of one expression and of those inside it
+/// ([`ExprTypes::within`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ExprTypesWithin<'a> {
+    codes: SpanSlice<'a, u32>,
+    types: &'a ExprTypes,
+}
+
+impl<'a> ExprTypesWithin<'a> {
+    /// The type of the expression written at `span` if it lies inside;
+    /// `None` for one outside (ask the whole [`ExprTypes`]).
+    pub fn get(&self, span: &Span) -> Option<&'a Ty> {
+        self.codes.get(span).map(|code| self.types.ty(*code))
     }
 }
 

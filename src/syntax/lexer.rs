@@ -326,11 +326,20 @@ impl<'src> Lexer<'src> {
     }
 }
 
+#[cfg(test)]
+thread_local! {
+    /// The tokens (and errors) lexed on this thread, for tests of how many
+    /// times a file is lexed.
+    pub(crate) static TOKENS_LEXED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 impl Iterator for Lexer<'_> {
     type Item = Result<(usize, Tok, usize), SpannedLexError>;
 
     fn next(&mut self) -> Option<Self::Item> {
         let (tok, span) = self.inner.next()?;
+        #[cfg(test)]
+        TOKENS_LEXED.with(|n| n.set(n.get() + 1));
         Some(match tok {
             Ok(tok) => Ok((span.start, tok, span.end)),
             Err(error) => Err(SpannedLexError { error, span }),

@@ -22,54 +22,58 @@ type Token = (usize, Tok, usize);
 
 /// The file's tree if it has a scene block and no error at all; `None`
 /// otherwise (the caller then parses it with lalrpop).
+///
+/// The file is lexed once: the tokens between scene blocks stream into
+/// the lalrpop parser as they are read, and a `scene` keyword outside any
+/// braces ends that stream.
 pub(super) fn parse(file: FileId, src: &str) -> Option<SourceFile> {
     if !src.contains("scene") {
         return None;
     }
     let mut tokens = Tokens { lexer: Lexer::new(src), ahead: Vec::new(), failed: false };
     let mut items = Vec::new();
-    // The text not yet parsed starts here; braces open in it.
-    let mut rest = 0;
+    while let Some(scene_start) = items_until_scene(file, &mut tokens, &mut items)? {
+        let scene = scene(file, scene_start, &mut tokens)?;
+        items.push(Item::Scene(scene));
+    }
+    // A file that only names `scene` (in a comment, say) was read whole by
+    // lalrpop: its tree is the grammar's too.
+    (!tokens.failed).then_some(SourceFile { items })
+}
+
+/// Parses the items up to the next `scene` keyword outside braces, or to
+/// the end, with the lalrpop parser, appending them to `items`. The
+/// `scene` keyword's start, or `Some(None)` at the end; `None` on any error.
+fn items_until_scene(file: FileId, tokens: &mut Tokens<'_>, items: &mut Vec<Item>) -> Option<Option<usize>> {
+    match tokens.peek(0) {
+        None => return (!tokens.failed).then_some(None),
+        Some(Tok::Scene) => return tokens.take().map(|(l, _, _)| Some(l)),
+        Some(_) => {}
+    }
     let mut depth = 0i64;
-    let mut scenes = 0;
-    while let Some((l, tok, _)) = tokens.next()? {
-        match tok {
+    let mut scene_start = None;
+    let stream = std::iter::from_fn(|| {
+        let t = tokens.next()??;
+        match t.1 {
             Tok::LBrace => depth += 1,
             Tok::RBrace => depth -= 1,
             Tok::Scene if depth == 0 => {
-                items.extend(items_between(file, src, rest, l)?);
-                let (scene, end) = scene(file, l, &mut tokens)?;
-                items.push(Item::Scene(scene));
-                scenes += 1;
-                rest = end;
+                scene_start = Some(t.0);
+                return None;
             }
             _ => {}
         }
-    }
-    if scenes == 0 || tokens.failed {
+        Some(Ok::<_, SyntaxError>(t))
+    })
+    // The parser never reads past the end it was given.
+    .fuse();
+    let mut recovered = Vec::new();
+    let parsed = grammar::SourceFileParser::new().parse(file, &mut recovered, stream).ok()?;
+    if !recovered.is_empty() || tokens.failed {
         return None;
     }
-    items.extend(items_between(file, src, rest, src.len())?);
-    Some(SourceFile { items })
-}
-
-/// The items of `src[start..end]` by the lalrpop parser; `None` on any error.
-fn items_between(file: FileId, src: &str, start: usize, end: usize) -> Option<Vec<Item>> {
-    let text = src.get(start..end)?;
-    if text.trim().is_empty() {
-        return Some(Vec::new());
-    }
-    let mut lex_error = false;
-    let tokens = Lexer::new(text).map_while(|t| match t {
-        Ok((l, tok, r)) => Some(Ok::<_, SyntaxError>((l + start, tok, r + start))),
-        Err(_) => {
-            lex_error = true;
-            None
-        }
-    });
-    let mut recovered = Vec::new();
-    let parsed = grammar::SourceFileParser::new().parse(file, &mut recovered, tokens).ok()?;
-    (recovered.is_empty() && !lex_error).then_some(parsed.items)
+    items.extend(parsed.items);
+    Some(scene_start)
 }
 
 /// The lexer with a few tokens of lookahead.
@@ -117,8 +121,8 @@ impl Tokens<'_> {
     }
 }
 
-/// The scene block whose `scene` keyword starts at `l`, and where it ends.
-fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usize)> {
+/// The scene block whose `scene` keyword starts at `l`.
+fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<Scene> {
     let (_, Tok::LBrace, _) = tokens.take()? else { return None };
     let mut entries = Vec::new();
     // One buffer for every property value's tokens, one for a block's
@@ -130,7 +134,7 @@ fn scene(file: FileId, l: usize, tokens: &mut Tokens<'_>) -> Option<(Scene, usiz
         if tok == Tok::RBrace {
             // Grown by doubling: up to half of it spare.
             entries.shrink_to_fit();
-            return Some((Scene { entries, span: Span::new(file, l, nr) }, nr));
+            return Some(Scene { entries, span: Span::new(file, l, nr) });
         }
         let name = scene_name(file, nl, tok, nr, tokens)?;
         let kind_follows = matches!(tokens.peek(1), Some(Tok::LBrace)) && is_scene_name(tokens.peek(0)?);
@@ -326,6 +330,27 @@ float f() { return 1; }
         }
         for bad in ["scene { object sphere { center (1, 2 3); } }", "scene { x ((1); }", "scene { café 1; }"] {
             assert!(!agrees(bad), "{bad}");
+        }
+    }
+
+    /// The shortcut lexes a file once: the items between scene blocks are
+    /// parsed from the tokens the scan for `scene` reads.
+    #[test]
+    fn lexes_a_file_once() {
+        use crate::syntax::lexer::TOKENS_LEXED;
+        let constants: String = (0..50).map(|k| format!("const float c{k} = c{k} * 0.5 + {k};\n")).collect();
+        for src in [
+            SCENE.to_string(),
+            format!("{constants}scene {{ }}"),
+            format!("scene {{ camera {{ fov 40; }} }}\n{constants}"),
+            format!("{constants}scene {{ camera {{ fov c3 + 1; }} }}\n{constants}/* scene */\n"),
+            format!("// not a scene\n{constants}"),
+        ] {
+            let tokens = Lexer::new(&src).count();
+            TOKENS_LEXED.with(|n| n.set(0));
+            assert!(agrees(&src), "{src}");
+            // `agrees` parses with lalrpop too, which lexes the file once.
+            assert_eq!(TOKENS_LEXED.with(std::cell::Cell::get), 2 * tokens, "{src}");
         }
     }
 

@@ -46,16 +46,33 @@ impl<'p> Lowerer<'p> {
         let mut value = None;
         let ctx = constants_ctx();
         for dep in self.constants_to_lower(b, sym) {
+            if let Some(folded) = self.evaluate_directly(b, dep) {
+                self.folded_consts.insert((dep.module, dep.item), folded);
+                continue;
+            }
             let v = self.lower_constant(b, dep, &ctx);
             self.remember_constant(b, dep, &v);
             if (dep.module, dep.item) == (sym.module, sym.item) {
                 value = Some(v);
             }
         }
-        value.unwrap_or_else(|| {
+        value.or_else(|| self.known_constant(b, sym)).unwrap_or_else(|| {
             ruled_out!("constant {sym:?} is not among the constants it needs");
             Val::Unit
         })
+    }
+
+    /// Constant `sym`'s words computed without IR, where the lowering allows
+    /// it (`evaluate_constants`, see `arithmetic`).
+    fn evaluate_directly(&mut self, b: &Builder, sym: Symbol) -> Option<Folded> {
+        if !self.evaluate_constants || self.stopped(b) {
+            return None;
+        }
+        let Item::Const(c) = self.item(sym) else { return None };
+        let outer = self.constant_types.replace(self.program.expr_types.within(&c.value.span));
+        let folded = self.evaluate_constant(sym);
+        self.constant_types = outer;
+        folded
     }
 
     /// The value of `sym` if it was lowered before: its folded words, or
@@ -143,10 +160,15 @@ impl<'p> Lowerer<'p> {
         };
         let ty = Ty::from_ast(&c.ty);
         let prelude = self.is_prelude(sym);
-        b.outermost(|b| {
+        // A constant that reads another lowers it inside (through a
+        // function's body): each keeps its own types while lowered.
+        let outer = self.constant_types.replace(self.program.expr_types.within(&c.value.span));
+        let v = b.outermost(|b| {
             let mut fr = self.new_frame(prelude, HashSet::default());
             self.expr_as(b, &mut fr, ctx, &c.value, &ty)
-        })
+        });
+        self.constant_types = outer;
+        v
     }
 
     /// Remembers a constant's value: as words for the whole lowering when

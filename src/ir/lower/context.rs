@@ -17,6 +17,8 @@ impl<'p> Lowerer<'p> {
             direction_only: false,
             absolute_spectra: false,
             types: Default::default(),
+            constant_types: None,
+            evaluate_constants: false,
             folded_consts: HashMap::default(),
             default_methods: Default::default(),
             gave_up: false,

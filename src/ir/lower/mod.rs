@@ -20,6 +20,7 @@ macro_rules! ruled_out {
     };
 }
 
+mod arithmetic;
 mod builtins;
 mod constants;
 mod context;
@@ -159,6 +160,7 @@ impl<'p> ValueLowerer<'p> {
     pub fn lower(&mut self, name: &str, expr: &Expr, to: &Ty, absolute_spectra: bool) -> (Function, Vec<Diagnostic>) {
         let mut lw = Lowerer::new(self.program, self.model);
         lw.absolute_spectra = absolute_spectra;
+        lw.evaluate_constants = true;
         std::mem::swap(&mut lw.folded_consts, &mut self.folded);
         let mut b = Builder::new(name);
         let ctx = lw.root_ctx();
@@ -441,6 +443,13 @@ struct Lowerer<'p> {
     /// functions ask for the same expressions' types many times, and a
     /// hash probe is cheaper than the checker's bisection.
     types: std::cell::RefCell<HashMap<Span, &'p Ty>>,
+    /// The checker's types of the constant being lowered, set while it is:
+    /// its expressions are lowered once, so neither the bisection of the
+    /// whole program nor a cache entry pays (see `constants`).
+    constant_types: Option<crate::check::ExprTypesWithin<'p>>,
+    /// Whether scalar arithmetic constants are computed without IR (the
+    /// scene description's values; see `arithmetic`).
+    evaluate_constants: bool,
     /// The constants whose values folded to literal words, for every
     /// function this lowerer builds (see `constants`).
     folded_consts: HashMap<(usize, usize), constants::Folded>,

@@ -8,7 +8,8 @@ impl<'p> Lowerer<'p> {
     /// The type the checker gave `e`: every expression of a program that
     /// checked without errors has one, and none is `Ty::Error`.
     pub(super) fn ty_of(&self, e: &Expr) -> Ty {
-        let known = self.types.borrow().get(&e.span).copied();
+        let known = self.constant_types.and_then(|types| types.get(&e.span));
+        let known = known.or_else(|| self.types.borrow().get(&e.span).copied());
         let found = known.or_else(|| {
             let ty = self.program.expr_types.get(&e.span)?;
             self.types.borrow_mut().insert(e.span, ty);

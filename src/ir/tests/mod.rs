@@ -5,6 +5,7 @@ mod bounded;
 mod deep_chain;
 mod lowering;
 mod prepared;
+mod scene_constants;
 
 use crate::ShadingGlobals;
 use crate::ir::Scalar;
