@@ -289,15 +289,18 @@ extern "C" {
 // A batch of `points` shading points whose globals are `base`'s (null:
 // `tsl_globals_default()`) until set, into `*out` (free it with
 // `tsl_batch_free`).
+// Thread-safe.
 enum TslStatus tsl_batch_new(size_t points,
                              const struct TslGlobals *base,
                              struct TslBatch **out,
                              struct TslError **error);
 
 // Frees a batch (null is ignored); the arrays it read stay the caller's.
+// Threads: not while another call uses the handle.
 void tsl_batch_free(struct TslBatch *batch);
 
 // The number of points of the batch (0 for null).
+// Thread-safe.
 size_t tsl_batch_len(const struct TslBatch *batch);
 
 // Gives the global `name` (`P`, `N`, `Ng`, `u`, `face`, ...) point by
@@ -305,6 +308,7 @@ size_t tsl_batch_len(const struct TslBatch *batch);
 // normal; `face` and `frame` read the float's bits as an int). An
 // unknown name, a wrong number of columns or a null array is `TSL_ERROR`
 // or `TSL_INVALID_ARGUMENT`, and the batch is unchanged.
+// Threads: not while another call uses `batch`.
 enum TslStatus tsl_batch_set(struct TslBatch *batch,
                              const char *name,
                              size_t name_len,
@@ -377,36 +381,45 @@ enum TslStatus tsl_material_batch_pdf(const struct TslMaterial *material,
                                       struct TslError **error);
 
 // Frees an error (null is ignored). Call once per error handle.
+// Threads: not while another call uses the handle.
 void tsl_error_free(struct TslError *error);
 
 // The status of the call that made `error` (`TSL_OK` for null).
+// Thread-safe.
 enum TslStatus tsl_error_status(const struct TslError *error);
 
 // The whole error as rustc renders it: each diagnostic as
 // `error: message`, `┌─ file:line:col`, the source line and carets.
 // Owned by `error`; also NUL-terminated (the NUL not counted in `len`).
 // `{NULL, 0}` for a null error.
+// Thread-safe.
 struct TslStr tsl_error_message(const struct TslError *error);
 
 // The number of diagnostics in `error` (0 for null).
+// Thread-safe.
 size_t tsl_error_diagnostic_count(const struct TslError *error);
 
 // Diagnostic `index` of `error` (below `tsl_error_diagnostic_count`);
 // false, leaving `*out` untouched, for a null argument or an index past
 // the end.
+// Thread-safe.
 bool tsl_error_diagnostic(const struct TslError *error, size_t index, struct TslDiagnostic *out);
 
 // A new instance of `shader`, every parameter at its default, into
 // `*out` (free it with `tsl_instance_free`).
+// Thread-safe.
 enum TslStatus tsl_shader_instance(const struct TslShader *shader,
                                    struct TslInstance **out,
                                    struct TslError **error);
 
 // Frees an instance (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_instance_free(struct TslInstance *instance);
 
-// Sets a `float` parameter (see `tsl_instance_set_float`'s family: an
-// unknown name or a wrong type is `TSL_ERROR`, the instance unchanged).
+// Sets a `float` parameter. As for every `tsl_instance_set_*`, an unknown
+// name (with a did-you-mean) or a value of the wrong type is `TSL_ERROR`,
+// and the instance is unchanged; materials bound before keep their values.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_float(struct TslInstance *instance,
                                       const char *name,
                                       size_t name_len,
@@ -414,6 +427,7 @@ enum TslStatus tsl_instance_set_float(struct TslInstance *instance,
                                       struct TslError **error);
 
 // Sets an `int` parameter.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_int(struct TslInstance *instance,
                                     const char *name,
                                     size_t name_len,
@@ -421,6 +435,7 @@ enum TslStatus tsl_instance_set_int(struct TslInstance *instance,
                                     struct TslError **error);
 
 // Sets a `bool` parameter.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_bool(struct TslInstance *instance,
                                      const char *name,
                                      size_t name_len,
@@ -428,6 +443,7 @@ enum TslStatus tsl_instance_set_bool(struct TslInstance *instance,
                                      struct TslError **error);
 
 // Sets a `vector`, `point` or `normal` parameter from 3 floats at `value`.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_vector(struct TslInstance *instance,
                                        const char *name,
                                        size_t name_len,
@@ -435,6 +451,7 @@ enum TslStatus tsl_instance_set_vector(struct TslInstance *instance,
                                        struct TslError **error);
 
 // Sets a `vec2` parameter from 2 floats at `value`.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_vec2(struct TslInstance *instance,
                                      const char *name,
                                      size_t name_len,
@@ -443,6 +460,7 @@ enum TslStatus tsl_instance_set_vec2(struct TslInstance *instance,
 
 // Sets a `color` parameter to linear sRGB `(r, g, b)` (upsampled in the
 // spectral models, as an `rgb(r, g, b)` literal is).
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_rgb(struct TslInstance *instance,
                                     const char *name,
                                     size_t name_len,
@@ -453,6 +471,7 @@ enum TslStatus tsl_instance_set_rgb(struct TslInstance *instance,
 
 // Sets a `color` parameter to a colour of the program's model: `lanes`
 // floats at `color` (`tsl_program_lanes`).
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_color(struct TslInstance *instance,
                                       const char *name,
                                       size_t name_len,
@@ -461,6 +480,7 @@ enum TslStatus tsl_instance_set_color(struct TslInstance *instance,
                                       struct TslError **error);
 
 // Sets a `string` parameter (checked against its options, if any).
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_string(struct TslInstance *instance,
                                        const char *name,
                                        size_t name_len,
@@ -470,6 +490,7 @@ enum TslStatus tsl_instance_set_string(struct TslInstance *instance,
 
 // Sets a `material` parameter to a copy of another instance (of the
 // same program); changing `value` later does not change this one.
+// Threads: not while another call uses `instance`.
 enum TslStatus tsl_instance_set_material(struct TslInstance *instance,
                                          const char *name,
                                          size_t name_len,
@@ -482,17 +503,20 @@ enum TslStatus tsl_instance_set_material(struct TslInstance *instance,
 // `string` and `material` values). Into `*out`; free with
 // `tsl_material_free`. The instance may change afterwards without
 // changing the material.
+// Threads: safe with other binds of `instance`, not with its setters.
 enum TslStatus tsl_instance_bind(const struct TslInstance *instance,
                                  struct TslMaterial **out,
                                  struct TslError **error);
 
 // The instance compiled with its values folded in as constants (fastest
 // to shade, one compile per call).
+// Threads: safe with other binds of `instance`, not with its setters.
 enum TslStatus tsl_instance_specialise(const struct TslInstance *instance,
                                        struct TslMaterial **out,
                                        struct TslError **error);
 
 // The program's material `name` (a `material name = ...;` declaration).
+// Thread-safe.
 enum TslStatus tsl_program_material(const struct TslProgram *program,
                                     const char *name,
                                     size_t name_len,
@@ -500,23 +524,28 @@ enum TslStatus tsl_program_material(const struct TslProgram *program,
                                     struct TslError **error);
 
 // Frees a material (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_material_free(struct TslMaterial *material);
 
 // A new compiler: RGB colour model, no source yet. Free it with
 // `tsl_compiler_free`. Never null.
+// Thread-safe.
 struct TslCompiler *tsl_compiler_new(void);
 
 // Frees a compiler (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_compiler_free(struct TslCompiler *compiler);
 
 // Sets the colour model by the CLI's names: `rgb`, `spectral` (= `hero`),
 // `spectralN` or `smitsN` with N in 1..=64.
+// Threads: not while another call uses `compiler`.
 enum TslStatus tsl_compiler_color_model(struct TslCompiler *compiler,
                                         const char *name,
                                         size_t name_len,
                                         struct TslError **error);
 
 // Compiles `text`, named `name` in diagnostics, instead of a file.
+// Threads: not while another call uses `compiler`.
 enum TslStatus tsl_compiler_source(struct TslCompiler *compiler,
                                    const char *name,
                                    size_t name_len,
@@ -525,12 +554,14 @@ enum TslStatus tsl_compiler_source(struct TslCompiler *compiler,
                                    struct TslError **error);
 
 // Compiles the file at `path` (UTF-8) instead of a string.
+// Threads: not while another call uses `compiler`.
 enum TslStatus tsl_compiler_file(struct TslCompiler *compiler,
                                  const char *path,
                                  size_t path_len,
                                  struct TslError **error);
 
 // Adds a folder to search for `import`s.
+// Threads: not while another call uses `compiler`.
 enum TslStatus tsl_compiler_import_path(struct TslCompiler *compiler,
                                         const char *dir,
                                         size_t dir_len,
@@ -539,21 +570,25 @@ enum TslStatus tsl_compiler_import_path(struct TslCompiler *compiler,
 // Compiles the compiler's source into a new program in `*out` (free it
 // with `tsl_program_free`). A compile error is `TSL_ERROR` with the
 // diagnostics in `*error`. The compiler may be used again.
+// Threads: safe with other compiles of `compiler`, not with its setters.
 enum TslStatus tsl_compiler_compile(const struct TslCompiler *compiler,
                                     struct TslProgram **out,
                                     struct TslError **error);
 
 // Frees a program (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_program_free(struct TslProgram *program);
 
 // The number of floats in one of the program's colours: 3 in RGB, N in
 // `spectralN`, 4 in `hero`. Every colour a surface call takes or gives
 // has this many lanes. 0 for a null program.
+// Thread-safe.
 size_t tsl_program_lanes(const struct TslProgram *program);
 
 // The colour of linear sRGB `(r, g, b)` in the program's colour model
 // (upsampled to a spectrum in the spectral models), into `out`, which
 // holds `lanes` floats (`tsl_program_lanes`).
+// Thread-safe.
 enum TslStatus tsl_program_rgb(const struct TslProgram *program,
                                float r,
                                float g,
@@ -564,6 +599,7 @@ enum TslStatus tsl_program_rgb(const struct TslProgram *program,
 
 // A colour of the program's model (`lanes` floats at `color`) as linear
 // sRGB, into `rgb` (3 floats).
+// Thread-safe.
 enum TslStatus tsl_program_to_rgb(const struct TslProgram *program,
                                   const float *color,
                                   size_t lanes,
@@ -572,18 +608,22 @@ enum TslStatus tsl_program_to_rgb(const struct TslProgram *program,
 
 // The number of material templates (shaders) of the program, the
 // standard library's included, in declaration order.
+// Thread-safe.
 size_t tsl_program_shader_count(const struct TslProgram *program);
 
 // The name of shader `index` (below `tsl_program_shader_count`), owned by
 // the program; `{NULL, 0}` past the end.
+// Thread-safe.
 struct TslStr tsl_program_shader_name(const struct TslProgram *program, size_t index);
 
 // Whether shader `index` comes from the standard library (false past the
 // end).
+// Thread-safe.
 bool tsl_program_shader_in_prelude(const struct TslProgram *program, size_t index);
 
 // The material template `name` into `*out` (free it with
 // `tsl_shader_free`); an unknown name is `TSL_ERROR` with a did-you-mean.
+// Thread-safe.
 enum TslStatus tsl_program_shader(const struct TslProgram *program,
                                   const char *name,
                                   size_t name_len,
@@ -591,19 +631,24 @@ enum TslStatus tsl_program_shader(const struct TslProgram *program,
                                   struct TslError **error);
 
 // Frees a shader (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_shader_free(struct TslShader *shader);
 
 // The shader's name, owned by it.
+// Thread-safe.
 struct TslStr tsl_shader_name(const struct TslShader *shader);
 
 // The `///` comment above the shader, `{NULL, 0}` when none.
+// Thread-safe.
 struct TslStr tsl_shader_doc(const struct TslShader *shader);
 
 // The number of parameters of the shader.
+// Thread-safe.
 size_t tsl_shader_param_count(const struct TslShader *shader);
 
 // Parameter `index` (below `tsl_shader_param_count`) into `*out`, its
 // strings owned by the shader.
+// Thread-safe.
 enum TslStatus tsl_shader_param(const struct TslShader *shader,
                                 size_t index,
                                 struct TslParam *out,
@@ -611,21 +656,25 @@ enum TslStatus tsl_shader_param(const struct TslShader *shader,
 
 // Option `option` of parameter `index` (`in ("beckmann", "ggx")`), owned
 // by the shader; `{NULL, 0}` past the end.
+// Thread-safe.
 struct TslStr tsl_shader_param_option(const struct TslShader *shader, size_t index, size_t option);
 
 // Builds the scene of `program` (compiled from a file or string with a
 // `scene { }` block) with `settings` (null: the scene's own) into `*out`;
 // free it with `tsl_scene_free`. A program without a scene, or a bad
 // scene, is `TSL_ERROR`.
+// Thread-safe.
 enum TslStatus tsl_scene_new(const struct TslProgram *program,
                              const struct TslRenderSettings *settings,
                              struct TslScene **out,
                              struct TslError **error);
 
 // Frees a scene (null is ignored).
+// Threads: not while another call uses the handle.
 void tsl_scene_free(struct TslScene *scene);
 
 // The image's width and height in pixels, into `*width` and `*height`.
+// Thread-safe.
 enum TslStatus tsl_scene_size(const struct TslScene *scene,
                               uint32_t *width,
                               uint32_t *height,

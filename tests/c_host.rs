@@ -256,3 +256,34 @@ fn c_render_into_a_buffer_gives_the_bits_of_tslc_render_and_cancels() {
     want += "cancelled: status 3, error: the render was cancelled\n";
     assert_same_lines(&output, &want);
 }
+
+/// AddressSanitizer (with LeakSanitizer) and UBSan over the C programs:
+/// no invalid access, no undefined behaviour on the C side, and no leak
+/// once every handle is freed (Rust's allocations go through the same
+/// intercepted malloc). `scripts/c-sanitize.sh` runs them under valgrind.
+#[test]
+fn c_programs_are_clean_under_address_sanitizer() {
+    const SANITIZE: [&str; 4] = ["-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-pthread"];
+    let Some(cc) = compiler("CC", "cc") else {
+        eprintln!("skipped: no C compiler (`cc` or $CC) runs here");
+        return;
+    };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let probe = dir.path().join("probe.c");
+    std::fs::write(&probe, "int main(void) { return 0; }\n").expect("writes");
+    let links =
+        Command::new(&cc).args(SANITIZE).arg(&probe).arg("-o").arg(dir.path().join("probe")).output().expect("cc runs");
+    if !links.status.success() {
+        eprintln!("skipped: {cc} cannot link with -fsanitize=address,undefined (no libasan/libubsan)");
+        return;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("examples/cornell.tsl");
+    let flags = [&["-std=c99"][..], &SANITIZE[..]].concat();
+    let host = build_and_run_with(&cc, &flags, "examples/c/host.c", "host_asan", &[]);
+    assert_same_lines(&host, &expected(Host::C));
+    let threads = build_and_run_with(&cc, &flags, "tests/c/threads.c", "threads_asan", &[]);
+    assert!(threads.starts_with("threads: 8 threads"), "{threads}");
+    let render = build_and_run_with(&cc, &flags, "tests/c/render.c", "render_asan", &[&scene]);
+    assert!(render.starts_with("size 24x18\n") && render.contains("cancelled: status 3"), "{render}");
+}

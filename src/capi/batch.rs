@@ -84,6 +84,7 @@ impl TslBatch {
 /// A batch of `points` shading points whose globals are `base`'s (null:
 /// `tsl_globals_default()`) until set, into `*out` (free it with
 /// `tsl_batch_free`).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_batch_new(
     points: usize,
@@ -102,12 +103,14 @@ pub unsafe extern "C" fn tsl_batch_new(
 }
 
 /// Frees a batch (null is ignored); the arrays it read stay the caller's.
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_batch_free(batch: *mut TslBatch) {
     super::free(batch);
 }
 
 /// The number of points of the batch (0 for null).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_batch_len(batch: *const TslBatch) -> usize {
     super::guard_value(0, || handle(batch, "batch").map_or(0, |b| b.points))
@@ -118,6 +121,7 @@ pub unsafe extern "C" fn tsl_batch_len(batch: *const TslBatch) -> usize {
 /// normal; `face` and `frame` read the float's bits as an int). An
 /// unknown name, a wrong number of columns or a null array is `TSL_ERROR`
 /// or `TSL_INVALID_ARGUMENT`, and the batch is unchanged.
+/// Threads: not while another call uses `batch`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_batch_set(
     batch: *mut TslBatch,

@@ -69,12 +69,14 @@ impl TslError {
 }
 
 /// Frees an error (null is ignored). Call once per error handle.
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_error_free(error: *mut TslError) {
     super::free(error);
 }
 
 /// The status of the call that made `error` (`TSL_OK` for null).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_error_status(error: *const TslError) -> TslStatus {
     guard_value(TslStatus::TSL_OK, || super::handle(error, "error").map_or(TslStatus::TSL_OK, |e| e.status))
@@ -84,6 +86,7 @@ pub unsafe extern "C" fn tsl_error_status(error: *const TslError) -> TslStatus {
 /// `error: message`, `┌─ file:line:col`, the source line and carets.
 /// Owned by `error`; also NUL-terminated (the NUL not counted in `len`).
 /// `{NULL, 0}` for a null error.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_error_message(error: *const TslError) -> TslStr {
     guard_value(TslStr::NONE, || {
@@ -92,6 +95,7 @@ pub unsafe extern "C" fn tsl_error_message(error: *const TslError) -> TslStr {
 }
 
 /// The number of diagnostics in `error` (0 for null).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_error_diagnostic_count(error: *const TslError) -> usize {
     guard_value(0, || super::handle(error, "error").map_or(0, |e| e.diagnostics.len()))
@@ -100,6 +104,7 @@ pub unsafe extern "C" fn tsl_error_diagnostic_count(error: *const TslError) -> u
 /// Diagnostic `index` of `error` (below `tsl_error_diagnostic_count`);
 /// false, leaving `*out` untouched, for a null argument or an index past
 /// the end.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_error_diagnostic(error: *const TslError, index: usize, out: *mut TslDiagnostic) -> bool {
     guard_value(false, || {

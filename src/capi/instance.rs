@@ -22,6 +22,7 @@ pub struct TslMaterial {
 
 /// A new instance of `shader`, every parameter at its default, into
 /// `*out` (free it with `tsl_instance_free`).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_instance(
     shader: *const TslShader,
@@ -35,22 +36,23 @@ pub unsafe extern "C" fn tsl_shader_instance(
 }
 
 /// Frees an instance (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_free(instance: *mut TslInstance) {
     super::free(instance);
 }
 
-/// Sets parameter `name` to `value`. An unknown name (with a
-/// did-you-mean), a value of the wrong type, or a string outside the
-/// parameter's options is `TSL_ERROR`, and the instance is unchanged.
+/// Sets parameter `name` to `value`, checked by [`Instance::set`].
 fn set(instance: *mut TslInstance, name: *const c_char, name_len: usize, value: ParamValue) -> super::Outcome {
     let instance = handle_mut(instance, "instance")?;
     instance.instance.set(str_arg(name, name_len, "name")?, value)?;
     Ok(())
 }
 
-/// Sets a `float` parameter (see `tsl_instance_set_float`'s family: an
-/// unknown name or a wrong type is `TSL_ERROR`, the instance unchanged).
+/// Sets a `float` parameter. As for every `tsl_instance_set_*`, an unknown
+/// name (with a did-you-mean) or a value of the wrong type is `TSL_ERROR`,
+/// and the instance is unchanged; materials bound before keep their values.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_float(
     instance: *mut TslInstance,
@@ -63,6 +65,7 @@ pub unsafe extern "C" fn tsl_instance_set_float(
 }
 
 /// Sets an `int` parameter.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_int(
     instance: *mut TslInstance,
@@ -75,6 +78,7 @@ pub unsafe extern "C" fn tsl_instance_set_int(
 }
 
 /// Sets a `bool` parameter.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_bool(
     instance: *mut TslInstance,
@@ -87,6 +91,7 @@ pub unsafe extern "C" fn tsl_instance_set_bool(
 }
 
 /// Sets a `vector`, `point` or `normal` parameter from 3 floats at `value`.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_vector(
     instance: *mut TslInstance,
@@ -99,6 +104,7 @@ pub unsafe extern "C" fn tsl_instance_set_vector(
 }
 
 /// Sets a `vec2` parameter from 2 floats at `value`.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_vec2(
     instance: *mut TslInstance,
@@ -115,6 +121,7 @@ pub unsafe extern "C" fn tsl_instance_set_vec2(
 
 /// Sets a `color` parameter to linear sRGB `(r, g, b)` (upsampled in the
 /// spectral models, as an `rgb(r, g, b)` literal is).
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_rgb(
     instance: *mut TslInstance,
@@ -130,6 +137,7 @@ pub unsafe extern "C" fn tsl_instance_set_rgb(
 
 /// Sets a `color` parameter to a colour of the program's model: `lanes`
 /// floats at `color` (`tsl_program_lanes`).
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_color(
     instance: *mut TslInstance,
@@ -148,6 +156,7 @@ pub unsafe extern "C" fn tsl_instance_set_color(
 }
 
 /// Sets a `string` parameter (checked against its options, if any).
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_string(
     instance: *mut TslInstance,
@@ -165,6 +174,7 @@ pub unsafe extern "C" fn tsl_instance_set_string(
 
 /// Sets a `material` parameter to a copy of another instance (of the
 /// same program); changing `value` later does not change this one.
+/// Threads: not while another call uses `instance`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_set_material(
     instance: *mut TslInstance,
@@ -185,6 +195,7 @@ pub unsafe extern "C" fn tsl_instance_set_material(
 /// `string` and `material` values). Into `*out`; free with
 /// `tsl_material_free`. The instance may change afterwards without
 /// changing the material.
+/// Threads: safe with other binds of `instance`, not with its setters.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_bind(
     instance: *const TslInstance,
@@ -199,6 +210,7 @@ pub unsafe extern "C" fn tsl_instance_bind(
 
 /// The instance compiled with its values folded in as constants (fastest
 /// to shade, one compile per call).
+/// Threads: safe with other binds of `instance`, not with its setters.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_instance_specialise(
     instance: *const TslInstance,
@@ -212,6 +224,7 @@ pub unsafe extern "C" fn tsl_instance_specialise(
 }
 
 /// The program's material `name` (a `material name = ...;` declaration).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_material(
     program: *const super::TslProgram,
@@ -227,6 +240,7 @@ pub unsafe extern "C" fn tsl_program_material(
 }
 
 /// Frees a material (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_free(material: *mut TslMaterial) {
     super::free(material);

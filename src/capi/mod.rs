@@ -233,3 +233,23 @@ pub(crate) fn vec3_arg(ptr: *const f32, what: &str) -> Outcome<[f32; 3]> {
     let s = slice_arg(ptr, 3, what)?;
     Ok([s[0], s[1], s[2]])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_becomes_an_error_status_not_an_unwind() {
+        let mut error = std::ptr::null_mut();
+        let status = guard(&mut error, || panic!("a bug"));
+        assert_eq!(status, TslStatus::TSL_PANIC);
+        // SAFETY: the handle `guard` made, freed once.
+        unsafe {
+            let message = tsl_error_message(error);
+            let text = std::str::from_utf8(std::slice::from_raw_parts(message.ptr.cast::<u8>(), message.len));
+            assert_eq!(text, Ok("error: internal error (a bug in TSL): a bug\n"));
+            tsl_error_free(error);
+        }
+        assert_eq!(guard_value(7, || panic!("a bug")), 7);
+    }
+}

@@ -109,6 +109,7 @@ pub struct TslParam {
 
 /// A new compiler: RGB colour model, no source yet. Free it with
 /// `tsl_compiler_free`. Never null.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub extern "C" fn tsl_compiler_new() -> *mut TslCompiler {
     let compiler = TslCompiler { color_model: ColorModel::Rgb, source: None, file: None, import_paths: Vec::new() };
@@ -116,6 +117,7 @@ pub extern "C" fn tsl_compiler_new() -> *mut TslCompiler {
 }
 
 /// Frees a compiler (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_free(compiler: *mut TslCompiler) {
     super::free(compiler);
@@ -123,6 +125,7 @@ pub unsafe extern "C" fn tsl_compiler_free(compiler: *mut TslCompiler) {
 
 /// Sets the colour model by the CLI's names: `rgb`, `spectral` (= `hero`),
 /// `spectralN` or `smitsN` with N in 1..=64.
+/// Threads: not while another call uses `compiler`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_color_model(
     compiler: *mut TslCompiler,
@@ -144,6 +147,7 @@ pub unsafe extern "C" fn tsl_compiler_color_model(
 }
 
 /// Compiles `text`, named `name` in diagnostics, instead of a file.
+/// Threads: not while another call uses `compiler`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_source(
     compiler: *mut TslCompiler,
@@ -164,6 +168,7 @@ pub unsafe extern "C" fn tsl_compiler_source(
 }
 
 /// Compiles the file at `path` (UTF-8) instead of a string.
+/// Threads: not while another call uses `compiler`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_file(
     compiler: *mut TslCompiler,
@@ -180,6 +185,7 @@ pub unsafe extern "C" fn tsl_compiler_file(
 }
 
 /// Adds a folder to search for `import`s.
+/// Threads: not while another call uses `compiler`.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_import_path(
     compiler: *mut TslCompiler,
@@ -197,6 +203,7 @@ pub unsafe extern "C" fn tsl_compiler_import_path(
 /// Compiles the compiler's source into a new program in `*out` (free it
 /// with `tsl_program_free`). A compile error is `TSL_ERROR` with the
 /// diagnostics in `*error`. The compiler may be used again.
+/// Threads: safe with other compiles of `compiler`, not with its setters.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_compiler_compile(
     compiler: *const TslCompiler,
@@ -221,6 +228,7 @@ pub unsafe extern "C" fn tsl_compiler_compile(
 }
 
 /// Frees a program (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_free(program: *mut TslProgram) {
     super::free(program);
@@ -229,6 +237,7 @@ pub unsafe extern "C" fn tsl_program_free(program: *mut TslProgram) {
 /// The number of floats in one of the program's colours: 3 in RGB, N in
 /// `spectralN`, 4 in `hero`. Every colour a surface call takes or gives
 /// has this many lanes. 0 for a null program.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_lanes(program: *const TslProgram) -> usize {
     guard_value(0, || handle(program, "program").map_or(0, |p| p.program.color_model().lanes()))
@@ -237,6 +246,7 @@ pub unsafe extern "C" fn tsl_program_lanes(program: *const TslProgram) -> usize 
 /// The colour of linear sRGB `(r, g, b)` in the program's colour model
 /// (upsampled to a spectrum in the spectral models), into `out`, which
 /// holds `lanes` floats (`tsl_program_lanes`).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_rgb(
     program: *const TslProgram,
@@ -258,6 +268,7 @@ pub unsafe extern "C" fn tsl_program_rgb(
 
 /// A colour of the program's model (`lanes` floats at `color`) as linear
 /// sRGB, into `rgb` (3 floats).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_to_rgb(
     program: *const TslProgram,
@@ -276,6 +287,7 @@ pub unsafe extern "C" fn tsl_program_to_rgb(
 
 /// The number of material templates (shaders) of the program, the
 /// standard library's included, in declaration order.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_shader_count(program: *const TslProgram) -> usize {
     guard_value(0, || handle(program, "program").map_or(0, |p| p.shaders.len()))
@@ -283,6 +295,7 @@ pub unsafe extern "C" fn tsl_program_shader_count(program: *const TslProgram) ->
 
 /// The name of shader `index` (below `tsl_program_shader_count`), owned by
 /// the program; `{NULL, 0}` past the end.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_shader_name(program: *const TslProgram, index: usize) -> TslStr {
     guard_value(TslStr::NONE, || {
@@ -295,6 +308,7 @@ pub unsafe extern "C" fn tsl_program_shader_name(program: *const TslProgram, ind
 
 /// Whether shader `index` comes from the standard library (false past the
 /// end).
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_shader_in_prelude(program: *const TslProgram, index: usize) -> bool {
     guard_value(false, || {
@@ -304,6 +318,7 @@ pub unsafe extern "C" fn tsl_program_shader_in_prelude(program: *const TslProgra
 
 /// The material template `name` into `*out` (free it with
 /// `tsl_shader_free`); an unknown name is `TSL_ERROR` with a did-you-mean.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_program_shader(
     program: *const TslProgram,
@@ -320,24 +335,28 @@ pub unsafe extern "C" fn tsl_program_shader(
 }
 
 /// Frees a shader (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_free(shader: *mut TslShader) {
     super::free(shader);
 }
 
 /// The shader's name, owned by it.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_name(shader: *const TslShader) -> TslStr {
     guard_value(TslStr::NONE, || handle(shader, "shader").map_or(TslStr::NONE, |s| TslStr::of(s.shader.name())))
 }
 
 /// The `///` comment above the shader, `{NULL, 0}` when none.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_doc(shader: *const TslShader) -> TslStr {
     guard_value(TslStr::NONE, || handle(shader, "shader").map_or(TslStr::NONE, |s| TslStr::of_option(s.shader.doc())))
 }
 
 /// The number of parameters of the shader.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_param_count(shader: *const TslShader) -> usize {
     guard_value(0, || handle(shader, "shader").map_or(0, |s| s.shader.params().len()))
@@ -345,6 +364,7 @@ pub unsafe extern "C" fn tsl_shader_param_count(shader: *const TslShader) -> usi
 
 /// Parameter `index` (below `tsl_shader_param_count`) into `*out`, its
 /// strings owned by the shader.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_param(
     shader: *const TslShader,
@@ -373,6 +393,7 @@ pub unsafe extern "C" fn tsl_shader_param(
 
 /// Option `option` of parameter `index` (`in ("beckmann", "ggx")`), owned
 /// by the shader; `{NULL, 0}` past the end.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_shader_param_option(shader: *const TslShader, index: usize, option: usize) -> TslStr {
     guard_value(TslStr::NONE, || {

@@ -56,6 +56,7 @@ pub type TslProgressFn = Option<extern "C" fn(user_data: *mut c_void, done: u64,
 /// `scene { }` block) with `settings` (null: the scene's own) into `*out`;
 /// free it with `tsl_scene_free`. A program without a scene, or a bad
 /// scene, is `TSL_ERROR`.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_scene_new(
     program: *const TslProgram,
@@ -94,12 +95,14 @@ pub unsafe extern "C" fn tsl_scene_new(
 }
 
 /// Frees a scene (null is ignored).
+/// Threads: not while another call uses the handle.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_scene_free(scene: *mut TslScene) {
     super::free(scene);
 }
 
 /// The image's width and height in pixels, into `*width` and `*height`.
+/// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_scene_size(
     scene: *const TslScene,
