@@ -228,3 +228,55 @@ fn shader_parameters_list_types_defaults_docs_and_options() {
         tsl_program_free(program);
     }
 }
+
+#[test]
+fn spectral_colors_have_the_models_lanes_and_the_rust_apis_bits() {
+    let src = "material m = mix(0.3, lambert(kd: rgb(0.6, 0.4, 0.2)), rough_conductor(alpha: 0.2));";
+    let compiler = tsl_compiler_new();
+    let mut program = null_mut();
+    unsafe {
+        assert_eq!(tsl_compiler_color_model(compiler, c("spectral16"), 10, null_mut()), TslStatus::TSL_OK);
+        tsl_compiler_source(compiler, c("m.tsl"), 5, c(src), src.len(), null_mut());
+        assert_eq!(tsl_compiler_compile(compiler, &mut program, null_mut()), TslStatus::TSL_OK);
+        tsl_compiler_free(compiler);
+        assert_eq!(tsl_program_lanes(program), 16);
+        let mut eta = [0.0f32; 16];
+        assert_eq!(tsl_program_rgb(program, 1.0, 1.0, 1.0, eta.as_mut_ptr(), 16, null_mut()), TslStatus::TSL_OK);
+        let mut material = null_mut();
+        tsl_program_material(program, c("m"), 1, &mut material, null_mut());
+        let mut g = tsl_globals_default();
+        g.u = 0.25;
+        let (wo, wi) = ([0.0f32, 0.6, 0.8], [0.6f32, 0.0, 0.8]);
+        let mut out = [0.0f32; 16];
+        let status = tsl_material_reflection(
+            material,
+            &g,
+            wo.as_ptr(),
+            eta.as_ptr(),
+            wi.as_ptr(),
+            eta.as_ptr(),
+            16,
+            out.as_mut_ptr(),
+            null_mut(),
+        );
+        assert_eq!(status, TslStatus::TSL_OK);
+        let mut rgb = [0.0f32; 3];
+        tsl_program_to_rgb(program, out.as_ptr(), 16, rgb.as_mut_ptr(), null_mut());
+
+        let rust = tsl::Compiler::new()
+            .color_model(tsl::ColorModel::Spectral { samples: 16 })
+            .source("m.tsl", src)
+            .compile()
+            .expect("compiles");
+        let want_eta = rust.rgb(1.0, 1.0, 1.0);
+        assert_eq!(eta.map(f32::to_bits), <[f32; 16]>::try_from(want_eta.lanes()).unwrap().map(f32::to_bits));
+        let rg = tsl::ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], u: 0.25, ..Default::default() };
+        let mut record = tsl::SurfaceRecord::new();
+        let want = rust.material("m").unwrap().at(&rg, wo, &want_eta, &mut record).reflection(wi, &want_eta);
+        assert_eq!(out.map(f32::to_bits), <[f32; 16]>::try_from(want.lanes()).unwrap().map(f32::to_bits));
+        assert_eq!(rgb, want.to_rgb());
+        assert!(rgb.iter().all(|c| *c > 0.0), "{rgb:?}");
+        tsl_material_free(material);
+        tsl_program_free(program);
+    }
+}

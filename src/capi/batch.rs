@@ -36,11 +36,6 @@ pub struct TslBatch {
     columns: Vec<(String, Vec<TslColumn>)>,
 }
 
-// SAFETY: the column pointers are only read, and the header requires the
-// arrays they point at to stay unchanged while the batch is used.
-unsafe impl Send for TslBatch {}
-unsafe impl Sync for TslBatch {}
-
 impl TslColumn {
     /// The column over `points` points.
     fn column<'a>(&self, points: usize, what: &str) -> Outcome<Column<'a>> {
