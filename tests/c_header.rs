@@ -1,6 +1,8 @@
 //! `include/tsl.h` is generated from `src/capi/` by cbindgen with the
 //! root's `cbindgen.toml`; this test regenerates it and fails when the
-//! checked-in header differs (`UPDATE_HEADER=1` rewrites it).
+//! checked-in header differs (`UPDATE_HEADER=1` rewrites it). cbindgen
+//! reads `src/capi/` alone (no `cargo metadata`, so no other item of the
+//! crate can reach the header).
 
 use std::path::Path;
 
