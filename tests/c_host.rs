@@ -28,16 +28,32 @@ fn compiler(var: &str, default: &str) -> Option<String> {
 /// program and returns its standard output; panics with the compiler's or
 /// the program's messages on failure.
 fn build_and_run(cc: &str, flags: &[&str], source: &str, name: &str) -> String {
-    build_and_run_with(cc, flags, source, name, &[])
+    build_and_run_with(cc, flags, source, name, &[], Link::Shared)
 }
 
-/// [`build_and_run`] with arguments for the program.
-fn build_and_run_with(cc: &str, flags: &[&str], source: &str, name: &str, args: &[&Path]) -> String {
+/// Which of the library's two C forms a program links.
+#[derive(Clone, Copy)]
+enum Link {
+    /// `libtsl.so`, found at run time through the rpath.
+    Shared,
+    /// `libtsl.a` and the system libraries Rust's std needs.
+    Static,
+}
+
+/// [`build_and_run`] with arguments for the program and a choice of
+/// library.
+fn build_and_run_with(cc: &str, flags: &[&str], source: &str, name: &str, args: &[&Path], link: Link) -> String {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let lib = lib_dir();
     assert!(lib.join("libtsl.so").exists(), "no libtsl.so in {}", lib.display());
     let dir = tempfile::tempdir().expect("a temporary folder");
     let exe = dir.path().join(name);
+    let libraries: Vec<String> = match link {
+        Link::Shared => vec![format!("-L{}", lib.display()), "-ltsl".into(), format!("-Wl,-rpath,{}", lib.display())],
+        Link::Static => {
+            vec![lib.join("libtsl.a").display().to_string(), "-lpthread".into(), "-ldl".into(), "-lm".into()]
+        }
+    };
     let output = Command::new(cc)
         .args(flags)
         .arg("-Wall")
@@ -46,9 +62,7 @@ fn build_and_run_with(cc: &str, flags: &[&str], source: &str, name: &str, args: 
         .arg("-pedantic")
         .arg(format!("-I{}", root.join("include").display()))
         .arg(root.join(source))
-        .arg(format!("-L{}", lib.display()))
-        .arg("-ltsl")
-        .arg(format!("-Wl,-rpath,{}", lib.display()))
+        .args(libraries)
         .arg("-o")
         .arg(&exe)
         .output()
@@ -204,6 +218,16 @@ fn c_host_prints_the_bits_of_the_rust_api() {
 }
 
 #[test]
+fn c_host_linked_with_the_static_library_prints_the_same() {
+    let Some(cc) = compiler("CC", "cc") else {
+        eprintln!("skipped: no C compiler (`cc` or $CC) runs here");
+        return;
+    };
+    let output = build_and_run_with(&cc, &["-std=c99"], "examples/c/host.c", "host_static", &[], Link::Static);
+    assert_same_lines(&output, &expected(Host::C));
+}
+
+#[test]
 fn cpp_host_prints_the_bits_of_the_rust_api() {
     let Some(cxx) = compiler("CXX", "c++") else {
         eprintln!("skipped: no C++ compiler (`c++` or $CXX) runs here");
@@ -231,7 +255,8 @@ fn c_render_into_a_buffer_gives_the_bits_of_tslc_render_and_cancels() {
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene_path = root.join("examples/cornell.tsl");
-    let output = build_and_run_with(&cc, &["-std=c99", "-pthread"], "tests/c/render.c", "render", &[&scene_path]);
+    let output =
+        build_and_run_with(&cc, &["-std=c99", "-pthread"], "tests/c/render.c", "render", &[&scene_path], Link::Shared);
 
     // The same settings through `tslc render` to an EXR.
     let dir = tempfile::tempdir().expect("a temporary folder");
@@ -280,10 +305,10 @@ fn c_programs_are_clean_under_address_sanitizer() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = root.join("examples/cornell.tsl");
     let flags = [&["-std=c99"][..], &SANITIZE[..]].concat();
-    let host = build_and_run_with(&cc, &flags, "examples/c/host.c", "host_asan", &[]);
+    let host = build_and_run_with(&cc, &flags, "examples/c/host.c", "host_asan", &[], Link::Shared);
     assert_same_lines(&host, &expected(Host::C));
-    let threads = build_and_run_with(&cc, &flags, "tests/c/threads.c", "threads_asan", &[]);
+    let threads = build_and_run_with(&cc, &flags, "tests/c/threads.c", "threads_asan", &[], Link::Shared);
     assert!(threads.starts_with("threads: 8 threads"), "{threads}");
-    let render = build_and_run_with(&cc, &flags, "tests/c/render.c", "render_asan", &[&scene]);
+    let render = build_and_run_with(&cc, &flags, "tests/c/render.c", "render_asan", &[&scene], Link::Shared);
     assert!(render.starts_with("size 24x18\n") && render.contains("cancelled: status 3"), "{render}");
 }
