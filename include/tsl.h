@@ -318,7 +318,7 @@ enum TslStatus tsl_batch_set(struct TslBatch *batch,
 
 // `tsl_material_reflection` at every point of `batch`: `wo` and `wi` are 3
 // columns each, `eta` and `light` `lanes` columns each; `out` receives
-// `points × lanes` floats, point by point. Thread-safe.
+// `points * lanes` floats, point by point. Thread-safe.
 enum TslStatus tsl_material_batch_reflection(const struct TslMaterial *material,
                                              const struct TslBatch *batch,
                                              const struct TslColumn *wo,
@@ -329,7 +329,7 @@ enum TslStatus tsl_material_batch_reflection(const struct TslMaterial *material,
                                              float *out,
                                              struct TslError **error);
 
-// `tsl_material_emission` at every point: `points × lanes` floats into
+// `tsl_material_emission` at every point: `points * lanes` floats into
 // `out`. Thread-safe.
 enum TslStatus tsl_material_batch_emission(const struct TslMaterial *material,
                                            const struct TslBatch *batch,
@@ -340,7 +340,7 @@ enum TslStatus tsl_material_batch_emission(const struct TslMaterial *material,
                                            struct TslError **error);
 
 // `tsl_material_sample` at every point, from columns `uc`, `u1`, `u2`:
-// `wi` receives `points × 3` floats, `weight` `points × lanes`, `pdf`
+// `wi` receives `points * 3` floats, `weight` `points * lanes`, `pdf`
 // `points` and `delta` `points` bools. Thread-safe.
 enum TslStatus tsl_material_batch_sample(const struct TslMaterial *material,
                                          const struct TslBatch *batch,
@@ -357,7 +357,7 @@ enum TslStatus tsl_material_batch_sample(const struct TslMaterial *material,
                                          struct TslError **error);
 
 // `tsl_material_eval_pdf` at every point for directions `wi` (3
-// columns): `value` receives `points × lanes` floats, `pdf` `points`.
+// columns): `value` receives `points * lanes` floats, `pdf` `points`.
 // Thread-safe.
 enum TslStatus tsl_material_batch_eval_pdf(const struct TslMaterial *material,
                                            const struct TslBatch *batch,
@@ -389,7 +389,8 @@ void tsl_error_free(struct TslError *error);
 enum TslStatus tsl_error_status(const struct TslError *error);
 
 // The whole error as rustc renders it: each diagnostic as
-// `error: message`, `┌─ file:line:col`, the source line and carets.
+// `error: message`, its location `file:line:col`, the source line and
+// carets (UTF-8 box-drawing characters frame them).
 // Owned by `error`; also NUL-terminated (the NUL not counted in `len`).
 // `{NULL, 0}` for a null error.
 // Thread-safe.
@@ -680,8 +681,8 @@ enum TslStatus tsl_scene_size(const struct TslScene *scene,
                               uint32_t *height,
                               struct TslError **error);
 
-// Renders `scene` into `out`: `len` floats, which must be `width × height
-// × 3` (`tsl_scene_size`): linear RGB radiance, rows top to bottom, the
+// Renders `scene` into `out`: `len` floats, which must be
+// `width * height * 3` (`tsl_scene_size`): linear RGB radiance, rows top to bottom, the
 // bits `tslc render` writes to an EXR with the same settings. `threads`
 // 0 uses every core. `progress` (may be null) is called as pixels finish;
 // its returning false cancels the render (`TSL_CANCELLED`, `out`
@@ -700,7 +701,7 @@ struct TslGlobals tsl_globals_default(void);
 
 // The material's response at the hit: light `light` (`lanes` floats)
 // arriving from `wi` (3 floats, unit, away from the surface) reflected
-// toward `wo`, `f · cos`, into `out` (`lanes` floats). `eta` is the
+// toward `wo`, `f * cos`, into `out` (`lanes` floats). `eta` is the
 // relative index of refraction outside/inside (`lanes` floats; all 1 for
 // air and most uses). Thread-safe.
 enum TslStatus tsl_material_reflection(const struct TslMaterial *material,
@@ -724,7 +725,7 @@ enum TslStatus tsl_material_emission(const struct TslMaterial *material,
                                      struct TslError **error);
 
 // Draws an incident direction from the uniform numbers `uc` (which lobe)
-// and `(u1, u2)` (where in it) into `*out`, its weight (`f · cos / pdf`)
+// and `(u1, u2)` (where in it) into `*out`, its weight (`f * cos / pdf`)
 // into `weight` (`lanes` floats). Thread-safe.
 enum TslStatus tsl_material_sample(const struct TslMaterial *material,
                                    const struct TslGlobals *globals,
@@ -738,7 +739,7 @@ enum TslStatus tsl_material_sample(const struct TslMaterial *material,
                                    float *weight,
                                    struct TslError **error);
 
-// For a light direction `wi`: `f · cos` for unit light into `value`
+// For a light direction `wi`: `f * cos` for unit light into `value`
 // (`lanes` floats) and the density with which `sample` draws `wi` into
 // `*pdf`, in one call. Thread-safe.
 enum TslStatus tsl_material_eval_pdf(const struct TslMaterial *material,

@@ -167,7 +167,7 @@ fn put_floats(out: *mut f32, values: &[f32], what: &str) -> Outcome {
 
 /// `tsl_material_reflection` at every point of `batch`: `wo` and `wi` are 3
 /// columns each, `eta` and `light` `lanes` columns each; `out` receives
-/// `points × lanes` floats, point by point. Thread-safe.
+/// `points * lanes` floats, point by point. Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_batch_reflection(
     material: *const TslMaterial,
@@ -188,7 +188,7 @@ pub unsafe extern "C" fn tsl_material_batch_reflection(
     })
 }
 
-/// `tsl_material_emission` at every point: `points × lanes` floats into
+/// `tsl_material_emission` at every point: `points * lanes` floats into
 /// `out`. Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_batch_emission(
@@ -206,7 +206,7 @@ pub unsafe extern "C" fn tsl_material_batch_emission(
 }
 
 /// `tsl_material_sample` at every point, from columns `uc`, `u1`, `u2`:
-/// `wi` receives `points × 3` floats, `weight` `points × lanes`, `pdf`
+/// `wi` receives `points * 3` floats, `weight` `points * lanes`, `pdf`
 /// `points` and `delta` `points` bools. Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_batch_sample(
@@ -238,7 +238,7 @@ pub unsafe extern "C" fn tsl_material_batch_sample(
 }
 
 /// `tsl_material_eval_pdf` at every point for directions `wi` (3
-/// columns): `value` receives `points × lanes` floats, `pdf` `points`.
+/// columns): `value` receives `points * lanes` floats, `pdf` `points`.
 /// Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_batch_eval_pdf(

@@ -83,7 +83,8 @@ pub unsafe extern "C" fn tsl_error_status(error: *const TslError) -> TslStatus {
 }
 
 /// The whole error as rustc renders it: each diagnostic as
-/// `error: message`, `┌─ file:line:col`, the source line and carets.
+/// `error: message`, its location `file:line:col`, the source line and
+/// carets (UTF-8 box-drawing characters frame them).
 /// Owned by `error`; also NUL-terminated (the NUL not counted in `len`).
 /// `{NULL, 0}` for a null error.
 /// Thread-safe.

@@ -128,8 +128,8 @@ struct Progress {
 // threads at once with the caller's `user_data`; TSL only passes it back.
 unsafe impl Sync for Progress {}
 
-/// Renders `scene` into `out`: `len` floats, which must be `width × height
-/// × 3` (`tsl_scene_size`): linear RGB radiance, rows top to bottom, the
+/// Renders `scene` into `out`: `len` floats, which must be
+/// `width * height * 3` (`tsl_scene_size`): linear RGB radiance, rows top to bottom, the
 /// bits `tslc render` writes to an EXR with the same settings. `threads`
 /// 0 uses every core. `progress` (may be null) is called as pixels finish;
 /// its returning false cancels the render (`TSL_CANCELLED`, `out`

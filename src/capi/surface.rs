@@ -4,6 +4,7 @@
 
 use super::{Outcome, TslError, TslMaterial, TslStatus, guard, handle, invalid, slice_arg, slice_out, vec3_arg};
 use crate::{Color, ColorModel, Program, ShadingGlobals, SurfaceRecord};
+use std::cell::RefCell;
 
 /// The shading point (TSL's globals by their language names). Start from
 /// `tsl_globals_default()` and set what the renderer knows. In the `hero`
@@ -156,10 +157,27 @@ fn hit<'a>(
 }
 
 impl Hit<'_> {
+    /// Runs `call` on the surface at this hit, with the calling thread's
+    /// scratch record (reused from call to call: no allocation per call).
     fn with<T>(&self, call: impl FnOnce(&mut crate::Surface<'_>) -> T) -> T {
-        let mut record = SurfaceRecord::new();
-        let mut surface = self.material.at(&self.g, self.wo, &self.eta, &mut record);
-        call(&mut surface)
+        thread_local! {
+            static RECORD: RefCell<SurfaceRecord> = RefCell::new(SurfaceRecord::new());
+        }
+        RECORD.with(|record| {
+            // Shading never calls back into this module, so the record is
+            // free; a fresh one all the same if it ever is not.
+            let mut fresh;
+            let mut borrowed = record.try_borrow_mut();
+            let record = match &mut borrowed {
+                Ok(r) => &mut **r,
+                Err(_) => {
+                    fresh = SurfaceRecord::new();
+                    &mut fresh
+                }
+            };
+            let mut surface = self.material.at(&self.g, self.wo, &self.eta, record);
+            call(&mut surface)
+        })
     }
 
     fn color(&self, ptr: *const f32, what: &str) -> Outcome<Color> {
@@ -174,7 +192,7 @@ impl Hit<'_> {
 
 /// The material's response at the hit: light `light` (`lanes` floats)
 /// arriving from `wi` (3 floats, unit, away from the surface) reflected
-/// toward `wo`, `f · cos`, into `out` (`lanes` floats). `eta` is the
+/// toward `wo`, `f * cos`, into `out` (`lanes` floats). `eta` is the
 /// relative index of refraction outside/inside (`lanes` floats; all 1 for
 /// air and most uses). Thread-safe.
 #[unsafe(no_mangle)]
@@ -217,7 +235,7 @@ pub unsafe extern "C" fn tsl_material_emission(
 }
 
 /// Draws an incident direction from the uniform numbers `uc` (which lobe)
-/// and `(u1, u2)` (where in it) into `*out`, its weight (`f · cos / pdf`)
+/// and `(u1, u2)` (where in it) into `*out`, its weight (`f * cos / pdf`)
 /// into `weight` (`lanes` floats). Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_sample(
@@ -241,7 +259,7 @@ pub unsafe extern "C" fn tsl_material_sample(
     })
 }
 
-/// For a light direction `wi`: `f · cos` for unit light into `value`
+/// For a light direction `wi`: `f * cos` for unit light into `value`
 /// (`lanes` floats) and the density with which `sample` draws `wi` into
 /// `*pdf`, in one call. Thread-safe.
 #[unsafe(no_mangle)]
