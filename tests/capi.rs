@@ -280,3 +280,157 @@ fn spectral_colors_have_the_models_lanes_and_the_rust_apis_bits() {
         tsl_program_free(program);
     }
 }
+
+/// `n` columns, each one value for every point.
+fn uniforms(values: &[f32]) -> Vec<TslColumn> {
+    values.iter().map(|&v| TslColumn { values: null(), stride: 0, uniform: v }).collect()
+}
+
+#[test]
+fn every_batch_call_gives_the_bits_of_its_point_call() {
+    let src = "material m = mix(rings(), emitter(radiance: rgb(0.2, 0.3, 0.4), kd: gray(0.5)), rough_conductor(alpha: 0.3));\n\
+               float rings() { return fract(length(vec2(P.x, P.z)) * 8); }";
+    const N: usize = 16;
+    let program = compile(src);
+    let p: Vec<[f32; 3]> = (0..N).map(|i| [0.03 * i as f32, 0.0, 0.011 * i as f32]).collect();
+    let wi: Vec<[f32; 3]> = (0..N).map(|i| [0.05 * i as f32 - 0.4, 0.3, 0.8]).collect();
+    let us: Vec<f32> = (0..N).map(|i| (i as f32 + 0.5) / N as f32).collect();
+    let (wo, eta) = ([0.0f32, 0.6, 0.8], [1.0f32; 3]);
+    let field = |a: &[[f32; 3]], k: usize| TslColumn { values: a[0][k..].as_ptr(), stride: 3, uniform: 0.0 };
+    let plain = |a: &[f32]| TslColumn { values: a.as_ptr(), stride: 1, uniform: 0.0 };
+    unsafe {
+        let mut m = null_mut();
+        assert_eq!(tsl_program_material(program, c("m"), 1, &mut m, null_mut()), TslStatus::TSL_OK);
+        let mut batch = null_mut();
+        tsl_batch_new(N, null(), &mut batch, null_mut());
+        let p_columns = [field(&p, 0), field(&p, 1), field(&p, 2)];
+        assert_eq!(tsl_batch_set(batch, c("P"), 1, p_columns.as_ptr(), 3, null_mut()), TslStatus::TSL_OK);
+        assert_eq!(tsl_batch_len(batch), N);
+        let (wo_c, eta_c) = (uniforms(&wo), uniforms(&eta));
+        let wi_c = [field(&wi, 0), field(&wi, 1), field(&wi, 2)];
+        let ok = |s: TslStatus| assert_eq!(s, TslStatus::TSL_OK);
+
+        let mut emission = vec![0.0f32; N * 3];
+        ok(tsl_material_batch_emission(m, batch, wo_c.as_ptr(), eta_c.as_ptr(), 3, emission.as_mut_ptr(), null_mut()));
+        let mut reflection = vec![0.0f32; N * 3];
+        ok(tsl_material_batch_reflection(
+            m,
+            batch,
+            wo_c.as_ptr(),
+            eta_c.as_ptr(),
+            wi_c.as_ptr(),
+            eta_c.as_ptr(),
+            3,
+            reflection.as_mut_ptr(),
+            null_mut(),
+        ));
+        let (mut value, mut pdf_e, mut pdf) = (vec![0.0f32; N * 3], vec![0.0f32; N], vec![0.0f32; N]);
+        ok(tsl_material_batch_eval_pdf(
+            m,
+            batch,
+            wo_c.as_ptr(),
+            eta_c.as_ptr(),
+            3,
+            wi_c.as_ptr(),
+            value.as_mut_ptr(),
+            pdf_e.as_mut_ptr(),
+            null_mut(),
+        ));
+        ok(tsl_material_batch_pdf(
+            m,
+            batch,
+            wo_c.as_ptr(),
+            eta_c.as_ptr(),
+            3,
+            wi_c.as_ptr(),
+            pdf.as_mut_ptr(),
+            null_mut(),
+        ));
+        let (mut s_wi, mut s_weight, mut s_pdf, mut s_delta) =
+            (vec![0.0f32; N * 3], vec![0.0f32; N * 3], vec![0.0f32; N], vec![false; N]);
+        let half = TslColumn { values: null(), stride: 0, uniform: 0.5 };
+        ok(tsl_material_batch_sample(
+            m,
+            batch,
+            wo_c.as_ptr(),
+            eta_c.as_ptr(),
+            3,
+            plain(&us),
+            plain(&us),
+            half,
+            s_wi.as_mut_ptr(),
+            s_weight.as_mut_ptr(),
+            s_pdf.as_mut_ptr(),
+            s_delta.as_mut_ptr(),
+            null_mut(),
+        ));
+
+        let bits = |xs: &[f32]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        let mut emitted = 0;
+        for i in 0..N {
+            let mut g = tsl_globals_default();
+            g.p = p[i];
+            let mut out = [0.0f32; 3];
+            ok(tsl_material_emission(m, &g, wo.as_ptr(), eta.as_ptr(), 3, out.as_mut_ptr(), null_mut()));
+            assert_eq!(bits(&out), bits(&emission[3 * i..3 * i + 3]), "emission at {i}");
+            emitted += usize::from(out[0] > 0.0);
+            ok(tsl_material_reflection(
+                m,
+                &g,
+                wo.as_ptr(),
+                eta.as_ptr(),
+                wi[i].as_ptr(),
+                eta.as_ptr(),
+                3,
+                out.as_mut_ptr(),
+                null_mut(),
+            ));
+            assert_eq!(bits(&out), bits(&reflection[3 * i..3 * i + 3]), "reflection at {i}");
+            let mut e = 0.0;
+            ok(tsl_material_eval_pdf(
+                m,
+                &g,
+                wo.as_ptr(),
+                eta.as_ptr(),
+                3,
+                wi[i].as_ptr(),
+                out.as_mut_ptr(),
+                &mut e,
+                null_mut(),
+            ));
+            assert_eq!(
+                (bits(&out), e.to_bits()),
+                (bits(&value[3 * i..3 * i + 3]), pdf_e[i].to_bits()),
+                "eval_pdf at {i}"
+            );
+            let mut q = 0.0;
+            ok(tsl_material_pdf(m, &g, wo.as_ptr(), eta.as_ptr(), 3, wi[i].as_ptr(), &mut q, null_mut()));
+            assert_eq!(q.to_bits(), pdf[i].to_bits(), "pdf at {i}");
+            let mut s = std::mem::zeroed::<TslSample>();
+            ok(tsl_material_sample(
+                m,
+                &g,
+                wo.as_ptr(),
+                eta.as_ptr(),
+                3,
+                us[i],
+                us[i],
+                0.5,
+                &mut s,
+                out.as_mut_ptr(),
+                null_mut(),
+            ));
+            assert_eq!(bits(&s.wi), bits(&s_wi[3 * i..3 * i + 3]), "sampled direction at {i}");
+            assert_eq!(bits(&out), bits(&s_weight[3 * i..3 * i + 3]), "sample weight at {i}");
+            assert_eq!((s.pdf.to_bits(), s.delta), (s_pdf[i].to_bits(), s_delta[i]), "sample pdf at {i}");
+        }
+        // The mixture's weight varies over the points, and so does what they emit.
+        let mut distinct = bits(&emission);
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert!(emitted == N && distinct.len() > N, "{emitted} of {N} points emit {} values", distinct.len());
+        tsl_batch_free(batch);
+        tsl_material_free(m);
+        tsl_program_free(program);
+    }
+}
