@@ -318,7 +318,9 @@ enum TslStatus tsl_batch_set(struct TslBatch *batch,
 
 // `tsl_material_reflection` at every point of `batch`: `wo` and `wi` are 3
 // columns each, `eta` and `light` `lanes` columns each; `out` receives
-// `points * lanes` floats, point by point. Thread-safe.
+// `points * lanes` floats, point by point. As in every batch call,
+// `points` is the number of points the output buffers hold, which must
+// be the batch's (`tsl_batch_len`). Thread-safe.
 enum TslStatus tsl_material_batch_reflection(const struct TslMaterial *material,
                                              const struct TslBatch *batch,
                                              const struct TslColumn *wo,
@@ -326,6 +328,7 @@ enum TslStatus tsl_material_batch_reflection(const struct TslMaterial *material,
                                              const struct TslColumn *wi,
                                              const struct TslColumn *light,
                                              size_t lanes,
+                                             size_t points,
                                              float *out,
                                              struct TslError **error);
 
@@ -336,6 +339,7 @@ enum TslStatus tsl_material_batch_emission(const struct TslMaterial *material,
                                            const struct TslColumn *wo,
                                            const struct TslColumn *eta,
                                            size_t lanes,
+                                           size_t points,
                                            float *out,
                                            struct TslError **error);
 
@@ -350,6 +354,7 @@ enum TslStatus tsl_material_batch_sample(const struct TslMaterial *material,
                                          struct TslColumn uc,
                                          struct TslColumn u1,
                                          struct TslColumn u2,
+                                         size_t points,
                                          float *wi,
                                          float *weight,
                                          float *pdf,
@@ -365,6 +370,7 @@ enum TslStatus tsl_material_batch_eval_pdf(const struct TslMaterial *material,
                                            const struct TslColumn *eta,
                                            size_t lanes,
                                            const struct TslColumn *wi,
+                                           size_t points,
                                            float *value,
                                            float *pdf,
                                            struct TslError **error);
@@ -377,6 +383,7 @@ enum TslStatus tsl_material_batch_pdf(const struct TslMaterial *material,
                                       const struct TslColumn *eta,
                                       size_t lanes,
                                       const struct TslColumn *wi,
+                                      size_t points,
                                       float *pdf,
                                       struct TslError **error);
 

@@ -139,11 +139,16 @@ fn bad_arguments_are_errors_not_crashes() {
         assert_eq!(tsl_batch_set(batch, c("P"), 1, [column(3); 3].as_ptr(), 3, null_mut()), TslStatus::TSL_OK);
         let eta = [TslColumn { values: null(), stride: 0, uniform: 1.0 }; 3];
         let mut values = [0.0f32; 9];
-        let (status, _) =
-            failure(|e| tsl_material_batch_emission(m_, batch, eta.as_ptr(), eta.as_ptr(), 2, values.as_mut_ptr(), e));
+        let (status, _) = failure(|e| {
+            tsl_material_batch_emission(m_, batch, eta.as_ptr(), eta.as_ptr(), 2, 3, values.as_mut_ptr(), e)
+        });
         assert_eq!(status, TslStatus::TSL_INVALID_ARGUMENT, "2 lanes in rgb");
+        let (status, m) = failure(|e| {
+            tsl_material_batch_emission(m_, batch, eta.as_ptr(), eta.as_ptr(), 3, 2, values.as_mut_ptr(), e)
+        });
+        assert!(status == TslStatus::TSL_INVALID_ARGUMENT && m.contains("the batch has 3 points, not 2"), "{m}");
         assert_eq!(
-            tsl_material_batch_emission(m_, batch, eta.as_ptr(), eta.as_ptr(), 3, values.as_mut_ptr(), null_mut()),
+            tsl_material_batch_emission(m_, batch, eta.as_ptr(), eta.as_ptr(), 3, 3, values.as_mut_ptr(), null_mut()),
             TslStatus::TSL_OK
         );
 
@@ -311,7 +316,16 @@ fn every_batch_call_gives_the_bits_of_its_point_call() {
         let ok = |s: TslStatus| assert_eq!(s, TslStatus::TSL_OK);
 
         let mut emission = vec![0.0f32; N * 3];
-        ok(tsl_material_batch_emission(m, batch, wo_c.as_ptr(), eta_c.as_ptr(), 3, emission.as_mut_ptr(), null_mut()));
+        ok(tsl_material_batch_emission(
+            m,
+            batch,
+            wo_c.as_ptr(),
+            eta_c.as_ptr(),
+            3,
+            N,
+            emission.as_mut_ptr(),
+            null_mut(),
+        ));
         let mut reflection = vec![0.0f32; N * 3];
         ok(tsl_material_batch_reflection(
             m,
@@ -321,6 +335,7 @@ fn every_batch_call_gives_the_bits_of_its_point_call() {
             wi_c.as_ptr(),
             eta_c.as_ptr(),
             3,
+            N,
             reflection.as_mut_ptr(),
             null_mut(),
         ));
@@ -332,6 +347,7 @@ fn every_batch_call_gives_the_bits_of_its_point_call() {
             eta_c.as_ptr(),
             3,
             wi_c.as_ptr(),
+            N,
             value.as_mut_ptr(),
             pdf_e.as_mut_ptr(),
             null_mut(),
@@ -343,6 +359,7 @@ fn every_batch_call_gives_the_bits_of_its_point_call() {
             eta_c.as_ptr(),
             3,
             wi_c.as_ptr(),
+            N,
             pdf.as_mut_ptr(),
             null_mut(),
         ));
@@ -358,6 +375,7 @@ fn every_batch_call_gives_the_bits_of_its_point_call() {
             plain(&us),
             plain(&us),
             half,
+            N,
             s_wi.as_mut_ptr(),
             s_weight.as_mut_ptr(),
             s_pdf.as_mut_ptr(),

@@ -157,7 +157,7 @@ int main(void) {
     }
     float *values = malloc(sizeof(float) * POINTS * lanes);
     CHECK(tsl_material_batch_reflection(wood, batch, wo_columns, eta_columns, wi_columns, light_columns, lanes,
-                                        values, &error));
+                                        POINTS, values, &error));
     for (int i = 0; i < POINTS; i++) {
         printf("batch wood reflection %d", i);
         print_floats("", values + i * lanes, lanes);
@@ -165,8 +165,8 @@ int main(void) {
     float wis[POINTS][3], pdfs[POINTS];
     bool deltas[POINTS];
     TslColumn uc = {NULL, 0, 0.5f}, u1c = {u1, 1, 0}, u2c = {u2, 1, 0};
-    CHECK(tsl_material_batch_sample(gold_rough, batch, wo_columns, eta_columns, lanes, uc, u1c, u2c, &wis[0][0],
-                                    values, pdfs, deltas, &error));
+    CHECK(tsl_material_batch_sample(gold_rough, batch, wo_columns, eta_columns, lanes, uc, u1c, u2c, POINTS,
+                                    &wis[0][0], values, pdfs, deltas, &error));
     for (int i = 0; i < POINTS; i++) {
         printf("batch gold0 sample %d", i);
         print_floats(" wi", wis[i], 3);

@@ -141,7 +141,7 @@ int main() {
         for (float e : eta) eta_c.push_back({nullptr, 0, e});
         std::vector<float> values(points * lanes);
         t = tsl_material_batch_reflection(wood.get(), batch.get(), wo_c.data(), eta_c.data(), wi_c.data(),
-                                          eta_c.data(), lanes, values.data(), &t.error);
+                                          eta_c.data(), lanes, points, values.data(), &t.error);
         for (size_t i = 0; i < points; i++) {
             std::printf("batch wood reflection %zu", i);
             print_floats("", &values[i * lanes], lanes);

@@ -140,18 +140,23 @@ pub unsafe extern "C" fn tsl_batch_set(
 }
 
 /// Reads the arguments every batch call shares and runs `call` on the
-/// material's surfaces at the batch's points.
+/// material's surfaces at the batch's points; `points` is what the
+/// caller's output buffers were sized for.
 fn with_surfaces(
     material: *const TslMaterial,
     batch: *const TslBatch,
     wo: *const TslColumn,
     eta: *const TslColumn,
     lanes: usize,
+    points: usize,
     call: impl FnOnce(&mut SurfaceBatch<'_>, usize) -> Outcome,
 ) -> Outcome {
     let material = &handle(material, "material")?.material;
     check_lanes(&material.color_model(), lanes)?;
     let b = handle(batch, "batch")?;
+    if points != b.points {
+        return invalid(format!("the batch has {} points, not {points}: size the outputs for it", b.points));
+    }
     let points = b.shading_batch()?;
     let wo = vector(wo, b.points, "wo")?;
     let eta = columns(eta, lanes, b.points, "eta")?;
@@ -167,7 +172,9 @@ fn put_floats(out: *mut f32, values: &[f32], what: &str) -> Outcome {
 
 /// `tsl_material_reflection` at every point of `batch`: `wo` and `wi` are 3
 /// columns each, `eta` and `light` `lanes` columns each; `out` receives
-/// `points * lanes` floats, point by point. Thread-safe.
+/// `points * lanes` floats, point by point. As in every batch call,
+/// `points` is the number of points the output buffers hold, which must
+/// be the batch's (`tsl_batch_len`). Thread-safe.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn tsl_material_batch_reflection(
     material: *const TslMaterial,
@@ -177,11 +184,12 @@ pub unsafe extern "C" fn tsl_material_batch_reflection(
     wi: *const TslColumn,
     light: *const TslColumn,
     lanes: usize,
+    points: usize,
     out: *mut f32,
     error: *mut *mut TslError,
 ) -> TslStatus {
     guard(error, || {
-        with_surfaces(material, batch, wo, eta, lanes, |s, points| {
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, points| {
             let (wi, light) = (vector(wi, points, "wi")?, columns(light, lanes, points, "light")?);
             put_floats(out, &s.reflection(wi, &light)?.values, "out")
         })
@@ -197,11 +205,12 @@ pub unsafe extern "C" fn tsl_material_batch_emission(
     wo: *const TslColumn,
     eta: *const TslColumn,
     lanes: usize,
+    points: usize,
     out: *mut f32,
     error: *mut *mut TslError,
 ) -> TslStatus {
     guard(error, || {
-        with_surfaces(material, batch, wo, eta, lanes, |s, _| put_floats(out, &s.emission()?.values, "out"))
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, _| put_floats(out, &s.emission()?.values, "out"))
     })
 }
 
@@ -218,6 +227,7 @@ pub unsafe extern "C" fn tsl_material_batch_sample(
     uc: TslColumn,
     u1: TslColumn,
     u2: TslColumn,
+    points: usize,
     wi: *mut f32,
     weight: *mut f32,
     pdf: *mut f32,
@@ -225,7 +235,7 @@ pub unsafe extern "C" fn tsl_material_batch_sample(
     error: *mut *mut TslError,
 ) -> TslStatus {
     guard(error, || {
-        with_surfaces(material, batch, wo, eta, lanes, |s, points| {
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, points| {
             let u = [u1.column(points, "u1")?, u2.column(points, "u2")?];
             let sample = s.sample(uc.column(points, "uc")?, u)?;
             put_floats(wi, sample.wi.as_flattened(), "wi")?;
@@ -248,12 +258,13 @@ pub unsafe extern "C" fn tsl_material_batch_eval_pdf(
     eta: *const TslColumn,
     lanes: usize,
     wi: *const TslColumn,
+    points: usize,
     value: *mut f32,
     pdf: *mut f32,
     error: *mut *mut TslError,
 ) -> TslStatus {
     guard(error, || {
-        with_surfaces(material, batch, wo, eta, lanes, |s, points| {
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, points| {
             let e = s.eval_pdf(vector(wi, points, "wi")?)?;
             put_floats(value, &e.value.values, "value")?;
             put_floats(pdf, &e.pdf, "pdf")
@@ -271,11 +282,12 @@ pub unsafe extern "C" fn tsl_material_batch_pdf(
     eta: *const TslColumn,
     lanes: usize,
     wi: *const TslColumn,
+    points: usize,
     pdf: *mut f32,
     error: *mut *mut TslError,
 ) -> TslStatus {
     guard(error, || {
-        with_surfaces(material, batch, wo, eta, lanes, |s, points| {
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, points| {
             put_floats(pdf, &s.pdf(vector(wi, points, "wi")?)?, "pdf")
         })
     })

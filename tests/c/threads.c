@@ -64,8 +64,9 @@ static void *shade(void *arg) {
         TslColumn wo_c[3] = {{NULL, 0, wo[0]}, {NULL, 0, wo[1]}, {NULL, 0, wo[2]}}, eta_c[LANES_MAX];
         for (size_t k = 0; k < lanes; k++) eta_c[k] = (TslColumn){NULL, 0, eta[k]};
         TslColumn uc = {NULL, 0, 0.5f}, u1c = {u1, 1, 0}, u2c = {u2, 1, 0};
-        fail(r, tsl_material_batch_sample(materials[m], batch, wo_c, eta_c, lanes, uc, u1c, u2c, &r->batch_wi[m][0][0],
-                                          r->batch_weight[m], r->batch_pdf[m], r->batch_delta[m], &error),
+        fail(r, tsl_material_batch_sample(materials[m], batch, wo_c, eta_c, lanes, uc, u1c, u2c, POINTS,
+                                          &r->batch_wi[m][0][0], r->batch_weight[m], r->batch_pdf[m],
+                                          r->batch_delta[m], &error),
              error, "batch sample");
         tsl_batch_free(batch);
     }
