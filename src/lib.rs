@@ -82,6 +82,7 @@
 #![cfg_attr(not(test), warn(clippy::panic, clippy::print_stdout, clippy::print_stderr, clippy::todo))]
 
 mod api;
+pub mod capi;
 pub mod check;
 pub mod color;
 pub mod diag;
