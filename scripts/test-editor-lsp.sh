@@ -1,6 +1,6 @@
 #!/bin/sh
 # Drives `tslc lsp --stdio` as the VS Code extension does (vscode-jsonrpc, the
-# JSON-RPC layer of vscode-languageclient) through the README's editor
+# JSON-RPC layer of vscode-languageclient) through the guide's editor
 # walk-through: diagnostics appear and disappear, hover on fbm, completion of
 # phong(, definition of wood_rings in the prelude, formatting, shutdown.
 # Needs node and npm; the packages go into editors/test/node_modules (ignored).

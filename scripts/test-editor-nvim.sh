@@ -1,5 +1,5 @@
 #!/bin/sh
-# The README's editor walk-through in a real editor: headless Neovim (0.7 or
+# The editor walk-through of the guide (docs/book/src/tutorial/editors.md) in a real editor: headless Neovim (0.7 or
 # newer; Debian's `apt-get install neovim`) with its built-in LSP client and
 # `tslc lsp`, on examples/texture_tree.tsl (the buffer is never written).
 # Diagnostics appear and clear as a line is edited, hover on `fbm`, completion

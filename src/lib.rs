@@ -121,3 +121,12 @@ pub use driver::{Checked, check_file, check_source, check_source_cancellable, ch
 pub use globals::ShadingGlobals;
 pub use interp::OpCounts;
 pub use load::LoadOptions;
+
+// The user guide's Rust page and the README: their ```rust blocks compile and
+// run as doctests (tests/book.rs checks every page with one is listed here).
+#[cfg(doctest)]
+#[doc = include_str!("../docs/book/src/embedding/rust.md")]
+struct GuideEmbeddingRust;
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct Readme;

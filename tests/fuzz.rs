@@ -1,4 +1,4 @@
-//! The fuzzing campaign (not in CI: `scripts/fuzz.sh`, see the README).
+//! The fuzzing campaign (not in CI: `scripts/fuzz.sh`, see docs/performance.md, "Scale and fuzzing").
 //!
 //! Feeds generated inputs to the front end and, when one checks clean, to
 //! lowering and both back ends, which must agree on every entry point:

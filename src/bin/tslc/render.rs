@@ -81,7 +81,7 @@ pub struct SceneOptions {
     /// off by up to 1.2% at 16 bins, 0.05% at 64 (quadrature). RGB is
     /// upsampled by Jakob-Hanika, lights are D65-based. `smitsN`: the bins
     /// with Smits' upsampling and white E (the old model). Costs and
-    /// accuracy: README, "Color models".
+    /// accuracy: the guide (docs/book), "Colour models".
     #[arg(long = "color-model", value_name = "MODEL", value_parser = parse_color)]
     pub(crate) color_model: Option<tsl::ColorModel>,
     /// When to colour diagnostics: auto, always or never (as cargo and
