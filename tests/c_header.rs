@@ -30,4 +30,10 @@ fn checked_in_header_matches_the_generated_one() {
     for needle in ["#ifndef TSL_H", "tsl_compiler_compile", "TSL_OK = 0", "typedef struct TslProgram TslProgram;"] {
         assert!(generated.contains(needle), "the header lacks `{needle}`");
     }
+    // Only the C API's own types: a public Rust type elsewhere in the crate
+    // must not leak in (exclude it in cbindgen.toml).
+    for line in generated.lines().filter(|l| l.starts_with("typedef struct") || l.starts_with("typedef enum")) {
+        let name = line.split_whitespace().nth(2).unwrap_or_default();
+        assert!(name.starts_with("Tsl"), "the header declares `{name}`, which is not part of the C API: {line}");
+    }
 }
