@@ -1,0 +1,163 @@
+//! `tsl.render`: a scene file rendered as `tslc render` renders it (the
+//! same library calls: check, compile, build the scene, render), to a
+//! numpy array instead of a file, and `tsl.read_exr` to read an image back.
+
+use crate::errors::compile_error;
+use numpy::IntoPyArray;
+use numpy::ndarray::{Array2, Array3};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use tsl::image_io::RenderedImage;
+use tsl::render::{IntegratorKind, Overrides, RenderOptions, Scene};
+
+/// Renders the scene file `path` (a `.tsl` file with a `scene { ... }`
+/// block) and returns a `(height, width, 3)` float32 array of linear
+/// radiance: the same bits `tslc render` writes to an EXR with the same
+/// settings. `spp`, `res` (`(width, height)`), `seed` and `integrator`
+/// (`"path"` or `"whitted"`) override the scene's; `color` is the color
+/// model as the CLI's `--color` (`"rgb"`, `"spectral"`/`"hero"`,
+/// `"spectral16"`, `"smits16"`). With `aov=True` the result is
+/// `(image, layers)`, `layers` a dict of `albedo` and `normal`
+/// (`(height, width, 3)`), `depth` (`(height, width)`) and `object`
+/// (int32, -1 for none). The GIL is released; Ctrl-C stops the render
+/// (`KeyboardInterrupt`).
+#[pyfunction]
+#[pyo3(signature = (path, spp=None, res=None, seed=None, integrator=None, color=None, aov=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn render<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    spp: Option<u32>,
+    res: Option<(u32, u32)>,
+    seed: Option<u64>,
+    integrator: Option<&str>,
+    color: Option<&str>,
+    aov: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let model = match color {
+        None => tsl::ColorModel::Rgb,
+        Some(name) => tsl::ColorModel::parse(name).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "`{name}` is not a color model: use rgb, spectral (= hero), spectralN or smitsN with N in 1..=64"
+            ))
+        })?,
+    };
+    let integrator = integrator
+        .map(|name| {
+            IntegratorKind::parse(name)
+                .ok_or_else(|| PyValueError::new_err(format!("`{name}` is not an integrator: use whitted or path")))
+        })
+        .transpose()?;
+    if spp.is_some_and(|s| s == 0 || s > tsl::scene::MAX_SPP) {
+        return Err(PyValueError::new_err(format!("spp must be from 1 to {}", tsl::scene::MAX_SPP)));
+    }
+    if let Some((w, h)) = res {
+        let side = tsl::scene::MAX_IMAGE_SIDE;
+        if w == 0 || h == 0 || w > side || h > side || u64::from(w) * u64::from(h) > tsl::scene::MAX_PIXELS {
+            return Err(PyValueError::new_err(format!("the resolution {w}x{h} is not between 1x1 and {side}x{side}")));
+        }
+    }
+    let overrides = Overrides { resolution: res, spp, seed, integrator, ..Default::default() };
+    let cancel = AtomicBool::new(false);
+    let image = py.detach(|| render_file(&path, model, &overrides, aov, &cancel, py_interrupted));
+    let image = match image {
+        Ok(image) => image,
+        Err(Failure::Compile(e)) => return Err(compile_error(e)),
+        Err(Failure::Render(message)) if message == tsl::render::CANCELLED => {
+            return Err(PyKeyboardInterrupt::new_err("the render was cancelled"));
+        }
+        Err(Failure::Render(message)) => return Err(PyRuntimeError::new_err(message)),
+    };
+    let color = pixels(&image, &image.color)?.into_pyarray(py).into_any();
+    if !aov {
+        return Ok(color);
+    }
+    let layers = PyDict::new(py);
+    if let Some(albedo) = &image.albedo {
+        layers.set_item("albedo", pixels(&image, albedo)?.into_pyarray(py))?;
+    }
+    if let Some(normal) = &image.normal {
+        layers.set_item("normal", pixels(&image, normal)?.into_pyarray(py))?;
+    }
+    if let Some(depth) = &image.depth {
+        layers.set_item("depth", plane(&image, depth.clone())?.into_pyarray(py))?;
+    }
+    if let Some(object) = &image.object {
+        layers.set_item("object", plane(&image, object.clone())?.into_pyarray(py))?;
+    }
+    Ok((color, layers).into_pyobject(py)?.into_any())
+}
+
+/// Reads an EXR image (as `tslc render` writes them) as a `(height,
+/// width, 3)` float32 array of its RGB channels.
+#[pyfunction]
+pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let image = py.detach(|| tsl::image_io::read_exr(&path)).map_err(PyRuntimeError::new_err)?;
+    Ok(pixels(&image, &image.color)?.into_pyarray(py).into_any())
+}
+
+/// Why a render did not finish.
+enum Failure {
+    Compile(tsl::Error),
+    Render(String),
+}
+
+/// Whether Python has a signal (Ctrl-C) waiting: asked from a render's
+/// progress, with the GIL taken for a moment.
+fn py_interrupted() -> bool {
+    Python::attach(|py| py.check_signals().is_err())
+}
+
+/// `tslc render`'s steps for one frame: check, compile (lean: one frame),
+/// build the scene from its description, render on every core.
+fn render_file(
+    path: &std::path::Path,
+    model: tsl::ColorModel,
+    overrides: &Overrides,
+    aov: bool,
+    cancel: &AtomicBool,
+    interrupted: fn() -> bool,
+) -> Result<RenderedImage, Failure> {
+    let options = tsl::LoadOptions { color_model: model, lean: true, ..tsl::LoadOptions::default() };
+    let checked = tsl::check_file(path, &options);
+    let mut program =
+        tsl::Compiler::new().color_model(model).lean(true).compile_checked(checked).map_err(Failure::Compile)?;
+    let scene = match program.take_scene() {
+        Some(desc) => Scene::build_owned(&program, desc, overrides),
+        None => Scene::build_from(&program, None, overrides),
+    }
+    .map_err(Failure::Compile)?;
+    // Progress is reported from worker threads; every few percent one
+    // asks Python whether Ctrl-C was pressed.
+    let last = std::sync::Mutex::new(0u64);
+    let progress = |done: u64, total: u64| {
+        let percent = done * 100 / total.max(1);
+        if let Ok(mut last) = last.lock()
+            && percent >= *last + 2
+        {
+            *last = percent;
+            if interrupted() {
+                cancel.store(true, Ordering::Relaxed);
+            }
+        }
+    };
+    let options = RenderOptions { aov, progress: Some(&progress), cancel: Some(cancel), ..Default::default() };
+    let (image, _stats) = tsl::render::render(&scene, &options).map_err(Failure::Render)?;
+    Ok(image)
+}
+
+/// A `(height, width, 3)` array of an image's pixels.
+fn pixels(image: &RenderedImage, values: &[[f32; 3]]) -> PyResult<Array3<f32>> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    Array3::from_shape_vec((h, w, 3), values.as_flattened().to_vec())
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
+/// A `(height, width)` array of one value per pixel.
+fn plane<T>(image: &RenderedImage, values: Vec<T>) -> PyResult<Array2<T>> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    Array2::from_shape_vec((h, w), values).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
