@@ -63,6 +63,7 @@ fn _tsl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<shading::Material>()?;
     m.add_class::<shading::Instance>()?;
     m.add_class::<errors::Diagnostic>()?;
+    m.add("BsdfSample", shading::sample_type(py)?)?;
     m.add("Error", py.get_type::<errors::Error>())?;
     m.add("CompileError", py.get_type::<errors::CompileError>())?;
     m.add("ParameterError", py.get_type::<errors::ParameterError>())?;

@@ -71,32 +71,40 @@ pub fn render<'py>(
         }
         Err(Failure::Render(message)) => return Err(PyRuntimeError::new_err(message)),
     };
-    let color = pixels(&image, &image.color)?.into_pyarray(py).into_any();
-    if !aov {
+    image_to_python(py, &image, aov)
+}
+
+/// The image as a `(height, width, 3)` array, and with `layers` a dict of
+/// its AOV layers beside it.
+fn image_to_python<'py>(py: Python<'py>, image: &RenderedImage, layers: bool) -> PyResult<Bound<'py, PyAny>> {
+    let color = pixels(image, &image.color)?.into_pyarray(py).into_any();
+    if !layers {
         return Ok(color);
     }
-    let layers = PyDict::new(py);
+    let dict = PyDict::new(py);
     if let Some(albedo) = &image.albedo {
-        layers.set_item("albedo", pixels(&image, albedo)?.into_pyarray(py))?;
+        dict.set_item("albedo", pixels(image, albedo)?.into_pyarray(py))?;
     }
     if let Some(normal) = &image.normal {
-        layers.set_item("normal", pixels(&image, normal)?.into_pyarray(py))?;
+        dict.set_item("normal", pixels(image, normal)?.into_pyarray(py))?;
     }
     if let Some(depth) = &image.depth {
-        layers.set_item("depth", plane(&image, depth.clone())?.into_pyarray(py))?;
+        dict.set_item("depth", plane(image, depth.clone())?.into_pyarray(py))?;
     }
     if let Some(object) = &image.object {
-        layers.set_item("object", plane(&image, object.clone())?.into_pyarray(py))?;
+        dict.set_item("object", plane(image, object.clone())?.into_pyarray(py))?;
     }
-    Ok((color, layers).into_pyobject(py)?.into_any())
+    Ok((color, dict).into_pyobject(py)?.into_any())
 }
 
 /// Reads an EXR image (as `tslc render` writes them) as a `(height,
-/// width, 3)` float32 array of its RGB channels.
+/// width, 3)` float32 array of its RGB channels; with `aov=True`,
+/// `(image, layers)` as `render` gives them (the layers the file has).
 #[pyfunction]
-pub fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+#[pyo3(signature = (path, aov=false))]
+pub fn read_exr<'py>(py: Python<'py>, path: PathBuf, aov: bool) -> PyResult<Bound<'py, PyAny>> {
     let image = py.detach(|| tsl::image_io::read_exr(&path)).map_err(PyRuntimeError::new_err)?;
-    Ok(pixels(&image, &image.color)?.into_pyarray(py).into_any())
+    image_to_python(py, &image, aov)
 }
 
 /// Why a render did not finish.

@@ -148,7 +148,7 @@ fn matrix<'py>(py: Python<'py>, values: Vec<f32>, n: usize, width: usize) -> PyR
 }
 
 /// The `BsdfSample` named tuple type (made once per interpreter).
-fn sample_type(py: Python<'_>) -> PyResult<&Bound<'_, PyAny>> {
+pub fn sample_type(py: Python<'_>) -> PyResult<&Bound<'_, PyAny>> {
     static TYPE: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
     TYPE.get_or_try_init(py, || {
         let namedtuple = py.import("collections")?.getattr("namedtuple")?;

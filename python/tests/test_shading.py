@@ -172,3 +172,20 @@ def test_spectral_programs_return_rgb():
     np.testing.assert_allclose(out[0], 0.5 / np.pi, rtol=2e-3)
     light = np.array([[1.0, 0.5, 0.25], [1.0, 0.5, 0.25]])
     np.testing.assert_allclose(program.material("m").reflection(up[0], up[0], light)[1], [0.5 / np.pi, 0.25 / np.pi, 0.125 / np.pi], rtol=2e-2)
+
+
+def test_threads_share_a_material(program):
+    from concurrent.futures import ThreadPoolExecutor
+
+    m = program.material("m")
+    wi, wo = directions(20000), directions(20000, seed=11)
+    want = m.reflection(wi, wo)
+    with ThreadPoolExecutor(4) as pool:
+        results = list(pool.map(lambda _: m.reflection(wi, wo), range(8)))
+    for got in results:
+        np.testing.assert_array_equal(got, want)
+
+
+def test_the_sample_type_is_exported(program):
+    s = program.material("m").sample((0, 0, 1), 0.5, (0.25, 0.75))
+    assert type(s) is tsl.BsdfSample

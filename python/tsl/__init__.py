@@ -15,6 +15,7 @@ calls a generator over arrays; `tsl.render` renders a scene file to an array.
 """
 
 from ._tsl import (
+    BsdfSample,
     CompileError,
     Diagnostic,
     Error,
@@ -31,6 +32,7 @@ from ._tsl import (
 )
 
 __all__ = [
+    "BsdfSample",
     "CompileError",
     "Diagnostic",
     "Error",
