@@ -62,7 +62,20 @@ pub fn render<'py>(
     }
     let overrides = Overrides { resolution: res, spp, seed, integrator, ..Default::default() };
     let cancel = AtomicBool::new(false);
-    let image = py.detach(|| render_file(&path, model, &overrides, aov, &cancel, py_interrupted));
+    // The render runs on its own thread; this one (Python's main thread,
+    // where signal handlers run) looks for Ctrl-C between waits.
+    let image = py.detach(|| {
+        std::thread::scope(|scope| {
+            let worker = scope.spawn(|| render_file(&path, model, &overrides, aov, &cancel));
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                if Python::attach(|py| py.check_signals().is_err()) {
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            }
+            worker.join().unwrap_or_else(|_| Err(Failure::Render("the render panicked".into())))
+        })
+    });
     let image = match image {
         Ok(image) => image,
         Err(Failure::Compile(e)) => return Err(compile_error(e)),
@@ -113,12 +126,6 @@ enum Failure {
     Render(String),
 }
 
-/// Whether Python has a signal (Ctrl-C) waiting: asked from a render's
-/// progress, with the GIL taken for a moment.
-fn py_interrupted() -> bool {
-    Python::attach(|py| py.check_signals().is_err())
-}
-
 /// `tslc render`'s steps for one frame: check, compile (lean: one frame),
 /// build the scene from its description, render on every core.
 fn render_file(
@@ -127,7 +134,6 @@ fn render_file(
     overrides: &Overrides,
     aov: bool,
     cancel: &AtomicBool,
-    interrupted: fn() -> bool,
 ) -> Result<RenderedImage, Failure> {
     let options = tsl::LoadOptions { color_model: model, lean: true, ..tsl::LoadOptions::default() };
     let checked = tsl::check_file(path, &options);
@@ -138,21 +144,7 @@ fn render_file(
         None => Scene::build_from(&program, None, overrides),
     }
     .map_err(Failure::Compile)?;
-    // Progress is reported from worker threads; every few percent one
-    // asks Python whether Ctrl-C was pressed.
-    let last = std::sync::Mutex::new(0u64);
-    let progress = |done: u64, total: u64| {
-        let percent = done * 100 / total.max(1);
-        if let Ok(mut last) = last.lock()
-            && percent >= *last + 2
-        {
-            *last = percent;
-            if interrupted() {
-                cancel.store(true, Ordering::Relaxed);
-            }
-        }
-    };
-    let options = RenderOptions { aov, progress: Some(&progress), cancel: Some(cancel), ..Default::default() };
+    let options = RenderOptions { aov, cancel: Some(cancel), ..Default::default() };
     let (image, _stats) = tsl::render::render(&scene, &options).map_err(Failure::Render)?;
     Ok(image)
 }

@@ -52,15 +52,23 @@ fn to_rgb(model: ColorModel, lanes: usize, values: &[f32]) -> Vec<f32> {
 
 impl Material {
     /// Runs `call` over the points, the GIL released; the result streams
-    /// (RGB colors as 3 floats a point) and the number of points.
-    fn run(&self, py: Python<'_>, call: Call, args: CallArgs<'_>) -> PyResult<(Vec<Vec<f32>>, usize)> {
+    /// (RGB colors as 3 floats a point) and the number of points. The
+    /// material is borrowed only to clone its handles (cheap), so another
+    /// thread may `set` an instance's values meanwhile: this call shades
+    /// with the values it started with.
+    fn run(slf: &Bound<'_, Self>, call: Call, args: CallArgs<'_>) -> PyResult<(Vec<Vec<f32>>, usize)> {
+        let py = slf.py();
+        let (program, material) = {
+            let this = slf.borrow();
+            (this.program.clone(), this.material.clone())
+        };
         let own: Vec<Words> = args.own.iter().map(Held::view).collect::<PyResult<_>>()?;
         let light = args.light.as_ref().map(Held::view).transpose()?;
         let eta = args.eta.as_ref().map(Held::view).transpose()?;
         let given: Vec<Words> = args.globals.iter().map(Held::view).collect::<PyResult<_>>()?;
         let all: Vec<&Words> = own.iter().chain(&light).chain(&eta).chain(&given).collect();
         let n = points(&all)?;
-        let (program, material) = (&self.program, &self.material);
+        let (program, material) = (&program, &material);
         let model = program.color_model();
         let lanes = model.lanes();
         let out = py.detach(|| {
@@ -180,7 +188,7 @@ impl Material {
     /// `dPdu`/`dPdv` to a tangent frame around `N`, the rest to 0.
     #[pyo3(signature = (wi, wo, light=None, *, eta=None, **globals))]
     fn reflection<'py>(
-        &self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
@@ -190,7 +198,7 @@ impl Material {
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let own = [("wi", Kind::Floats(3), wi), ("wo", Kind::Floats(3), wo)];
         let args = Self::hold_args(py, &own, light, eta, globals)?;
-        let (mut out, n) = self.run(py, Call::Reflection, args)?;
+        let (mut out, n) = Self::run(slf, Call::Reflection, args)?;
         matrix(py, out.swap_remove(0), n, 3)
     }
 
@@ -202,7 +210,7 @@ impl Material {
     /// `reflection`.
     #[pyo3(signature = (wo, u1, u2, *, eta=None, **globals))]
     fn sample<'py>(
-        &self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
         wo: &Bound<'py, PyAny>,
         u1: &Bound<'py, PyAny>,
@@ -212,7 +220,7 @@ impl Material {
     ) -> PyResult<Bound<'py, PyAny>> {
         let own = [("wo", Kind::Floats(3), wo), ("u1", Kind::Floats(1), u1), ("u2", Kind::Floats(2), u2)];
         let args = Self::hold_args(py, &own, None, eta, globals)?;
-        let (out, n) = self.run(py, Call::Sample, args)?;
+        let (out, n) = Self::run(slf, Call::Sample, args)?;
         let [wi, weight, pdf, delta]: [Vec<f32>; 4] =
             out.try_into().map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("a sample has four parts"))?;
         let delta: Vec<bool> = delta.iter().map(|&d| d != 0.0).collect();
@@ -229,7 +237,7 @@ impl Material {
     /// `(N,)` float32. Arguments as `reflection`.
     #[pyo3(signature = (wi, wo, *, eta=None, **globals))]
     fn pdf<'py>(
-        &self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
@@ -238,7 +246,7 @@ impl Material {
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         let own = [("wi", Kind::Floats(3), wi), ("wo", Kind::Floats(3), wo)];
         let args = Self::hold_args(py, &own, None, eta, globals)?;
-        let (mut out, _) = self.run(py, Call::Pdf, args)?;
+        let (mut out, _) = Self::run(slf, Call::Pdf, args)?;
         Ok(PyArray1::from_vec(py, out.swap_remove(0)))
     }
 
@@ -246,7 +254,7 @@ impl Material {
     /// RGB. Arguments as `reflection`.
     #[pyo3(signature = (wo, *, eta=None, **globals))]
     fn emission<'py>(
-        &self,
+        slf: &Bound<'py, Self>,
         py: Python<'py>,
         wo: &Bound<'py, PyAny>,
         eta: Option<&Bound<'py, PyAny>>,
@@ -254,7 +262,7 @@ impl Material {
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let own = [("wo", Kind::Floats(3), wo)];
         let args = Self::hold_args(py, &own, None, eta, globals)?;
-        let (mut out, n) = self.run(py, Call::Emission, args)?;
+        let (mut out, n) = Self::run(slf, Call::Emission, args)?;
         matrix(py, out.swap_remove(0), n, 3)
     }
 

@@ -62,3 +62,21 @@ def test_render_errors(repo, tmp_path):
         tsl.render(repo / "examples" / "cornell.tsl", color="cmyk")
     with pytest.raises(ValueError, match="spp must be"):
         tsl.render(repo / "examples" / "cornell.tsl", spp=0)
+
+
+def test_ctrl_c_cancels_a_render(repo):
+    import os
+    import signal
+    import threading
+    import time
+
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    start = time.perf_counter()
+    timer.start()
+    try:
+        # About a minute of work in a debug build; cancelled within a row.
+        with pytest.raises(KeyboardInterrupt):
+            tsl.render(repo / "examples" / "cornell.tsl", spp=256, res=(160, 120))
+    finally:
+        timer.cancel()
+    assert time.perf_counter() - start < 10

@@ -189,3 +189,31 @@ def test_threads_share_a_material(program):
 def test_the_sample_type_is_exported(program):
     s = program.material("m").sample((0, 0, 1), 0.5, (0.25, 0.75))
     assert type(s) is tsl.BsdfSample
+
+
+def test_an_instance_set_from_another_thread_while_shading():
+    import threading
+
+    program = tsl.compile(source="material m = lambert;")
+    metal = program.shader("rough_conductor").instance(alpha=0.1)
+    wi = directions(50000)
+    wo = wi * np.array([-1, -1, 1], dtype=np.float32)
+    sharp = metal.reflection(wi, wo)
+    errors = []
+
+    def sweep():
+        try:
+            for alpha in np.linspace(0.2, 0.6, 20):
+                metal.set(alpha=float(alpha))
+        except Exception as e:  # noqa: BLE001 - reported below
+            errors.append(e)
+
+    thread = threading.Thread(target=sweep)
+    thread.start()
+    results = [metal.reflection(wi, wo) for _ in range(3)]
+    thread.join()
+    assert not errors
+    # Each call shaded with one binding throughout: sharp, or one of the rough ones.
+    for r in results:
+        assert np.array_equal(r, sharp) or np.all(r[wi[:, 2] > 0.5] <= sharp[wi[:, 2] > 0.5])
+    assert metal.values["alpha"] == pytest.approx(0.6)
