@@ -30,6 +30,7 @@ enum Call {
     Reflection,
     Sample,
     Pdf,
+    EvalPdf,
     Emission,
 }
 
@@ -97,13 +98,14 @@ impl Material {
             let eta_lane = eta.as_ref().map_or(Input::Same(1.0), |w| w.inputs[0]);
             let streams = match call {
                 Call::Sample => 4,
+                Call::EvalPdf => 2,
                 _ => 1,
             };
             run_chunks(n, streams, |range| {
                 let batch = globals.batch(range)?;
                 let eta_columns = vec![eta_lane.column(range); lanes];
                 let wo = match call {
-                    Call::Reflection | Call::Pdf => &own[1],
+                    Call::Reflection | Call::Pdf | Call::EvalPdf => &own[1],
                     Call::Sample | Call::Emission => &own[0],
                 };
                 let mut surface: SurfaceBatch = material.at_batch(&batch, triple(&wo.inputs, range), &eta_columns)?;
@@ -114,6 +116,10 @@ impl Material {
                     }
                     Call::Emission => vec![to_rgb(model, lanes, &surface.emission()?.values)],
                     Call::Pdf => vec![surface.pdf(triple(&own[0].inputs, range))?],
+                    Call::EvalPdf => {
+                        let e = surface.eval_pdf(triple(&own[0].inputs, range))?;
+                        vec![to_rgb(model, lanes, &e.value.values), e.pdf]
+                    }
                     Call::Sample => {
                         let u2 = [own[2].inputs[0].column(range), own[2].inputs[1].column(range)];
                         let s = surface.sample(own[1].inputs[0].column(range), u2)?;
@@ -147,6 +153,9 @@ impl Material {
         })
     }
 }
+
+/// What `eval_pdf` returns: `(N, 3)` RGB values and `(N,)` pdfs.
+type ValueAndPdf<'py> = (Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>);
 
 /// An `(n, width)` float32 array of `values`.
 fn matrix<'py>(py: Python<'py>, values: Vec<f32>, n: usize, width: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
@@ -248,6 +257,27 @@ impl Material {
         let args = Self::hold_args(py, &own, None, eta, globals)?;
         let (mut out, _) = Self::run(slf, Call::Pdf, args)?;
         Ok(PyArray1::from_vec(py, out.swap_remove(0)))
+    }
+
+    /// `reflection` of white light and `pdf` in one call, as a renderer's
+    /// light sample needs them (one pass over the texture tree): `(value,
+    /// pdf)`, `(N, 3)` float32 linear RGB and `(N,)`; where `wi` crosses the
+    /// surface, `value` is the refraction instead. Arguments as `pdf`.
+    #[pyo3(signature = (wi, wo, *, eta=None, **globals))]
+    fn eval_pdf<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+        eta: Option<&Bound<'py, PyAny>>,
+        globals: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<ValueAndPdf<'py>> {
+        let own = [("wi", Kind::Floats(3), wi), ("wo", Kind::Floats(3), wo)];
+        let args = Self::hold_args(py, &own, None, eta, globals)?;
+        let (out, n) = Self::run(slf, Call::EvalPdf, args)?;
+        let [value, pdf]: [Vec<f32>; 2] =
+            out.try_into().map_err(|_| pyo3::exceptions::PyRuntimeError::new_err("eval_pdf has two parts"))?;
+        Ok((matrix(py, value, n, 3)?, PyArray1::from_vec(py, pdf)))
     }
 
     /// Light emitted toward `wo` at every point: `(N, 3)` float32 linear

@@ -58,6 +58,21 @@ def test_sample_and_pdf_agree_with_cosine_sampling(program):
     np.testing.assert_array_equal(m.pdf(s.wi, wo), s.pdf)
 
 
+def test_eval_pdf_is_reflection_and_pdf_in_one_call(program):
+    m = program.material("m")
+    wi, wo = directions(300), directions(300, seed=8)
+    value, pdf = m.eval_pdf(wi, wo)
+    np.testing.assert_allclose(value, m.reflection(wi, wo), rtol=1e-6)
+    np.testing.assert_allclose(pdf, m.pdf(wi, wo), rtol=1e-6)
+
+
+def test_the_package_docstring_example_holds():
+    import doctest
+
+    result = doctest.testmod(tsl, raise_on_error=True)
+    assert result.attempted == 5 and result.failed == 0
+
+
 def test_emission(program):
     lamp = program.material("lamp")
     wo = np.array([[0, 0, 1], [0, 0, -1]], dtype=np.float32)

@@ -155,6 +155,10 @@ class Material:
         """Samples a direction: `u1` (N,) picks the lobe, `u2` (N, 2) the direction in it."""
     def pdf(self, wi: _Array, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array) -> _F32:
         """(N,) solid-angle density of `sample` choosing `wi`."""
+    def eval_pdf(
+        self, wi: _Array, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array
+    ) -> Tuple[_F32, _F32]:
+        """`reflection` of white light and `pdf` in one call: ((N, 3) RGB, (N,))."""
     def emission(self, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array) -> _F32:
         """(N, 3) light emitted toward `wo`."""
 
