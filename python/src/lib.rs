@@ -23,24 +23,26 @@ use std::path::PathBuf;
 /// Compiles a TSL program from a file (`path`) or from text (`source`;
 /// `name` is the file name its errors show), in the color model
 /// `color_model` (`"rgb"`, `"spectral"`/`"hero"`, `"spectral16"`,
-/// `"smits16"`, as the CLI's `--color`). Errors raise `tsl.CompileError`,
+/// `"smits16"`, as the CLI's `--color`); `include` adds directories to
+/// the import search path (the CLI's `-I`). Errors raise `tsl.CompileError`,
 /// whose `str` is the rustc-style text and whose `.diagnostics` lists
 /// `file`, `line`, `column` and `message`. The GIL is released.
 #[pyfunction]
-#[pyo3(signature = (path=None, source=None, color_model="rgb", name="<source>"))]
+#[pyo3(signature = (path=None, source=None, color_model="rgb", name="<source>", include=Vec::new()))]
 fn compile(
     py: Python<'_>,
     path: Option<PathBuf>,
     source: Option<&str>,
     color_model: &str,
     name: &str,
+    include: Vec<PathBuf>,
 ) -> PyResult<program::Program> {
     let model = tsl::ColorModel::parse(color_model).ok_or_else(|| {
         PyValueError::new_err(format!(
             "`{color_model}` is not a color model: use rgb, spectral (= hero), spectralN or smitsN with N in 1..=64"
         ))
     })?;
-    let compiler = tsl::Compiler::new().color_model(model);
+    let compiler = include.into_iter().fold(tsl::Compiler::new().color_model(model), |c, dir| c.import_path(dir));
     let compiler = match (path, source) {
         (Some(path), None) => compiler.file(path),
         (None, Some(text)) => compiler.source(name, text),

@@ -22,10 +22,11 @@ use tsl::render::{IntegratorKind, Overrides, RenderOptions, Scene};
 /// `"spectral16"`, `"smits16"`). With `aov=True` the result is
 /// `(image, layers)`, `layers` a dict of `albedo` and `normal`
 /// (`(height, width, 3)`), `depth` (`(height, width)`) and `object`
-/// (int32, -1 for none). The GIL is released; Ctrl-C stops the render
+/// (int32, -1 for none). `include` adds directories to the import search
+/// path (the CLI's `-I`). The GIL is released; Ctrl-C stops the render
 /// (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (path, spp=None, res=None, seed=None, integrator=None, color=None, aov=false))]
+#[pyo3(signature = (path, spp=None, res=None, seed=None, integrator=None, color=None, aov=false, include=Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -36,6 +37,7 @@ pub fn render<'py>(
     integrator: Option<&str>,
     color: Option<&str>,
     aov: bool,
+    include: Vec<PathBuf>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let model = match color {
         None => tsl::ColorModel::Rgb,
@@ -66,7 +68,7 @@ pub fn render<'py>(
     // where signal handlers run) looks for Ctrl-C between waits.
     let image = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(|| render_file(&path, model, &overrides, aov, &cancel));
+            let worker = scope.spawn(|| render_file(&path, &include, model, &overrides, aov, &cancel));
             while !worker.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(50));
                 if Python::attach(|py| py.check_signals().is_err()) {
@@ -130,15 +132,22 @@ enum Failure {
 /// build the scene from its description, render on every core.
 fn render_file(
     path: &std::path::Path,
+    include: &[PathBuf],
     model: tsl::ColorModel,
     overrides: &Overrides,
     aov: bool,
     cancel: &AtomicBool,
 ) -> Result<RenderedImage, Failure> {
-    let options = tsl::LoadOptions { color_model: model, lean: true, ..tsl::LoadOptions::default() };
+    let options = tsl::LoadOptions {
+        import_paths: include.to_vec(),
+        color_model: model,
+        lean: true,
+        ..tsl::LoadOptions::default()
+    };
     let checked = tsl::check_file(path, &options);
-    let mut program =
-        tsl::Compiler::new().color_model(model).lean(true).compile_checked(checked).map_err(Failure::Compile)?;
+    let compiler = tsl::Compiler::new().color_model(model).lean(true);
+    let compiler = include.iter().fold(compiler, |c, dir| c.import_path(dir));
+    let mut program = compiler.compile_checked(checked).map_err(Failure::Compile)?;
     let scene = match program.take_scene() {
         Some(desc) => Scene::build_owned(&program, desc, overrides),
         None => Scene::build_from(&program, None, overrides),

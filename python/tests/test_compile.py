@@ -117,3 +117,13 @@ def test_a_required_parameter_is_an_error_when_missing():
     with pytest.raises(tsl.ParameterError):
         shader.instance()
     assert shader.instance(k=0.5).values == {"k": 0.5}
+
+
+def test_include_adds_import_directories(tmp_path):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "shades.tsl").write_text("material shade = lambert(kd: gray(0.25));\n")
+    (tmp_path / "main.tsl").write_text('import "shades.tsl";\nmaterial mine = shade;\n')
+    with pytest.raises(tsl.CompileError):
+        tsl.compile(path=tmp_path / "main.tsl")
+    assert set(tsl.compile(path=tmp_path / "main.tsl", include=[lib]).materials) == {"shade", "mine"}

@@ -56,6 +56,7 @@ def compile(
     source: Optional[str] = None,
     color_model: str = "rgb",
     name: str = "<source>",
+    include: Sequence[_Path] = (),
 ) -> Program:
     """Compiles a TSL program from a file or from text; `tsl.CompileError` on errors.
 
@@ -71,6 +72,7 @@ def render(
     integrator: Optional[str] = None,
     color: Optional[str] = None,
     aov: bool = False,
+    include: Sequence[_Path] = (),
 ) -> _F32: ...
 @overload
 def render(
@@ -82,6 +84,7 @@ def render(
     color: Optional[str] = None,
     *,
     aov: bool,
+    include: Sequence[_Path] = (),
 ) -> Union[_F32, Tuple[_F32, dict[str, npt.NDArray[Any]]]]: ...
 def read_exr(path: _Path, aov: bool = False) -> Union[_F32, Tuple[_F32, dict[str, npt.NDArray[Any]]]]:
     """Reads an EXR (as `tslc render` writes them) as a (height, width, 3) float32 array."""
