@@ -12,6 +12,7 @@ vector offset(vector d) { return P + d; }
 int band(float width) { return int(floor(u / width)); }
 bool above(float h, bool flip) { return flip != (P[2] > h); }
 vec2 swap() { return vec2(v, u); }
+float facet() { return float(face) + 0.5 * float(frame); }
 """
 
 
@@ -65,3 +66,9 @@ def test_a_prelude_generator_agrees_with_the_same_call_in_tsl():
     out = fbm(p * 2, 5, 2.0, 0.5)
     assert out.shape == (5000,) and np.all((out >= 0) & (out <= 1)) and out.std() > 0.01
     np.testing.assert_array_equal(out, program.generator("marble")(P=p))
+
+
+def test_int_globals_are_passed_as_ints(program):
+    facet = program.generator("facet")
+    np.testing.assert_array_equal(facet(face=np.arange(6), frame=2), np.arange(6, dtype=np.float32) + 1)
+    np.testing.assert_array_equal(facet(face=3), [3.0])
