@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, NamedTuple, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Literal, NamedTuple, Optional, Sequence, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -13,6 +13,23 @@ _Array = npt.ArrayLike
 _F32 = npt.NDArray[np.float32]
 _Path = Union[str, os.PathLike[str]]
 _Value = Union[float, int, bool, str, Sequence[float], "Instance"]
+
+__all__ = [
+    "BsdfSample",
+    "CompileError",
+    "Diagnostic",
+    "Error",
+    "Generator",
+    "Instance",
+    "Material",
+    "Parameter",
+    "ParameterError",
+    "Program",
+    "Shader",
+    "compile",
+    "read_exr",
+    "render",
+]
 
 class Error(Exception):
     """Base class of TSL's errors: `str(e)` is the rustc-style text."""
@@ -25,6 +42,7 @@ class CompileError(Error):
 class ParameterError(Error):
     """A value a shader instance refuses (unknown name, wrong type, string outside the options)."""
 
+@final
 class Diagnostic:
     """One diagnostic of an error."""
 
@@ -63,6 +81,8 @@ def compile(
     `color_model`: "rgb", "spectral"/"hero", "spectralN" or "smitsN", as the CLI's `--color`.
     """
 
+_Layers = dict[str, npt.NDArray[Any]]
+
 @overload
 def render(
     path: _Path,
@@ -71,9 +91,11 @@ def render(
     seed: Optional[int] = None,
     integrator: Optional[str] = None,
     color: Optional[str] = None,
-    aov: bool = False,
+    aov: Literal[False] = False,
     include: Sequence[_Path] = (),
-) -> _F32: ...
+) -> _F32:
+    """Renders a scene file as `tslc render` does: a (height, width, 3) float32 array."""
+
 @overload
 def render(
     path: _Path,
@@ -83,12 +105,19 @@ def render(
     integrator: Optional[str] = None,
     color: Optional[str] = None,
     *,
-    aov: bool,
+    aov: Literal[True],
     include: Sequence[_Path] = (),
-) -> Union[_F32, Tuple[_F32, dict[str, npt.NDArray[Any]]]]: ...
-def read_exr(path: _Path, aov: bool = False) -> Union[_F32, Tuple[_F32, dict[str, npt.NDArray[Any]]]]:
+) -> Tuple[_F32, _Layers]:
+    """With `aov=True`: the image and its layers (albedo, normal, depth, object)."""
+
+@overload
+def read_exr(path: _Path, aov: Literal[False] = False) -> _F32:
     """Reads an EXR (as `tslc render` writes them) as a (height, width, 3) float32 array."""
 
+@overload
+def read_exr(path: _Path, *, aov: Literal[True]) -> Tuple[_F32, _Layers]: ...
+
+@final
 class Program:
     """A compiled program; each material and generator compiles on first use."""
 
@@ -107,6 +136,7 @@ class Program:
     def material(self, name: str) -> Material: ...
     def generator(self, name: str) -> Generator: ...
 
+@final
 class Shader:
     """A material template: its parameters, and instances of it."""
 
@@ -119,6 +149,7 @@ class Shader:
     def instance(self, **values: _Value) -> Instance:
         """An instance with `values` set by name, bound (it shades at once)."""
 
+@final
 class Parameter:
     """One parameter of a shader."""
 
@@ -165,6 +196,7 @@ class Material:
     def emission(self, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array) -> _F32:
         """(N, 3) light emitted toward `wo`."""
 
+@final
 class Instance(Material):
     """A shader instance whose parameters are set at run time (no recompiling)."""
 
@@ -178,6 +210,7 @@ class Instance(Material):
     def specialise(self) -> Material:
         """The instance compiled with its values folded in as constants."""
 
+@final
 class Generator:
     """A generator (a function of plain values) called over arrays of points."""
 
