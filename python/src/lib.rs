@@ -9,6 +9,7 @@
 //! the renderer), so results are the Rust API's bits.
 
 mod arrays;
+mod colors;
 mod errors;
 mod points;
 mod program;

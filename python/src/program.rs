@@ -3,6 +3,7 @@
 //! over arrays of points.
 
 use crate::arrays::{Held, Input, Kind, Words, hold, points};
+use crate::colors;
 use crate::errors::compile_error;
 use crate::points::{Globals, Tangents, hold_globals, run_chunks};
 use crate::shading::{Instance, Material};
@@ -13,7 +14,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use tsl::check::{SymbolKind, Ty};
-use tsl::{Backend, Color, ColorModel, Column, Layout};
+use tsl::{Backend, ColorModel, Column, Layout};
 
 /// A compiled TSL program: its materials, shaders (material templates)
 /// and generators. Each is compiled on first use.
@@ -304,12 +305,8 @@ impl Generator {
             let upsampled: Vec<Vec<f32>> = params
                 .iter()
                 .zip(&own)
-                .map(|((_, ty), w)| match (ty, model) {
-                    (Ty::Color, m) if m != ColorModel::Rgb => (0..w.points.unwrap_or(1))
-                        .flat_map(|i| {
-                            program.rgb(w.inputs[0].get(i), w.inputs[1].get(i), w.inputs[2].get(i)).lanes().to_vec()
-                        })
-                        .collect(),
+                .map(|((_, ty), w)| match ty {
+                    Ty::Color => colors::upsample(program, &w.inputs, w.points),
                     _ => Vec::new(),
                 })
                 .collect();
@@ -317,15 +314,9 @@ impl Generator {
                 .iter()
                 .zip(&own)
                 .zip(&upsampled)
-                .flat_map(|(((_, ty), w), up)| -> Vec<Input> {
-                    match (ty, w.points) {
-                        (Ty::Color, _) if model == ColorModel::Rgb => w.inputs.clone(),
-                        (Ty::Color, Some(_)) => {
-                            (0..lanes).map(|k| Input::Strided { values: up, first: k, stride: lanes }).collect()
-                        }
-                        (Ty::Color, None) => up.iter().map(|&x| Input::Same(x)).collect(),
-                        _ => w.inputs.clone(),
-                    }
+                .flat_map(|(((_, ty), w), up)| match ty {
+                    Ty::Color => colors::lanes(model, &w.inputs, w.points, up),
+                    _ => w.inputs.clone(),
                 })
                 .collect();
             run_chunks(n, 1, |range| {
@@ -345,11 +336,7 @@ impl Generator {
             Ty::Float => Ok(PyArray1::from_vec(py, values).into_any()),
             Ty::Int => Ok(PyArray1::from_vec(py, values.iter().map(|x| x.to_bits() as i32).collect()).into_any()),
             Ty::Bool => Ok(PyArray1::from_vec(py, values.iter().map(|x| x.to_bits() != 0).collect()).into_any()),
-            Ty::Color if model != ColorModel::Rgb => {
-                let rgb =
-                    values.chunks_exact(lanes.max(1)).flat_map(|c| Color::from_lanes(model, c).to_rgb()).collect();
-                array(3, rgb)
-            }
+            Ty::Color => array(3, colors::to_rgb(model, lanes, &values)),
             Ty::Vec2 => array(2, values),
             _ => array(3, values),
         }

@@ -5,6 +5,7 @@
 //! values; nothing is compiled again).
 
 use crate::arrays::{Held, Input, Kind, Words, columns, hold, points, triple};
+use crate::colors;
 use crate::errors::{compile_error, parameter_error};
 use crate::points::{Globals, Tangents, hold_globals, run_chunks};
 use crate::values;
@@ -14,7 +15,7 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 
-use tsl::{Color, ColorModel, SurfaceBatch};
+use tsl::SurfaceBatch;
 
 /// A material of a program: its surface calls over arrays of points.
 #[pyclass(module = "tsl", subclass)]
@@ -43,14 +44,6 @@ struct CallArgs<'py> {
     globals: Vec<Held<'py>>,
 }
 
-/// The floats a color of `model` gives per point as RGB.
-fn to_rgb(model: ColorModel, lanes: usize, values: &[f32]) -> Vec<f32> {
-    if model == ColorModel::Rgb {
-        return values.to_vec();
-    }
-    values.chunks_exact(lanes.max(1)).flat_map(|c| Color::from_lanes(model, c).to_rgb()).collect()
-}
-
 impl Material {
     /// Runs `call` over the points, the GIL released; the result streams
     /// (RGB colors as 3 floats a point) and the number of points. The
@@ -75,26 +68,11 @@ impl Material {
         let out = py.detach(|| {
             let tangents = Tangents::new(&given, n);
             let globals = Globals::new(&given, &tangents);
-            // Light as the model's lanes: RGB as it is, or upsampled.
+            // White light by default.
             let light_rgb = light.as_ref().map_or([Input::Same(1.0); 3].to_vec(), |w| w.inputs.clone());
-            let upsampled: Vec<f32> = match (model, light.as_ref().and_then(|w| w.points)) {
-                (ColorModel::Rgb, _) => Vec::new(),
-                (_, Some(m)) => (0..m)
-                    .flat_map(|i| {
-                        program.rgb(light_rgb[0].get(i), light_rgb[1].get(i), light_rgb[2].get(i)).lanes().to_vec()
-                    })
-                    .collect(),
-                (_, None) => {
-                    program.rgb(light_rgb[0].get(0), light_rgb[1].get(0), light_rgb[2].get(0)).lanes().to_vec()
-                }
-            };
-            let light_lanes: Vec<Input> = match (model, light.as_ref().and_then(|w| w.points)) {
-                (ColorModel::Rgb, _) => light_rgb,
-                (_, Some(_)) => {
-                    (0..lanes).map(|k| Input::Strided { values: &upsampled, first: k, stride: lanes }).collect()
-                }
-                (_, None) => upsampled.iter().map(|&x| Input::Same(x)).collect(),
-            };
+            let light_points = light.as_ref().and_then(|w| w.points);
+            let upsampled = colors::upsample(program, &light_rgb, light_points);
+            let light_lanes = colors::lanes(model, &light_rgb, light_points, &upsampled);
             let eta_lane = eta.as_ref().map_or(Input::Same(1.0), |w| w.inputs[0]);
             let streams = match call {
                 Call::Sample => 4,
@@ -112,20 +90,20 @@ impl Material {
                 Ok(match call {
                     Call::Reflection => {
                         let c = surface.reflection(triple(&own[0].inputs, range), &columns(&light_lanes, range))?;
-                        vec![to_rgb(model, lanes, &c.values)]
+                        vec![colors::to_rgb(model, lanes, &c.values)]
                     }
-                    Call::Emission => vec![to_rgb(model, lanes, &surface.emission()?.values)],
+                    Call::Emission => vec![colors::to_rgb(model, lanes, &surface.emission()?.values)],
                     Call::Pdf => vec![surface.pdf(triple(&own[0].inputs, range))?],
                     Call::EvalPdf => {
                         let e = surface.eval_pdf(triple(&own[0].inputs, range))?;
-                        vec![to_rgb(model, lanes, &e.value.values), e.pdf]
+                        vec![colors::to_rgb(model, lanes, &e.value.values), e.pdf]
                     }
                     Call::Sample => {
                         let u2 = [own[2].inputs[0].column(range), own[2].inputs[1].column(range)];
                         let s = surface.sample(own[1].inputs[0].column(range), u2)?;
                         vec![
                             s.wi.as_flattened().to_vec(),
-                            to_rgb(model, lanes, &s.weight.values),
+                            colors::to_rgb(model, lanes, &s.weight.values),
                             s.pdf,
                             s.delta.iter().map(|&d| if d { 1.0 } else { 0.0 }).collect(),
                         ]
