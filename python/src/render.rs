@@ -9,7 +9,7 @@ use pyo3::exceptions::{PyKeyboardInterrupt, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use tsl::image_io::RenderedImage;
 use tsl::render::{IntegratorKind, Overrides, RenderOptions, Scene};
 
@@ -23,10 +23,13 @@ use tsl::render::{IntegratorKind, Overrides, RenderOptions, Scene};
 /// `(image, layers)`, `layers` a dict of `albedo` and `normal`
 /// (`(height, width, 3)`), `depth` (`(height, width)`) and `object`
 /// (int32, -1 for none). `include` adds directories to the import search
-/// path (the CLI's `-I`). The GIL is released; Ctrl-C stops the render
+/// path (the CLI's `-I`). `progress`, a callable, is called as
+/// `progress(pixels_done, pixels_total)` as the render goes (from the
+/// calling thread; an exception it raises stops the render and is
+/// raised). The GIL is released; Ctrl-C stops the render
 /// (`KeyboardInterrupt`).
 #[pyfunction]
-#[pyo3(signature = (path, spp=None, res=None, seed=None, integrator=None, color=None, aov=false, include=Vec::new()))]
+#[pyo3(signature = (path, spp=None, res=None, seed=None, integrator=None, color=None, aov=false, include=Vec::new(), progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn render<'py>(
     py: Python<'py>,
@@ -38,6 +41,7 @@ pub fn render<'py>(
     color: Option<&str>,
     aov: bool,
     include: Vec<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let model = match color {
         None => tsl::ColorModel::Rgb,
@@ -64,20 +68,43 @@ pub fn render<'py>(
     }
     let overrides = Overrides { resolution: res, spp, seed, integrator, ..Default::default() };
     let cancel = AtomicBool::new(false);
+    let done = Progress::default();
+    // An exception from `progress`, raised once the render has stopped.
+    let mut raised: Option<PyErr> = None;
     // The render runs on its own thread; this one (Python's main thread,
-    // where signal handlers run) looks for Ctrl-C between waits.
+    // where signal handlers run) looks for Ctrl-C and reports progress
+    // between waits.
     let image = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(|| render_file(&path, &include, model, &overrides, aov, &cancel));
+            let worker = scope.spawn(|| render_file(&path, &include, model, &overrides, aov, &cancel, &done));
+            let mut reported = (0, 0);
+            let mut report = || {
+                Python::attach(|py| {
+                    if py.check_signals().is_err() {
+                        cancel.store(true, Ordering::Relaxed);
+                    }
+                    let now = (done.pixels.load(Ordering::Relaxed), done.total.load(Ordering::Relaxed));
+                    if let Some(callback) = progress.as_ref().filter(|_| now != reported && raised.is_none()) {
+                        reported = now;
+                        if let Err(e) = callback.call1(py, now) {
+                            raised = Some(e);
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                    }
+                })
+            };
             while !worker.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(50));
-                if Python::attach(|py| py.check_signals().is_err()) {
-                    cancel.store(true, Ordering::Relaxed);
-                }
+                report();
             }
+            // The last report (the render may end between two looks).
+            report();
             worker.join().unwrap_or_else(|_| Err(Failure::Render("the render panicked".into())))
         })
     });
+    if let Some(e) = raised {
+        return Err(e);
+    }
     let image = match image {
         Ok(image) => image,
         Err(Failure::Compile(e)) => return Err(compile_error(e)),
@@ -122,6 +149,13 @@ pub fn read_exr<'py>(py: Python<'py>, path: PathBuf, aov: bool) -> PyResult<Boun
     image_to_python(py, &image, aov)
 }
 
+/// Pixels rendered so far, of the total, as the renderer reports them.
+#[derive(Default)]
+struct Progress {
+    pixels: AtomicU64,
+    total: AtomicU64,
+}
+
 /// Why a render did not finish.
 enum Failure {
     Compile(tsl::Error),
@@ -137,6 +171,7 @@ fn render_file(
     overrides: &Overrides,
     aov: bool,
     cancel: &AtomicBool,
+    done: &Progress,
 ) -> Result<RenderedImage, Failure> {
     let options = tsl::LoadOptions {
         import_paths: include.to_vec(),
@@ -153,7 +188,11 @@ fn render_file(
         None => Scene::build_from(&program, None, overrides),
     }
     .map_err(Failure::Compile)?;
-    let options = RenderOptions { aov, cancel: Some(cancel), ..Default::default() };
+    let report = |pixels: u64, total: u64| {
+        done.total.store(total, Ordering::Relaxed);
+        done.pixels.fetch_max(pixels, Ordering::Relaxed);
+    };
+    let options = RenderOptions { aov, progress: Some(&report), cancel: Some(cancel), ..Default::default() };
     let (image, _stats) = tsl::render::render(&scene, &options).map_err(Failure::Render)?;
     Ok(image)
 }

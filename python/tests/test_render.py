@@ -80,3 +80,20 @@ def test_ctrl_c_cancels_a_render(repo):
     finally:
         timer.cancel()
     assert time.perf_counter() - start < 10
+
+
+def test_progress_is_reported_and_its_exceptions_stop_the_render(repo):
+    seen = []
+    image = tsl.render(repo / "examples" / "cornell.tsl", spp=2, res=(32, 24), progress=lambda d, t: seen.append((d, t)))
+    assert image.shape == (24, 32, 3)
+    assert seen and seen[-1] == (32 * 24, 32 * 24)
+    assert all(a[0] <= b[0] for a, b in zip(seen, seen[1:]))
+
+    class Stop(Exception):
+        pass
+
+    def stop(done, total):
+        raise Stop(f"{done} of {total}")
+
+    with pytest.raises(Stop):
+        tsl.render(repo / "examples" / "cornell.tsl", spp=256, res=(160, 120), progress=stop)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import Any, Literal, NamedTuple, Optional, Sequence, Tuple, Union, final, overload
+from typing import Any, Callable, Literal, NamedTuple, Optional, Sequence, Tuple, Union, final, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -93,6 +93,7 @@ def render(
     color: Optional[str] = None,
     aov: Literal[False] = False,
     include: Sequence[_Path] = (),
+    progress: Optional[Callable[[int, int], object]] = None,
 ) -> _F32:
     """Renders a scene file as `tslc render` does: a (height, width, 3) float32 array."""
 
@@ -107,6 +108,7 @@ def render(
     *,
     aov: Literal[True],
     include: Sequence[_Path] = (),
+    progress: Optional[Callable[[int, int], object]] = None,
 ) -> Tuple[_F32, _Layers]:
     """With `aov=True`: the image and its layers (albedo, normal, depth, object)."""
 
