@@ -16,6 +16,12 @@ material marbled = rough_plastic(
     diffuse_reflectance: mix(clamp(noise(P * 4) + 0.5, 0, 1), rgb(0.8, 0.7, 0.6), rgb(0.2, 0.1, 0.1)),
     alpha: 0.1 + 0.3 * u,
 );
+
+/// The same tree as a template whose scale and colours a host binds.
+material veined(float scale = 4, color vein = rgb(0.2, 0.1, 0.1), float roughness = 0.2) = rough_plastic(
+    diffuse_reflectance: mix(clamp(noise(P * scale) + 0.5, 0, 1), rgb(0.8, 0.7, 0.6), vein),
+    alpha: roughness * (0.5 + u),
+);
 """
 
 
@@ -74,4 +80,22 @@ def test_an_instance_bound_at_run_time_matches_the_rust_api(tmp_path, reference)
     metal.set(alpha=0.35, distribution="ggx", eta=(0.2, 0.9, 1.1))
     ours = python(metal, record)
     theirs = rust(reference, path, "rough_conductor", ["alpha=0.35", "distribution=ggx", "eta=0.2,0.9,1.1"], record=record)
+    np.testing.assert_array_equal(ours.view(np.uint32), theirs.view(np.uint32))
+
+
+@pytest.mark.parametrize("color", [None, "spectral16"])
+def test_a_texture_tree_template_bound_at_run_time_matches_the_rust_api(tmp_path, reference, color):
+    path = tmp_path / "tree.tsl"
+    path.write_text(TREE)
+    record = points(5000, seed=6)
+    program = tsl.compile(path=path, color_model=color or "rgb")
+    veined = program.shader("veined").instance(scale=2.0)
+    before = python(veined, record)
+    compiled = program.compiled_functions
+    veined.set(scale=7.5, vein=(0.3, 0.2, 0.1), roughness=0.35)
+    ours = python(veined, record)
+    assert program.compiled_functions == compiled
+    assert not np.array_equal(ours, before)
+    params = ["scale=7.5", "vein=0.3,0.2,0.1", "roughness=0.35"]
+    theirs = rust(reference, path, "veined", params, color=color, record=record)
     np.testing.assert_array_equal(ours.view(np.uint32), theirs.view(np.uint32))
