@@ -767,6 +767,18 @@ impl Function {
         &self.entry().params
     }
 
+    /// The source-level result type (`float`, `color`, a tuple, ...):
+    /// how [`Function::result_types`]' words group into values.
+    ///
+    /// ```
+    /// let p = tsl::Compiler::new().source("t.tsl", "color tint(float h) { return rgb(h, 0, 0); }").compile()?;
+    /// assert_eq!(p.function("tint").expect("defined").result_type(), &tsl::check::Ty::Color);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn result_type(&self) -> &check::Ty {
+        &self.entry().ret
+    }
+
     /// The function's IR as text (what `tslc emit ir` prints): for reading
     /// what the compiler made of a shader, not a stable format.
     ///

@@ -41,16 +41,33 @@ impl Error {
 }
 
 impl Error {
+    /// Where `d` (one of [`Error::diagnostics`]) points: the file's name as
+    /// the program was given it, and the 1-based line and column (in
+    /// characters); `None` for an error about no source text. Hosts that
+    /// show errors their own way (a Python exception's fields, a C
+    /// struct) read it field by field.
+    ///
+    /// ```
+    /// let err = tsl::Compiler::new().source("m.tsl", "material m = lamberd;").compile().unwrap_err();
+    /// assert_eq!(err.location(&err.diagnostics[0]), Some(("m.tsl", 1, 14)));
+    /// ```
+    pub fn location(&self, d: &Diagnostic) -> Option<(&str, usize, usize)> {
+        let name = self.sources.name(d.span.file);
+        if name == crate::diag::UNLOCATED && self.sources.text(d.span.file).is_empty() {
+            return None;
+        }
+        let (line, col) = self.sources.line_col(d.span.file, d.span.start);
+        Some((name, line, col))
+    }
+
     /// `file:line:col: error: message` (without a location for an error
     /// about no source text), control characters escaped by `Debug`.
     fn located_message(&self, d: &Diagnostic) -> String {
         let severity = if d.is_error() { "error" } else { "warning" };
-        let name = self.sources.name(d.span.file);
-        if name == crate::diag::UNLOCATED && self.sources.text(d.span.file).is_empty() {
-            return format!("{severity}: {}", d.message);
+        match self.location(d) {
+            Some((name, line, col)) => format!("{name}:{line}:{col}: {severity}: {}", d.message),
+            None => format!("{severity}: {}", d.message),
         }
-        let (line, col) = self.sources.line_col(d.span.file, d.span.start);
-        format!("{name}:{line}:{col}: {severity}: {}", d.message)
     }
 }
 
