@@ -239,3 +239,28 @@ fn endless_input_stops_at_the_source_size_limit() {
         stderr(&o)
     );
 }
+
+/// Output piped into a reader that stops early (`tslc fmt --check DIR |
+/// head`): the closed pipe ends the output quietly, never a panic.
+#[test]
+fn a_closed_stdout_is_no_panic() {
+    let dir = scratch("closed-stdout");
+    for k in 0..40 {
+        // Unformatted: every file gives a diff, far more than a pipe holds.
+        let body: String = (0..60).map(|i| format!("float f{i}(float x){{return x*{i};}}\n")).collect();
+        write(&dir, &format!("f{k}.tsl"), &body);
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tslc"))
+        .args(["fmt", "--check", &dir.display().to_string()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("tslc runs");
+    drop(child.stdout.take()); // the reader goes away at once
+    let o = child.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert!(!err.contains("panicked") && !err.contains("internal compiler error"), "{err}");
+    assert_eq!(o.status.code(), Some(1), "unformatted files still fail the check: {err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -390,6 +390,12 @@ fn report(checked: &Checked, args: &CheckArgs, colors: Colors) -> bool {
     !checked.is_ok() || warnings_fail
 }
 
+/// Writes to standard output; a closed one (piped into `head`) is not our
+/// error, and is not a panic as `print!` makes it.
+fn write_stdout(text: &str) {
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+}
+
 /// Colours on a terminal, unless `NO_COLOR` is set.
 fn stderr_colors() -> Colors {
     if std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none() {
@@ -501,12 +507,12 @@ fn fmt(args: FmtArgs) -> ExitCode {
                 if out == text {
                     ExitCode::SUCCESS
                 } else {
-                    print!("{}", line_diff(&name, &text, &out));
+                    write_stdout(&line_diff(&name, &text, &out));
                     ExitCode::from(1)
                 }
             }
             Ok(out) => {
-                print!("{out}");
+                write_stdout(&out);
                 ExitCode::SUCCESS
             }
             Err(d) => {
@@ -534,7 +540,7 @@ fn fmt(args: FmtArgs) -> ExitCode {
         match tsl::format::format_source(&text) {
             Ok(out) if out == text => {}
             Ok(out) if args.check => {
-                print!("{}", line_diff(&name, &text, &out));
+                write_stdout(&line_diff(&name, &text, &out));
                 failed = true;
             }
             Ok(out) => {
