@@ -368,8 +368,9 @@ impl<'a, C: Lanes> Surface<'a, C> {
     }
 }
 
-/// Appends float words.
+/// Appends float words: one capacity check and a copy (the floats' bits
+/// are the words), not a check per word.
 #[inline]
 fn push(words: &mut Vec<u32>, xs: &[f32]) {
-    words.extend(xs.iter().map(|x| x.to_bits()));
+    words.extend_from_slice(bytemuck::cast_slice(xs));
 }
