@@ -1,6 +1,11 @@
 //! Helpers the unit tests share: temporary directories and the chi²
 //! goodness-of-fit test of samples against a density.
 
+mod random;
+
+pub use random::{Rng, shading_point};
+
+use crate::ShadingGlobals;
 use crate::render::Vec3;
 use crate::render::chi2::{Bands, DirectionTest};
 use crate::render::sampling::Sampler;
