@@ -25,6 +25,8 @@ pub struct Material {
     pub(super) program: Program,
     pub(super) code: Arc<Code>,
     facts: MaterialFacts,
+    /// The color model's lane count, read at every surface call.
+    pub(super) lanes: usize,
 }
 
 /// The compiled entries of a material.
@@ -196,13 +198,14 @@ impl Material {
             .flat_map(|h| std::iter::once(h.material.prepare_function()).chain(h.material.functions()))
             .collect();
         let facts = MaterialFacts::of(&code.methods, &others);
-        Material { program, code: Arc::new(code), facts }
+        Material::with_facts(program, code, facts)
     }
 
     /// A material of `code` whose facts are known already (those of other
     /// code compiled from the same IR): a run-time-bound instance's.
     pub(super) fn with_facts(program: Program, code: Code, facts: MaterialFacts) -> Material {
-        Material { program, code: Arc::new(code), facts }
+        let lanes = program.color_model().lanes();
+        Material { program, code: Arc::new(code), facts, lanes }
     }
 
     /// The surface at a hit, seen from `wo` (unit, toward the viewer), with
@@ -255,7 +258,7 @@ impl Material {
         eta: &'a C,
         record: &'a mut SurfaceRecord,
     ) -> Surface<'a, C> {
-        let lanes = self.color_model().lanes();
+        let lanes = self.lanes;
         assert!(eta.lanes().len() >= lanes, "a color of {lanes} lanes at least");
         Surface::new(self, g, wo, eta, record)
     }

@@ -31,6 +31,15 @@ pub trait Lanes: Copy {
         }
         c
     }
+    /// Appends the first `lanes` lanes to `words`, as bits: the argument
+    /// words of a call. A type of a fixed lane count overrides it as
+    /// [`Lanes::from_words`], for the same reason.
+    ///
+    /// # Panics
+    /// When the color holds fewer than `lanes` lanes.
+    fn push_lanes(&self, lanes: usize, words: &mut Vec<u32>) {
+        words.extend_from_slice(bytemuck::cast_slice(&self.lanes()[..lanes]));
+    }
 }
 
 impl Lanes for Color {
@@ -112,6 +121,7 @@ fn is_none(v: [f32; 3]) -> bool {
 
 impl<C: Lanes> BsdfSample<C> {
     /// Decodes `sample`'s result words.
+    #[inline]
     pub(crate) fn from_words(model: ColorModel, out: &[u32]) -> Self {
         let layout = SampleLayout { lanes: model.lanes() };
         BsdfSample {
@@ -125,6 +135,7 @@ impl<C: Lanes> BsdfSample<C> {
 
 impl<C: Lanes> EvalPdf<C> {
     /// Decodes `eval_pdf`'s result words.
+    #[inline]
     pub(crate) fn from_words(model: ColorModel, out: &[u32]) -> Self {
         let layout = EvalPdfLayout { lanes: model.lanes() };
         EvalPdf { value: color(model, &out[layout.value()]), pdf: float(out[layout.pdf()]) }
@@ -133,6 +144,7 @@ impl<C: Lanes> EvalPdf<C> {
 
 impl<C: Lanes> DeltaLobes<C> {
     /// Decodes `delta_lobes`' result words.
+    #[inline]
     pub(crate) fn from_words(model: ColorModel, out: &[u32]) -> Self {
         let layout = DeltaLobesLayout { lanes: model.lanes() };
         let lobe =

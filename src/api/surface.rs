@@ -15,22 +15,31 @@ use super::outputs::{BsdfSample, DeltaLobes, EvalPdf, MAX_RESULT_WORDS};
 use super::{Backend, Function};
 use crate::check::Method;
 use crate::globals::ShadingGlobals;
+use std::mem::MaybeUninit;
 
 /// The buffers of surface calls, reused from hit to hit: the prepared
 /// hit's record, argument words and result words. One per thread.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct SurfaceRecord {
     /// The record `prepare` wrote, then each prepared call's own words.
     record: Vec<u32>,
     /// Whether `record` holds this hit's stage.
     prepared: bool,
     args: Vec<u32>,
-    out: Vec<u32>,
+    /// Result words: an array, so a call checks no length and a surface
+    /// resizes nothing.
+    out: [u32; MAX_RESULT_WORDS],
+}
+
+impl Default for SurfaceRecord {
+    fn default() -> Self {
+        SurfaceRecord::new()
+    }
 }
 
 impl SurfaceRecord {
     pub fn new() -> SurfaceRecord {
-        SurfaceRecord { record: Vec::new(), prepared: false, args: Vec::new(), out: vec![0; MAX_RESULT_WORDS] }
+        SurfaceRecord { record: Vec::new(), prepared: false, args: Vec::new(), out: [0; MAX_RESULT_WORDS] }
     }
 
     /// A new hit: the record must be prepared again before a prepared call.
@@ -51,6 +60,66 @@ pub struct Surface<'a, C: Lanes = crate::Color> {
 /// Surfaces call compiled code.
 const JIT: Backend = Backend::Jit;
 
+/// One argument of a surface call: floats, or a color's model lanes.
+#[derive(Clone, Copy)]
+enum Arg<'x, C> {
+    F(&'x [f32]),
+    C(&'x C),
+}
+
+/// The argument words of one call, on the stack: no capacity check and
+/// no length in memory per word pushed, no zeroing.
+struct ArgWords {
+    words: [MaybeUninit<u32>; MAX_ARG_WORDS],
+    len: usize,
+}
+
+impl ArgWords {
+    #[inline(always)]
+    fn new() -> ArgWords {
+        // A `const` block: `[MaybeUninit::uninit(); N]` compiles to a memset.
+        ArgWords { words: [const { MaybeUninit::uninit() }; MAX_ARG_WORDS], len: 0 }
+    }
+
+    /// Writes `args` in place (a filled `ArgWords` returned by value is a
+    /// copy of all its words).
+    #[inline(always)]
+    fn fill<C: Lanes>(&mut self, args: &[Arg<C>], lanes: usize) {
+        for a in args {
+            match *a {
+                Arg::F(xs) => self.push(xs, xs.len()),
+                Arg::C(c) => self.push_color(c, lanes),
+            }
+        }
+    }
+
+    /// Writes `xs`, keeps the first `keep` of them (words past the end are
+    /// dropped: the call's length check then fails).
+    #[inline(always)]
+    fn push(&mut self, xs: &[f32], keep: usize) {
+        let n = xs.len().min(MAX_ARG_WORDS - self.len);
+        for (w, x) in self.words[self.len..self.len + n].iter_mut().zip(xs) {
+            w.write(x.to_bits());
+        }
+        self.len += keep.min(n);
+    }
+
+    /// A color's first `lanes` lanes. A type of a few lanes (a renderer's
+    /// `Spectrum<N>`) has all of them written, a fixed count: a few moves
+    /// rather than a copy of a length known only at run time.
+    #[inline(always)]
+    fn push_color<C: Lanes>(&mut self, c: &C, lanes: usize) {
+        let all = c.lanes();
+        if all.len() <= 16 { self.push(all, lanes) } else { self.push(&all[..lanes.min(all.len())], lanes) }
+    }
+
+    #[inline(always)]
+    fn as_slice(&self) -> &[u32] {
+        // SAFETY: the first `len` words were written by `push`.
+        unsafe { std::slice::from_raw_parts(self.words.as_ptr().cast(), self.len) }
+    }
+}
+
 impl<'a, C: Lanes> Surface<'a, C> {
     pub(super) fn new(
         material: &'a Material,
@@ -59,14 +128,12 @@ impl<'a, C: Lanes> Surface<'a, C> {
         eta: &'a C,
         buffers: &'a mut SurfaceRecord,
     ) -> Self {
-        if buffers.out.len() < MAX_RESULT_WORDS {
-            buffers.out.resize(MAX_RESULT_WORDS, 0);
-        }
         Surface { material, g, wo, eta, buffers }
     }
 
+    #[inline]
     fn lanes(&self) -> usize {
-        self.material.color_model().lanes()
+        self.material.lanes
     }
 
     fn zero(&self) -> C {
@@ -93,10 +160,19 @@ impl<'a, C: Lanes> Surface<'a, C> {
 
     /// Calls `f` with the argument words in `args`, into `out`. A call that
     /// fails its length check (a compiler bug) leaves zeros.
-    #[inline]
+    #[inline(always)]
     fn call(&mut self, f: &Function) {
-        debug_assert!(self.buffers.args.len() <= MAX_ARG_WORDS || self.material.code.reflection_sum.is_some());
         if f.call_words(JIT, self.g, &self.buffers.args, &mut self.buffers.out).is_err() {
+            self.buffers.out.fill(0);
+        }
+    }
+
+    /// Calls `f` with `args`, into `out`, as [`Surface::call`].
+    #[inline(always)]
+    fn call_with(&mut self, f: &Function, args: &[Arg<C>]) {
+        let mut words = ArgWords::new();
+        words.fill(args, self.lanes());
+        if f.call_words(JIT, self.g, words.as_slice(), &mut self.buffers.out).is_err() {
             self.buffers.out.fill(0);
         }
     }
@@ -116,29 +192,41 @@ impl<'a, C: Lanes> Surface<'a, C> {
     /// into a renderer's loop.
     #[inline(never)]
     fn run_stage(&mut self) {
-        let Some(hit) = &self.material.code.hit else { return };
         let lanes = self.lanes();
+        let Some(hit) = &self.material.code.hit else { return };
         let args = &mut self.buffers.args;
         args.clear();
         push(args, &self.wo);
-        push(args, &self.eta.lanes()[..lanes]);
+        self.eta.push_lanes(lanes, args);
         hit.material.prepare_words(JIT, self.g, args, &mut self.buffers.record);
         self.buffers.prepared = true;
     }
 
-    /// Calls the prepared method at `index` with its own words `own`.
-    #[inline(never)]
-    fn call_prepared(&mut self, index: usize, own: &[&[f32]]) {
+    /// Calls the prepared method at `index` with its own words `own`. The
+    /// words are pushed inline, where their shapes are known (a loop over
+    /// them out of line cost a quarter of a textured render's seam); the
+    /// stage and the call are out of line.
+    #[inline(always)]
+    fn call_prepared(&mut self, index: usize, own: &[Arg<C>]) {
         if !self.buffers.prepared {
             self.run_stage();
         }
+        let lanes = self.lanes();
         let Some(hit) = &self.material.code.hit else { return };
         let record = &mut self.buffers.record;
         record.truncate(hit.material.record_words());
-        for words in own {
-            push(record, words);
+        for a in own {
+            push_arg(record, *a, lanes);
         }
-        if hit.material.call_at(JIT, index, self.g, record, &mut self.buffers.out).is_err() {
+        self.invoke_prepared(index);
+    }
+
+    /// Calls the prepared method at `index` with the record and the words
+    /// pushed after it.
+    #[inline(never)]
+    fn invoke_prepared(&mut self, index: usize) {
+        let Some(hit) = &self.material.code.hit else { return };
+        if hit.material.call_at(JIT, index, self.g, &self.buffers.record, &mut self.buffers.out).is_err() {
             self.buffers.out.fill(0);
         }
     }
@@ -151,21 +239,18 @@ impl<'a, C: Lanes> Surface<'a, C> {
 
     /// Calls interface method `method` on its own with `args`; zeros when
     /// the material has no such entry.
-    fn method(&mut self, method: Method, args: &[&[f32]]) {
-        let words = self.args();
-        for a in args {
-            push(words, a);
-        }
+    #[inline(always)]
+    fn method(&mut self, method: Method, args: &[Arg<C>]) {
         let material: &'a Material = self.material;
         match &material.code.methods[method as usize] {
-            Some(f) => self.call(f),
+            Some(f) => self.call_with(f, args),
             None => self.buffers.out.fill(0),
         }
     }
 
     fn ones(&self) -> C {
-        let mut c = self.zero();
         let lanes = self.lanes();
+        let mut c = self.zero();
         c.lanes_mut()[..lanes].fill(1.0);
         c
     }
@@ -174,21 +259,19 @@ impl<'a, C: Lanes> Surface<'a, C> {
 
     /// Light arriving from `wi` reflected toward the viewer.
     pub fn reflection(&mut self, wi: [f32; 3], light: &C) -> C {
-        let lanes = self.lanes();
         if let Some(index) = self.prepared_method(Method::Reflection) {
-            self.call_prepared(index, &[&wi, &light.lanes()[..lanes]]);
+            self.call_prepared(index, &[Arg::F(&wi), Arg::C(light)]);
         } else {
             let wo = self.wo;
-            self.method(Method::Reflection, &[&wi, &light.lanes()[..lanes], &wo]);
+            self.method(Method::Reflection, &[Arg::F(&wi), Arg::C(light), Arg::F(&wo)]);
         }
         self.out_color()
     }
 
     /// Light arriving from `wi` transmitted toward the viewer.
     pub fn refraction(&mut self, wi: [f32; 3], light: &C) -> C {
-        let lanes = self.lanes();
         let (wo, eta) = (self.wo, self.eta);
-        self.method(Method::Refraction, &[&wi, &light.lanes()[..lanes], &eta.lanes()[..lanes], &wo]);
+        self.method(Method::Refraction, &[Arg::F(&wi), Arg::C(light), Arg::C(eta), Arg::F(&wo)]);
         self.out_color()
     }
 
@@ -207,31 +290,31 @@ impl<'a, C: Lanes> Surface<'a, C> {
     /// The mirror direction; zero when there is none.
     pub fn reflection_dir(&mut self) -> [f32; 3] {
         let wo = self.wo;
-        self.method(Method::ReflectionDir, &[&wo]);
+        self.method(Method::ReflectionDir, &[Arg::F(&wo)]);
         self.out_vector()
     }
 
     /// The refracted direction; zero on total internal reflection or none.
     pub fn refraction_dir(&mut self) -> [f32; 3] {
-        let (wo, eta, lanes) = (self.wo, self.eta, self.lanes());
-        self.method(Method::RefractionDir, &[&wo, &eta.lanes()[..lanes]]);
+        let (wo, eta) = (self.wo, self.eta);
+        self.method(Method::RefractionDir, &[Arg::F(&wo), Arg::C(eta)]);
         self.out_vector()
     }
 
     /// Light emitted toward the viewer (black with no call when the
     /// material never emits).
+    #[inline]
     pub fn emission(&mut self) -> C {
         if !self.material.facts().may_emit {
             return self.zero();
         }
         let wo = self.wo;
-        self.method(Method::Emission, &[&wo]);
+        self.method(Method::Emission, &[Arg::F(&wo)]);
         self.out_color()
     }
 
     pub fn ambient(&mut self, light: &C) -> C {
-        let lanes = self.lanes();
-        self.method(Method::Ambient, &[&light.lanes()[..lanes]]);
+        self.method(Method::Ambient, &[Arg::C(light)]);
         self.out_color()
     }
 
@@ -241,8 +324,7 @@ impl<'a, C: Lanes> Surface<'a, C> {
         if self.material.facts().clear {
             return *light;
         }
-        let lanes = self.lanes();
-        self.method(Method::Absorption, &[&light.lanes()[..lanes], &[distance]]);
+        self.method(Method::Absorption, &[Arg::C(light), Arg::F(&[distance])]);
         self.out_color()
     }
 
@@ -269,44 +351,46 @@ impl<'a, C: Lanes> Surface<'a, C> {
 
     /// Draws an incident direction from the uniform numbers `uc` (which
     /// lobe) and `u` (where in it).
+    #[inline]
     pub fn sample(&mut self, uc: f32, u: [f32; 2]) -> BsdfSample<C> {
         if let Some(index) = self.prepared_method(Method::Sample) {
-            self.call_prepared(index, &[&[uc, u[0], u[1]]]);
+            self.call_prepared(index, &[Arg::F(&[uc, u[0], u[1]])]);
         } else {
-            let (wo, eta, lanes) = (self.wo, self.eta, self.lanes());
-            self.method(Method::Sample, &[&wo, &eta.lanes()[..lanes], &[uc, u[0], u[1]]]);
+            let (wo, eta) = (self.wo, self.eta);
+            self.method(Method::Sample, &[Arg::F(&wo), Arg::C(eta), Arg::F(&[uc, u[0], u[1]])]);
         }
         BsdfSample::from_words(self.material.color_model(), &self.buffers.out)
     }
 
     /// The density with which [`Surface::sample`] draws `wi`.
     pub fn pdf(&mut self, wi: [f32; 3]) -> f32 {
-        let (wo, eta, lanes) = (self.wo, self.eta, self.lanes());
-        self.method(Method::Pdf, &[&wi, &wo, &eta.lanes()[..lanes]]);
+        let (wo, eta) = (self.wo, self.eta);
+        self.method(Method::Pdf, &[Arg::F(&wi), Arg::F(&wo), Arg::C(eta)]);
         f32::from_bits(self.buffers.out[0])
     }
 
     /// `f · cos` for unit light from `wi` (reflection on the viewer's side
     /// of the geometric normal, refraction across it) and the pdf of
     /// sampling `wi`, in one call where the material was compiled with it.
+    #[inline]
     pub fn eval_pdf(&mut self, wi: [f32; 3]) -> EvalPdf<C> {
         let model = self.material.color_model();
         let material: &'a Material = self.material;
         let code = &material.code;
         if let Some(index) = code.hit.as_ref().and_then(|h| h.eval_pdf) {
-            self.call_prepared(index, &[&wi]);
+            self.call_prepared(index, &[Arg::F(&wi)]);
             return EvalPdf::from_words(model, &self.buffers.out);
         }
-        if let Some(f) = &code.eval_pdf {
-            let (wo, eta, lanes) = (self.wo, self.eta, self.lanes());
-            let args = self.args();
-            push(args, &wi);
-            push(args, &wo);
-            push(args, &eta.lanes()[..lanes]);
-            self.call(f);
-            return EvalPdf::from_words(model, &self.buffers.out);
-        }
-        // The methods one by one, as the combined entry computes them.
+        let Some(f) = &code.eval_pdf else { return self.eval_pdf_by_methods(wi) };
+        let (wo, eta) = (self.wo, self.eta);
+        self.call_with(f, &[Arg::F(&wi), Arg::F(&wo), Arg::C(eta)]);
+        EvalPdf::from_words(model, &self.buffers.out)
+    }
+
+    /// [`Surface::eval_pdf`] from the methods one by one, as the combined
+    /// entry computes it (a material compiled without one).
+    #[inline(never)]
+    fn eval_pdf_by_methods(&mut self, wi: [f32; 3]) -> EvalPdf<C> {
         let ng = glam::Vec3::from(self.g.ng);
         let same_side = ng.dot(wi.into()) * ng.dot(self.wo.into()) > 0.0;
         let ones = self.ones();
@@ -329,11 +413,8 @@ impl<'a, C: Lanes> Surface<'a, C> {
             return DeltaLobes::from_words(model, &self.buffers.out);
         }
         if let Some(f) = &code.delta_lobes {
-            let (wo, eta, lanes) = (self.wo, self.eta, self.lanes());
-            let args = self.args();
-            push(args, &wo);
-            push(args, &eta.lanes()[..lanes]);
-            self.call(f);
+            let (wo, eta) = (self.wo, self.eta);
+            self.call_with(f, &[Arg::F(&wo), Arg::C(eta)]);
             return DeltaLobes::from_words(model, &self.buffers.out);
         }
         let ones = self.ones();
@@ -360,7 +441,7 @@ impl<'a, C: Lanes> Surface<'a, C> {
         let args = self.args();
         for (wi, light) in lights {
             push(args, wi);
-            push(args, &light.lanes()[..lanes]);
+            light.push_lanes(lanes, args);
         }
         push(args, &wo);
         self.call(f);
@@ -373,4 +454,14 @@ impl<'a, C: Lanes> Surface<'a, C> {
 #[inline]
 fn push(words: &mut Vec<u32>, xs: &[f32]) {
     words.extend_from_slice(bytemuck::cast_slice(xs));
+}
+
+/// Appends an argument's words: a color's through [`Lanes::push_lanes`],
+/// which copies a fixed count where it can (a `memcpy` call otherwise).
+#[inline(always)]
+fn push_arg<C: Lanes>(words: &mut Vec<u32>, arg: Arg<C>, lanes: usize) {
+    match arg {
+        Arg::F(xs) => push(words, xs),
+        Arg::C(c) => c.push_lanes(lanes, words),
+    }
 }

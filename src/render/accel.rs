@@ -81,6 +81,9 @@ impl Bvh {
 
     /// The nearest primitive: `intersect(id, ray, t_max)` returns a hit `t`
     /// in `(t_min, t_max)` or `None`; `t_max` shrinks as hits are found.
+    // Always inline, as `any`: the traversal belongs in the caller's loop
+    // (out of line, cornell traced 6% more instructions).
+    #[inline(always)]
     pub fn closest(
         &self,
         ray: &Ray,
@@ -99,6 +102,7 @@ impl Bvh {
 
     /// True as soon as `occludes(id, ray, t_max)` says a primitive blocks
     /// the ray within `(t_min, t_max)`.
+    #[inline(always)]
     pub fn any(&self, ray: &Ray, t_min: f32, t_max: f32, mut occludes: impl FnMut(u32, &Ray, f32) -> bool) -> bool {
         let Some(tree) = self.tree.as_ref() else { return false };
         !tree.ray_traverse_miss(Self::bvh_ray(ray, t_min, t_max), |r, leaf| {

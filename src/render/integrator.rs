@@ -242,6 +242,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
     /// as many times (pbrt-v4's `TerminateSecondary`). Returns the index
     /// the surface is then shaded with (the hero's in every lane); `done`
     /// says whether this path's companions ended already.
+    #[inline]
     fn disperse(&self, eta: Spectrum<N>, beta: &mut Spectrum<N>, done: &mut bool) -> Spectrum<N> {
         let lanes = self.lanes;
         let Some(h) = &self.hero else { return eta };

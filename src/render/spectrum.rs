@@ -123,6 +123,14 @@ impl<const N: usize> crate::Lanes for Spectrum<N> {
     fn lanes_mut(&mut self) -> &mut [f32] {
         &mut self.0
     }
+    fn push_lanes(&self, lanes: usize, words: &mut Vec<u32>) {
+        // A copy of N words in its own branch: a few moves, not a call.
+        if lanes == N {
+            words.extend_from_slice(bytemuck::cast_slice(&self.0));
+        } else {
+            words.extend_from_slice(bytemuck::cast_slice(&self.0[..lanes]));
+        }
+    }
     fn from_words(_: crate::ColorModel, words: &[u32]) -> Self {
         match words.get(..N) {
             Some(words) => Spectrum(std::array::from_fn(|k| f32::from_bits(words[k]))),

@@ -29,10 +29,18 @@ impl<'s, const N: usize> Tracer<'s, N> {
         sh.object.material.at(sh.g, v3(sh.wo), eta, &mut self.scratch).refraction(v3(wi), light)
     }
 
+    /// Light `object` emits toward `wo` at `g`. Only the test is inline:
+    /// most hits are not on lights.
+    #[inline]
     pub(super) fn emission(&mut self, object: &Object, g: &ShadingGlobals, wo: Vec3) -> Spectrum<N> {
         if !object.emissive() {
             return Spectrum::ZERO;
         }
+        self.emitted(object, g, wo)
+    }
+
+    #[inline(never)]
+    fn emitted(&mut self, object: &Object, g: &ShadingGlobals, wo: Vec3) -> Spectrum<N> {
         let ones = self.ones;
         let mut out = object.material.at(g, v3(wo), &ones, &mut self.scratch).emission();
         if let Some(scale) = &object.emission_scale {
@@ -43,7 +51,18 @@ impl<'s, const N: usize> Tracer<'s, N> {
 
     /// The perfect directions of the material at `sh` with their weights,
     /// from one `delta_lobes` call; `entering` from [`Self::crossing`].
+    /// Only the test is inline: most materials have no perfect direction.
+    #[inline]
     pub(super) fn lobes(&mut self, sh: &Shading, entering: bool) -> Lobes<N> {
+        let facts = sh.object.material.facts();
+        if !facts.reflects && !facts.refracts {
+            return Lobes { reflect: None, refract: None };
+        }
+        self.lobes_of(sh, entering)
+    }
+
+    #[inline(never)]
+    fn lobes_of(&mut self, sh: &Shading, entering: bool) -> Lobes<N> {
         let eta = self.vertex_eta;
         let lobes = sh.object.material.resume(sh.g, v3(sh.wo), &eta, &mut self.record).delta_lobes();
         Lobes {

@@ -45,9 +45,18 @@ impl Media {
 }
 
 impl<'s, const N: usize> Tracer<'s, N> {
-    /// Light left after `distance` inside `medium`.
+    /// Light left after `distance` inside `medium`. Only the test is
+    /// inline: most paths travel through no medium.
+    #[inline]
     pub(super) fn absorb(&mut self, medium: Option<&Medium>, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
-        let Some(m) = medium else { return light };
+        match medium {
+            Some(m) => self.absorb_in(m, light, distance),
+            None => light,
+        }
+    }
+
+    #[inline(never)]
+    fn absorb_in(&mut self, m: &Medium, light: Spectrum<N>, distance: f32) -> Spectrum<N> {
         let object = self.scene.object(m.object);
         let g = self.entered.get(m.g as usize).unwrap_or(&ZERO_GLOBALS);
         object.material.at(g, [0.0; 3], &self.ones, &mut self.scratch).absorption(&light, distance)
