@@ -22,8 +22,8 @@
 //! hemispherical average as the mean over the same nodes.
 //!
 //! One [`RoughInterface`] is computed per (alpha, eta, distribution) and
-//! kept for the whole process (a few milliseconds of work in a release
-//! build, ~0.3 ms a node pair): lowering reads its transmittance as a
+//! kept for the whole process (about a quarter of a second in a debug
+//! build, mostly the 128² rule of the internal reflectance): lowering reads its transmittance as a
 //! constant table when alpha and eta are constants (`Op::Table`, no call
 //! per hit), and the natives [`tsl_rough_transmittance`] and
 //! [`tsl_rough_internal_reflectance`] look it up when they are not (a
