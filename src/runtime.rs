@@ -1,5 +1,6 @@
 //! The native functions compiled shaders call: math that Cranelift has no
-//! instruction for, and noise.
+//! instruction for, noise, and the rough dielectric interface integrals of
+//! `rough_plastic` ([`rough_interface`]).
 //!
 //! The interpreter and the JIT call these very functions (the JIT registers
 //! [`Native::ptr`] as a symbol; the interpreter calls [`Native::f`]), so
@@ -45,6 +46,10 @@
 //!
 //! Any non-finite coordinate makes noise, pnoise and cellnoise return 0.
 //! The math functions follow `f32` (NaN in, NaN out).
+
+pub mod rough_interface;
+
+pub use rough_interface::{tsl_rough_internal_reflectance, tsl_rough_transmittance};
 
 /// A native function pointer, by arity.
 #[derive(Clone, Copy, Debug)]
@@ -138,6 +143,8 @@ natives! {
     tsl_pnoise2: F4,
     tsl_pnoise3: F6,
     tsl_pow: F2,
+    tsl_rough_internal_reflectance: F3,
+    tsl_rough_transmittance: F4,
     tsl_round: F1,
     tsl_sin: F1,
     tsl_tan: F1,
@@ -337,7 +344,7 @@ pub fn table_name(table: &[u32]) -> Option<&'static str> {
     if let Some((name, _)) = spectral.into_iter().find(|(_, t)| std::ptr::eq(*t, table)) {
         return Some(name);
     }
-    crate::ir::lower::curve_table_name(table)
+    crate::ir::lower::curve_table_name(table).or_else(|| rough_interface::table_name(table))
 }
 
 /// The output scales of 1D, 2D and 3D noise, as f32.

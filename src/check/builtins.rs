@@ -46,6 +46,8 @@ pub enum BuiltinFn {
     Reflect,
     Refract,
     Faceforward,
+    RoughTransmittance,
+    RoughInternalReflectance,
     Noise,
     Pnoise,
     Cellnoise,
@@ -222,6 +224,18 @@ pub const BUILTINS: &[Builtin] = &[
         "refract(vector i, normal n, float eta) -> vector",
     ),
     b(BuiltinFn::Faceforward, "faceforward", &[req("n"), req("i")], "faceforward(normal n, vector i) -> normal"),
+    b(
+        BuiltinFn::RoughTransmittance,
+        "rough_transmittance",
+        &[req("cos_theta"), req("alpha"), req("eta"), req("ggx")],
+        "rough_transmittance(float cos_theta, float alpha, float eta, bool ggx) -> float",
+    ),
+    b(
+        BuiltinFn::RoughInternalReflectance,
+        "rough_internal_reflectance",
+        &[req("alpha"), req("eta"), req("ggx")],
+        "rough_internal_reflectance(float alpha, float eta, bool ggx) -> float",
+    ),
     b(BuiltinFn::Noise, "noise", &[req("p")], "noise(float|vec2|point p) -> float in [-1, 1]"),
     b(BuiltinFn::Pnoise, "pnoise", &[req("p"), req("period")], "pnoise(T p, T period) -> float in [-1, 1]"),
     b(BuiltinFn::Cellnoise, "cellnoise", &[req("p")], "cellnoise(float|vec2|point p) -> float in [0, 1)"),
@@ -491,6 +505,14 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             expect(args, 0, &Ty::Vector)?;
             expect(args, 1, &Ty::Vector)?;
             Ok(Ty::Normal)
+        }
+        RoughTransmittance | RoughInternalReflectance => {
+            let floats = args.len() - 1;
+            for i in 0..floats {
+                expect(args, i, &Ty::Float)?;
+            }
+            expect(args, floats, &Ty::Bool)?;
+            Ok(Ty::Float)
         }
         Noise | Cellnoise => {
             unary("a float, vec2 or point")?;

@@ -275,6 +275,22 @@ impl<'p> Lowerer<'p> {
                 let eta = arg(self, b, 2, 1)[0];
                 Val::Lanes(refract(b, &i, &nrm, eta))
             }
+            RoughTransmittance => {
+                let cos_theta = arg(self, b, 0, 1)[0];
+                let alpha = arg(self, b, 1, 1)[0];
+                let eta = arg(self, b, 2, 1)[0];
+                let ggx = self.scalar_arg(b, &bound, 3, fr, ctx);
+                Val::Lanes(vec![rough_transmittance(b, cos_theta, alpha, eta, ggx)])
+            }
+            RoughInternalReflectance => {
+                let alpha = arg(self, b, 0, 1)[0];
+                let eta = arg(self, b, 1, 1)[0];
+                let ggx = self.scalar_arg(b, &bound, 2, fr, ctx);
+                let (one, zero) = (b.f(1.0), b.f(0.0));
+                let ggx = b.select(ggx, one, zero);
+                // Constant arguments fold: the native runs at compile time.
+                Val::Lanes(vec![b.call("tsl_rough_internal_reflectance", vec![alpha, eta, ggx])])
+            }
             Faceforward => {
                 let nrm = arg(self, b, 0, 3);
                 let i = arg(self, b, 1, 3);
@@ -805,4 +821,42 @@ pub(super) fn blend_weights(b: &mut Builder, t: Value, spline: Value, n: usize) 
             b.select(spline, spl, linear)
         })
         .collect()
+}
+
+/// `rough_transmittance`: with a constant roughness, index and
+/// distribution, the interface's table as constant data and a linear
+/// interpolation in `cos_theta` (the operations of
+/// [`runtime::rough_interface::lerp_transmittance`], so both agree bit for
+/// bit); otherwise a call of the native, which finds or computes the table
+/// at run time.
+fn rough_transmittance(b: &mut Builder, cos_theta: Value, alpha: Value, eta: Value, ggx: Value) -> Value {
+    use crate::runtime::rough_interface::{ROUGH_INTERFACE_NODES, rough_interface};
+    let constant = match (b.fconst(alpha), b.fconst(eta), b.konst(ggx)) {
+        (Some(alpha), Some(eta), Some(Const::B(ggx))) => rough_interface(alpha, eta, ggx),
+        _ => None,
+    };
+    let Some(interface) = constant else {
+        let (one, zero) = (b.f(1.0), b.f(0.0));
+        let ggx = b.select(ggx, one, zero);
+        return b.call("tsl_rough_transmittance", vec![cos_theta, alpha, eta, ggx]);
+    };
+    let table: &'static [u32] = &interface.transmittance;
+    let (zero, one) = (b.f(0.0), b.f(1.0));
+    let c = b.fmax(cos_theta, zero);
+    let c = b.fmin(c, one);
+    let last = b.f((ROUGH_INTERFACE_NODES - 1) as f32);
+    let x = b.fmul(c, last);
+    let k = b.un(UnOp::FToI, x);
+    let top = b.i(ROUGH_INTERFACE_NODES as i32 - 2);
+    let below = b.bin(BinOp::ILt, k, top);
+    let k = b.select(below, k, top);
+    let kf = b.un(UnOp::IToF, k);
+    let w = b.fsub(x, kf);
+    let step = b.i(1);
+    let k1 = b.bin(BinOp::IAdd, k, step);
+    let lo = b.def(Scalar::F32, Op::Table { table, index: k });
+    let hi = b.def(Scalar::F32, Op::Table { table, index: k1 });
+    let d = b.fsub(hi, lo);
+    let dw = b.fmul(d, w);
+    b.fadd(lo, dw)
 }

@@ -447,3 +447,40 @@ fn the_interpreter_counts_noise_evaluations() {
         assert_eq!(public, counts);
     }
 }
+
+#[test]
+fn a_constant_rough_interface_is_a_table_and_a_variable_one_a_call() {
+    let p = compile(
+        "float constant(float c) { return rough_transmittance(c, 0.3, 1.5, true); }
+         float variable(float c, float a) { return rough_transmittance(c, a, 1.5, true); }
+         float reflectance() { return rough_internal_reflectance(0.3, 1.5, true); }",
+    );
+    let table = crate::runtime::rough_interface::rough_interface(0.3, 1.5, true).unwrap();
+    let reads = |f: &Function| {
+        all_ops(f)
+            .iter()
+            .filter(|op| matches!(op, Op::Table { table: t, .. } if t.as_ptr() == table.transmittance.as_ptr()))
+            .count()
+    };
+    let constant = ir(&p, "constant");
+    assert_eq!((reads(&constant), calls(&constant, "tsl_rough_transmittance")), (2, 0), "{constant}");
+    let variable = ir(&p, "variable");
+    assert_eq!((reads(&variable), calls(&variable, "tsl_rough_transmittance")), (0, 1), "{variable}");
+    // Constant arguments fold the internal reflectance into a literal.
+    let reflectance = ir(&p, "reflectance");
+    assert_eq!(calls(&reflectance, "tsl_rough_internal_reflectance"), 0, "{reflectance}");
+    // Both paths and both back ends give the same bits.
+    let g = ShadingGlobals::default();
+    for c in [0.0f32, 0.11, 0.5, 0.93, 1.0] {
+        let mut words = Vec::new();
+        for backend in [crate::Backend::Jit, crate::Backend::Interpreter] {
+            for (name, args) in [("constant", vec![c.to_bits()]), ("variable", vec![c.to_bits(), 0.3f32.to_bits()])] {
+                let mut out = [0u32];
+                p.function(name).unwrap().call_words(backend, &g, &args, &mut out).unwrap();
+                words.push(out[0]);
+            }
+        }
+        let want = crate::runtime::rough_interface::lerp_transmittance(&table.transmittance, c).to_bits();
+        assert!(words.iter().all(|w| *w == want), "cos {c}: {words:?} against {want}");
+    }
+}
