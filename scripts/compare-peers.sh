@@ -43,6 +43,11 @@
 # least wall time counting (default 3); THREADS the threads of both renderers
 # (default 2). Output goes to target/peers/; each ladder's times are in
 # target/peers/NAME_ladder.tsv (renderer, spp, wall, render, cpu seconds, image).
+#
+# UPDATE_DOCS=1 also writes what each scene's comparison printed into its
+# region of docs/performance.md (`<!-- figures: compare-peers NAME -->`), with
+# the date, the commit and the machine's load (scripts/doc-figures.sh); the
+# rest of the page is left as it is.
 set -euo pipefail
 shopt -s inherit_errexit
 cd "$(dirname "$0")/.."
@@ -61,8 +66,34 @@ case $which in
     *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|all]" >&2; exit 2 ;;
 esac
 
+UPDATE_DOCS=${UPDATE_DOCS:-0}
+PAGE=docs/performance.md
+cases=(cornell whitted procedural glossy envlight)
+[[ $which == all ]] || cases=("$which")
+if [[ $UPDATE_DOCS == 1 ]]; then
+    # A page without a region fails now, not after the renders.
+    for case in "${cases[@]}"; do
+        scripts/doc-figures.sh --check "$PAGE" "compare-peers $case"
+    done
+fi
+
 cargo build --release --quiet
 TSLC=$PWD/target/release/tslc
+
+# Runs one scene's comparison (a function of this script); with
+# UPDATE_DOCS=1 what it prints also goes into its region of the page.
+figures() { # case function [arguments...]
+    local case=$1 load
+    shift
+    if [[ $UPDATE_DOCS != 1 ]]; then
+        "$@"
+        return
+    fi
+    load=$(scripts/doc-figures.sh --load)
+    "$@" | tee "$OUT/$case.figures"
+    scripts/doc-figures.sh "$PAGE" "compare-peers $case" --load-before "$load" \
+        --command "scripts/compare-peers.sh $case" <"$OUT/$case.figures"
+}
 
 # Wall-clock seconds of a command (whole process).
 timed() {
@@ -120,7 +151,7 @@ reference() { # name scene.xml [name=value...]
     echo "$ref"
 }
 
-if [[ $which == all || $which == cornell ]]; then
+cornell() {
     echo "== cornell (path tracing, 64 spp, against a ${REF_SPP}-spp Mitsuba 3 reference)"
     ref=$(reference cornell "$SCENES/cornell/scene.xml")
     t_mi=$(timed mitsuba_render "$SCENES/cornell/scene.xml" "$OUT/cornell_mitsuba64.exr" 64 1)
@@ -129,6 +160,9 @@ if [[ $which == all || $which == cornell ]]; then
     python3 scripts/compare_images.py "$ref" "$OUT/cornell_mitsuba64.exr" "$OUT/cornell_tsl64.exr" \
         --objects "$OUT/cornell_ids.exr" --labels floor,ceiling,back,right,left,small_block,large_block,light
     echo "time: mitsuba ${t_mi}s, tslc ${t_tsl}s"
+}
+if [[ $which == all || $which == cornell ]]; then
+    figures cornell cornell
 fi
 
 pov() { # scene dir, out, extra options
@@ -137,8 +171,8 @@ pov() { # scene dir, out, extra options
     (cd "$dir" && povray +Iscene.pov +W512 +H512 +WT2 -D "$@" +O"$out")
 }
 
-for scene in whitted procedural; do
-    [[ $which == all || $which == "$scene" ]] || continue
+against_povray() { # scene
+    local scene=$1 out t_pov t_tsl t_pov1 t_tsl1
     echo "== $scene (Whitted, POV-Ray 3.7 +A0.0 +AM1 +R3 -J: 10 camera rays per pixel; tslc --spp 10)"
     out=$PWD/$OUT
     t_pov=$(timed pov "$SCENES/$scene" "$out/${scene}_povray.exr" +FE +A0.0 +AM1 +R3 -J)
@@ -150,6 +184,10 @@ for scene in whitted procedural; do
     fi
     echo "time, 10 rays/pixel: povray ${t_pov}s, tslc ${t_tsl}s (povray/tslc $(echo "scale=2; $t_pov / $t_tsl" | bc)x)"
     echo "time, 1 ray/pixel:   povray ${t_pov1}s, tslc ${t_tsl1}s (povray/tslc $(echo "scale=2; $t_pov1 / $t_tsl1" | bc)x)"
+}
+for scene in whitted procedural; do
+    [[ $which == all || $which == "$scene" ]] || continue
+    figures "$scene" against_povray "$scene"
 done
 
 # Fidelity and equal-time figures of a path-traced scene against Mitsuba.
@@ -204,18 +242,18 @@ against_mitsuba() { # name labels [mitsuba name=value...]
 }
 
 if [[ $which == all || $which == glossy ]]; then
-    against_mitsuba glossy floor,ceiling,back,right,left,gold,copper,steel,light
+    figures glossy against_mitsuba glossy floor,ceiling,back,right,left,gold,copper,steel,light
 fi
 
 if [[ $which == all || $which == envlight ]]; then
     [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
     # Mitsuba's lat-long convention differs: convert, and check the match.
     python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
-    against_mitsuba envlight ground,clay,gold,copper,steel "envmap=$PWD/$OUT/sky_mitsuba.exr"
+    figures envlight against_mitsuba envlight ground,clay,gold,copper,steel "envmap=$PWD/$OUT/sky_mitsuba.exr"
 fi
 
-if [[ $which == spectral ]]; then
-    spp=${SPECTRAL_SPP:-1024}
+spectral() {
+    local spp=${SPECTRAL_SPP:-1024} mi_ref t images image exact_xml exact_ref
     echo "== cornell, spectral (Mitsuba 3 scalar_spectral and tslc's color models, $spp spp)"
     mi_ref="$OUT/cornell_mitsuba_spectral$spp.exr"
     if [[ ! -f $mi_ref ]]; then
@@ -243,4 +281,7 @@ if [[ $which == spectral ]]; then
     fi
     python3 scripts/compare_images.py "$exact_ref" "$mi_ref" "${images[@]:0:2}" --objects "$OUT/cornell_ids.exr" \
         --labels floor,ceiling,back,right,left,small_block,large_block,light --per-channel
+}
+if [[ $which == spectral ]]; then
+    figures spectral spectral
 fi

@@ -7,7 +7,8 @@
 //! - the generated reference pages (standard materials and generators, from
 //!   the stdlib's own doc comments; the command line, from clap's help) match
 //!   what the code says now. `UPDATE_EXPECT=1 cargo test --test book`
-//!   rewrites them;
+//!   rewrites them; and every stdlib material, generator and parameter has
+//!   the `///` comment those pages are made from;
 //! - every page with a ```rust block is one `src/lib.rs` runs as doctests.
 
 use std::collections::BTreeSet;
@@ -373,75 +374,213 @@ fn materials_page_is_current() {
     expect_page("reference/materials.md", &page);
 }
 
-/// A stdlib file's opening comment block, without its `//` and rules.
-fn header_comment(source: &str) -> String {
-    let mut out = String::new();
-    for line in source.lines() {
-        let Some(text) = line.strip_prefix("//") else { break };
-        let text = text.strip_prefix(' ').unwrap_or(text);
-        if text.chars().all(|c| c == '=') && !text.is_empty() {
-            continue;
-        }
-        out.push_str(text.trim_end());
-        out.push('\n');
-    }
-    out.trim().to_string()
+/// A stdlib file's opening comment block, without its `//`: its title (the
+/// text after `--` on the first lines) and the paragraphs before the first
+/// rule under it.
+fn header_comment(source: &str) -> (String, String) {
+    let lines: Vec<&str> = source
+        .lines()
+        .map_while(|l| l.strip_prefix("//"))
+        .map(|l| l.strip_prefix(' ').unwrap_or(l).trim_end())
+        .collect();
+    let is_rule = |l: &&str| l.len() >= 3 && l.chars().all(|c| c == '=' || c == '-');
+    let mut parts = lines.split(is_rule).filter(|part| part.iter().any(|l| !l.trim().is_empty()));
+    let mut title_and_intro = parts.next().unwrap_or_default().split(|l| l.trim().is_empty());
+    let title: Vec<&str> = title_and_intro.next().unwrap_or_default().iter().map(|l| l.trim()).collect();
+    let title = title.join(" ");
+    let title = title.split_once(" -- ").map_or(title.as_str(), |(_, t)| t).to_string();
+    let intro = parts.next().unwrap_or_default().join("\n");
+    (title, intro.trim().to_string())
 }
 
-/// The top-level functions of a stdlib file: (signature, `///` comment).
-fn functions(source: &str) -> Vec<(String, String)> {
-    const TYPES: [&str; 9] = ["float ", "int ", "bool ", "color ", "vec2 ", "vector ", "point ", "normal ", "matrix "];
-    let lines: Vec<&str> = source.lines().collect();
+/// The stdlib files whose functions and constants are the generators page:
+/// every one of them, and every parameter, has a `///` doc comment.
+const GENERATOR_FILES: [&str; 3] = ["stdlib/generators.tsl", "stdlib/texturing.tsl", "stdlib/math.tsl"];
+
+/// A parameter of a stdlib definition as its source declares it.
+struct ParamDoc {
+    name: String,
+    ty: String,
+    default: Option<String>,
+    doc: Option<String>,
+}
+
+/// A top-level definition of a stdlib file as its source declares it.
+struct Definition {
+    kind: &'static str,
+    name: String,
+    /// One line: `float fbm(point p, int octaves = 6)`, `const float PI`.
+    signature: String,
+    line: usize,
+    doc: Option<String>,
+    params: Vec<ParamDoc>,
+}
+
+/// The functions, constants and materials of a stdlib file, in source
+/// order, with their `///` comments (read by the compiler's own parser and
+/// `tsl::syntax::doc_comment`, as the embedding API reads materials').
+fn definitions(source: &str) -> Vec<Definition> {
+    use tsl::syntax::ast::{Item, Param};
+    let (file, diagnostics) = tsl::syntax::parse(tsl::diag::FileId(0), source);
+    assert!(diagnostics.iter().all(|d| !d.is_error()), "a stdlib file does not parse");
+    let text = |span: tsl::diag::Span| source[span.start as usize..span.end as usize].to_string();
+    let params = |ps: &[Param]| -> Vec<ParamDoc> {
+        ps.iter()
+            .map(|p| ParamDoc {
+                name: p.name.name.to_string(),
+                ty: text(p.ty.span),
+                default: p.default.as_ref().map(|d| text(d.span)),
+                doc: tsl::syntax::doc_comment(source, p.span.start as usize),
+            })
+            .collect()
+    };
     let mut found = Vec::new();
-    let mut i = 0;
-    while i < lines.len() {
-        let line = lines[i];
-        if TYPES.iter().any(|t| line.starts_with(t)) && line.contains('(') {
-            let mut doc = Vec::new();
-            let mut j = i;
-            while j > 0 && lines[j - 1].starts_with("///") {
-                j -= 1;
-                doc.insert(0, lines[j].trim_start_matches('/').trim());
+    for item in &file.items {
+        let (kind, name, start, ps, head) = match item {
+            Item::Function(f) => ("function", &f.name, f.span.start, params(&f.params), text(f.ret.span)),
+            Item::Const(c) => ("constant", &c.name, c.span.start, Vec::new(), format!("const {}", text(c.ty.span))),
+            Item::Material(m) => ("material", &m.name, m.span.start, params(&m.params), "material".into()),
+            Item::MaterialTree(t) => {
+                ("material", &t.name, t.span.start, params(t.params.as_deref().unwrap_or_default()), "material".into())
             }
-            let mut signature = String::new();
-            while i < lines.len() {
-                signature.push_str(lines[i].trim());
-                signature.push(' ');
-                if lines[i].trim_end().ends_with('{') {
-                    break;
-                }
-                i += 1;
-            }
-            let signature = signature.trim().trim_end_matches('{').trim().replace("( ", "(").replace(", )", ")");
-            found.push((signature, doc.join(" ")));
-        }
-        i += 1;
+            Item::Import { .. } | Item::Scene(_) => continue,
+        };
+        let shown: Vec<String> = ps
+            .iter()
+            .map(|p| match &p.default {
+                Some(d) => format!("{} {} = {}", p.ty, p.name, code_cell(d)),
+                None => format!("{} {}", p.ty, p.name),
+            })
+            .collect();
+        let signature = match kind {
+            "function" => format!("{head} {}({})", name.name, shown.join(", ")),
+            _ => format!("{head} {}", name.name),
+        };
+        found.push(Definition {
+            kind,
+            name: name.name.to_string(),
+            signature,
+            line: source[..start as usize].lines().count() + 1,
+            doc: tsl::syntax::doc_comment(source, start as usize),
+            params: ps,
+        });
     }
     found
+}
+
+/// Prose for a Markdown page: `<` outside code spans escaped, so no text
+/// reads as raw HTML.
+fn prose(text: &str) -> String {
+    text.split('`')
+        .enumerate()
+        .map(|(k, part)| if k % 2 == 0 { part.replace('<', "&lt;") } else { part.to_string() })
+        .collect::<Vec<_>>()
+        .join("`")
+}
+
+/// A doc comment as Markdown: its paragraphs as prose, and each line
+/// `Example: ITEM` as a ```tsl block, so the book's tests check it.
+fn doc_markdown(doc: &str) -> String {
+    let mut out = String::new();
+    for paragraph in doc.split("\n\n") {
+        let mut words: Vec<&str> = Vec::new();
+        let flush = |words: &mut Vec<&str>, out: &mut String| {
+            if !words.is_empty() {
+                *out += &format!("{}\n\n", prose(&words.join(" ")));
+                words.clear();
+            }
+        };
+        for line in paragraph.lines() {
+            match line.trim().strip_prefix("Example: ") {
+                Some(example) => {
+                    flush(&mut words, &mut out);
+                    out += &format!("```tsl\n{example}\n```\n\n");
+                }
+                None => words.extend(line.split_whitespace()),
+            }
+        }
+        flush(&mut words, &mut out);
+    }
+    out
 }
 
 #[test]
 fn generators_page_is_current() {
     let mut page = String::from("# Standard generators\n\n");
-    page +=
-        &generated_note("the standard library's own documentation (each file's opening comment, and its functions)");
+    page += &generated_note("the standard library's `///` comments");
     page += "A texture generator is an ordinary function of the shading globals; most return a `float` \
              in [0, 1], the `t` of a texture-tree node ([Texture trees](../tutorial/texture-trees.md)). \
              Every function here is in the prelude:\n\n```tsl\nmaterial tiled = mix(checker2(8), \
              lambert(kd: gray(0.9)), lambert(kd: gray(0.1)));\nmaterial dented = bump(fbm(Pl * 6), \
-             0.02, phong);\n```\n\nThe builtins (`noise`, `texture`, `smoothstep`, ...) are in \
-             [the language, section 14](language.md#14-builtin-functions).\n";
-    for file in ["stdlib/generators.tsl", "stdlib/texturing.tsl"] {
+             0.02, phong);\n```\n\nThe builtins (`noise`, which is in [-1, 1], `texture`, `smoothstep`, \
+             ...) are in [the language, section 14](language.md#14-builtin-functions); the materials \
+             of `stdlib/texturing.tsl` are in [the standard materials](materials.md).\n";
+    for file in GENERATOR_FILES {
         let source = std::fs::read_to_string(root().join(file)).unwrap();
-        page += &format!("\n## `{file}`\n\n```text\n{}\n```\n\n", header_comment(&source));
-        let functions = functions(&source);
-        assert!(!functions.is_empty(), "no functions found in {file}");
-        page += &format!("Its functions ({}):\n\n| Signature | |\n|---|---|\n", functions.len());
-        for (signature, doc) in functions {
-            page += &format!("| `{}` | {} |\n", code_cell(&signature), cell(&doc));
+        let (title, intro) = header_comment(&source);
+        page += &format!("\n## `{file}`: {title}\n\n{}\n", prose(&intro));
+        let documented: Vec<Definition> = definitions(&source).into_iter().filter(|d| d.kind != "material").collect();
+        assert!(documented.iter().any(|d| d.kind == "function"), "no functions found in {file}");
+        for definition in documented {
+            page += &format!("\n### `{}`\n\n`{}`\n\n", definition.name, definition.signature);
+            page += doc_markdown(definition.doc.as_deref().unwrap_or("")).trim_end();
+            page += "\n";
+            if definition.params.is_empty() {
+                continue;
+            }
+            page += "\n| Parameter | Type | Default | Meaning |\n|---|---|---|---|\n";
+            for p in &definition.params {
+                let default = p.default.as_deref().map_or("required".to_string(), |d| format!("`{}`", code_cell(d)));
+                let meaning = prose(&cell(p.doc.as_deref().unwrap_or("")));
+                page += &format!("| `{}` | `{}` | {default} | {meaning} |\n", p.name, p.ty);
+            }
         }
     }
-    expect_page("reference/generators.md", &page);
+    expect_page("reference/generators.md", &format!("{}\n", page.trim_end()));
+}
+
+/// The reference pages are only as complete as the comments they are made
+/// from: every material of the prelude and every parameter of one, and every
+/// function, constant and parameter of the generator files, has a `///`
+/// doc comment. A new definition without one fails here, naming it.
+#[test]
+fn every_stdlib_material_generator_and_parameter_is_documented() {
+    let mut missing = Vec::new();
+    let mut seen = 0;
+    for (file, source) in tsl::load::PRELUDE {
+        let generators = GENERATOR_FILES.contains(file);
+        for definition in definitions(source) {
+            if definition.kind != "material" && !generators {
+                continue;
+            }
+            seen += 1;
+            let at = format!("{file}:{}: {} `{}`", definition.line, definition.kind, definition.name);
+            if definition.doc.as_deref().is_none_or(|d| d.trim().is_empty()) {
+                missing.push(format!("{at} has no `///` doc comment"));
+            }
+            for p in &definition.params {
+                if p.doc.as_deref().is_none_or(|d| d.trim().is_empty()) {
+                    missing.push(format!("{at}: parameter `{}` has no `///` doc comment", p.name));
+                }
+            }
+        }
+    }
+    assert!(missing.is_empty(), "undocumented in the standard library:\n{}", missing.join("\n"));
+    assert!(seen >= 60, "only {seen} definitions looked at: is the prelude where this test looks?");
+}
+
+/// The check above fails on what it should: a definition or a parameter
+/// without a doc comment.
+#[test]
+fn an_undocumented_definition_or_parameter_is_found() {
+    let source = "/// Documented.\nfloat f(\n    /// documented\n    float a,\n    float b = 1,\n) {\n    return a;\n}\n\nfloat g() {\n    return 0;\n}\n";
+    let found = definitions(source);
+    assert_eq!(found.len(), 2);
+    assert_eq!(found[0].signature, "float f(float a, float b = 1)");
+    assert_eq!(found[0].doc.as_deref(), Some("Documented."));
+    assert_eq!(found[0].params[0].doc.as_deref(), Some("documented"));
+    assert_eq!(found[0].params[1].doc, None, "b has no doc");
+    assert_eq!((found[1].name.as_str(), found[1].line, found[1].doc.as_deref()), ("g", 10, None));
 }
 
 fn help(args: &[&str]) -> String {

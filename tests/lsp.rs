@@ -397,6 +397,37 @@ fn hover_on_a_named_argument_shows_the_parameter_doc_comment_and_options() {
 }
 
 #[test]
+fn functions_show_their_doc_comments_and_parameter_docs() {
+    let mut client = Client::start("function-docs");
+    let doc = uri(&repo().join("examples/function_docs.tsl"));
+    let text = "/// Rings of my own.\nfloat rings() {\n    return cpg_coverage(0.1, 0);\n}\n\
+                material m = mix(cpg_ngon(vec2(0.5, 0.5), 0.4, 6), lambert, phong);\n";
+    client.open(&doc, text);
+    let hover =
+        |client: &mut Client, after: &str, name: &str| {
+            text_of(&client.result(
+                "textDocument/hover",
+                json!({ "textDocument": { "uri": doc }, "position": at(text, after, name) }),
+            ))
+        };
+    // A `///` comment is shown without its slashes, the user's and the stdlib's.
+    let own = hover(&mut client, "float", "rings");
+    assert!(own.contains("Rings of my own.") && !own.contains("/ Rings"), "{own}");
+    let coverage = hover(&mut client, "return", "cpg_coverage");
+    assert!(coverage.contains("The coverage of a shape from its signed distance"), "{coverage}");
+    assert!(!coverage.contains("/ The"), "{coverage}");
+    // Signature help gives each parameter its own `///` comment.
+    let help = client.result(
+        "textDocument/signatureHelp",
+        json!({ "textDocument": { "uri": doc }, "position": position(text, text.find("0.4, 6").unwrap() + 5) }),
+    );
+    assert_eq!(help["activeParameter"], 2, "{help}");
+    let sides = &help["signatures"][0]["parameters"][2]["documentation"];
+    assert!(sides.as_str().is_some_and(|d| d.contains("number of sides")), "{help}");
+    client.shutdown();
+}
+
+#[test]
 fn completion_knows_materials_and_scenes() {
     let mut client = Client::start("places");
     let doc = uri(&repo().join("examples/places.tsl"));

@@ -484,14 +484,21 @@ impl Analysis {
     }
 
     /// The documentation of a definition: its entry in a stdlib file's doc
-    /// block, else the comments right above it.
+    /// block, else its `///` doc comment, else the comments right above it.
     pub fn doc(&self, sym: Symbol) -> Option<String> {
         let module = self.program.loaded.modules.get(sym.module)?;
         let text = self.text(module.file);
         let name = self.snippet(sym.span);
         let from_header = if module.is_prelude { super::docs::stdlib_doc(text, name) } else { None };
         let start = item_start(self.item(sym)?)?;
-        from_header.or_else(|| super::docs::comment_above(text, start))
+        from_header
+            .or_else(|| crate::syntax::doc_comment(text, start))
+            .or_else(|| super::docs::comment_above(text, start))
+    }
+
+    /// A parameter's own `///` doc comment.
+    pub fn param_doc(&self, param: &Param) -> Option<String> {
+        crate::syntax::doc_comment(self.text(param.span.file), param.span.start as usize)
     }
 }
 

@@ -76,7 +76,7 @@ fn describe(analysis: &Analysis, callee: &str, in_material: bool) -> Option<Desc
             .map(|p| Shown {
                 name: p.name.name.to_string(),
                 text: analysis.param_text(p),
-                doc: doc.as_deref().and_then(|d| docs::param_doc(d, &p.name.name)),
+                doc: analysis.param_doc(p).or_else(|| doc.as_deref().and_then(|d| docs::param_doc(d, &p.name.name))),
             })
             .collect();
         let head = match item {
