@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Renders the texturing examples into docs/gallery/ at the scenes' own
 # settings: every scene of examples/techniques/ in RGB, the ones whose
-# point is spectral also with --color-model spectral, the room in both, and the
-# texture tree.
+# point is spectral also with --color-model spectral, the room in both, the
+# texture tree and the physically based materials.
 #
 #   scripts/gallery.sh            # about two minutes on two cores
 set -euo pipefail
@@ -28,3 +28,4 @@ done
 render examples/room.tsl room
 render examples/room.tsl room_spectral --color-model spectral
 render examples/texture_tree.tsl texture_tree
+render examples/physical.tsl physical
