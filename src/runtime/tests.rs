@@ -383,7 +383,7 @@ const DIRECT: [Direct; 20] = [
     ("tsl_tan", |a| tsl_tan(a[0])),
 ];
 
-const ARITIES: [(&str, usize); 20] = [
+const ARITIES: [(&str, usize); 22] = [
     ("tsl_acos", 1),
     ("tsl_asin", 1),
     ("tsl_atan", 1),
@@ -401,6 +401,8 @@ const ARITIES: [(&str, usize); 20] = [
     ("tsl_pnoise2", 4),
     ("tsl_pnoise3", 6),
     ("tsl_pow", 2),
+    ("tsl_rough_internal_reflectance", 3),
+    ("tsl_rough_transmittance", 4),
     ("tsl_round", 1),
     ("tsl_sin", 1),
     ("tsl_tan", 1),
