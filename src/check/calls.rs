@@ -369,7 +369,13 @@ impl<'a> Checker<'a> {
                     self.check_spectrum(samples);
                 }
             }
-            BuiltinFn::Texture | BuiltinFn::TextureFloat => self.check_texture(b, &bound, span),
+            BuiltinFn::Texture | BuiltinFn::TextureFloat | BuiltinFn::TextureVector => {
+                self.check_texture(b, &bound, span)
+            }
+            BuiltinFn::NormalMap => {
+                let names = NormalMapConvention::NAMES;
+                self.option_literal(b.arg(&bound, "convention"), "convention", names, NormalMapConvention::from_name);
+            }
             _ => {}
         }
         result
@@ -395,7 +401,8 @@ impl<'a> Checker<'a> {
         let wrap = self.option_literal(arg("wrap"), "wrap", Wrap::NAMES, Wrap::from_name);
         let swrap = self.option_literal(arg("swrap"), "swrap", Wrap::NAMES, Wrap::from_name);
         let twrap = self.option_literal(arg("twrap"), "twrap", Wrap::NAMES, Wrap::from_name);
-        // texture_float has no colorspace parameter: it reads stored values.
+        // texture_float and texture_vector have no colorspace parameter:
+        // they read stored values.
         let encoding = self.option_literal(arg("colorspace"), "colorspace", &["srgb", "linear"], |n| match n {
             "srgb" => Some(Encoding::Srgb),
             "linear" => Some(Encoding::Raw),

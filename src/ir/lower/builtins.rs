@@ -79,7 +79,7 @@ impl<'p> Lowerer<'p> {
         let ty = self.ty_of(e);
         let spec = f.builtin();
         let bound = bind_builtin_args(spec, args);
-        if matches!(f, Texture | TextureFloat) {
+        if matches!(f, Texture | TextureFloat | TextureVector) {
             return self.texture(b, fr, ctx, spec, &bound, e);
         }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
@@ -475,7 +475,7 @@ impl<'p> Lowerer<'p> {
                 Val::Lanes(acc)
             }
             // Only over materials: lowered by `tree_node`, never here.
-            Texture | TextureFloat | Bump | Transform => {
+            Texture | TextureFloat | TextureVector | Bump | NormalMap | Transform => {
                 ruled_out!("`{}` reached the value builtins", f.name());
                 Val::Lanes(b.zeros(n))
             }

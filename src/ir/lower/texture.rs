@@ -4,7 +4,8 @@
 use super::*;
 
 impl<'p> Lowerer<'p> {
-    /// `texture(file, st, ...)` and `texture_float(file, st, channel, ...)`.
+    /// `texture(file, st, ...)`, `texture_float(file, st, channel, ...)`
+    /// and `texture_vector(file, st, ...)` (the stored RGB as a vector).
     /// The footprint is `dx`/`dy` when given; else `st` is evaluated again at
     /// the neighbouring pixels (the globals moved by their derivatives), so
     /// any expression of the globals gets its true change per pixel. When
@@ -20,7 +21,11 @@ impl<'p> Lowerer<'p> {
         e: &'p Expr,
     ) -> Val<'p> {
         let color = spec.func == BuiltinFn::Texture;
-        let width = if color { self.lanes } else { 1 };
+        let width = match spec.func {
+            BuiltinFn::Texture => self.lanes,
+            BuiltinFn::TextureVector => 3,
+            _ => 1,
+        };
         let st_arg = spec.arg(bound, "st");
         // Jakob–Hanika models look texels' spectra up, converted at load.
         let spectral = color && matches!(self.model, ColorModel::Spectral { .. } | ColorModel::Hero);
@@ -75,6 +80,9 @@ impl<'p> Lowerer<'p> {
         let rgba = b.texture(&sampler, coords);
         if color {
             return Val::Lanes(self.rgb_to_lanes(b, [rgba[0], rgba[1], rgba[2]]));
+        }
+        if spec.func == BuiltinFn::TextureVector {
+            return Val::Lanes(rgba[..3].to_vec());
         }
         let channel = match spec.arg(bound, "channel") {
             Some(c) => {

@@ -1,6 +1,6 @@
-//! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `scale` and
-//! `transform`, and the coordinate contexts `bump` and `transform` give
-//! their subtrees.
+//! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `normal_map`,
+//! `scale` and `transform`, and the coordinate contexts `bump`,
+//! `normal_map` and `transform` give their subtrees.
 
 use super::*;
 
@@ -122,6 +122,24 @@ impl<'p> Lowerer<'p> {
                 let Some(height) = bound.first().copied().flatten() else { return missing(self, b) };
                 let bumped = self.bump_ctx(b, height, mat, amount, ctx);
                 self.mat_method(b, &m, im, args, &bumped)
+            }
+            TreeNode::NormalMap => {
+                let Some(m) = child(1) else { return missing(self, b) };
+                let Some(encoded) = bound.first().copied().flatten() else { return missing(self, b) };
+                let strength = match bound.get(2).copied().flatten() {
+                    Some(e) => self.node_float(b, mat, e, ctx),
+                    None => b.f(1.0),
+                };
+                let convention = match bound.get(3).copied().flatten().map(|e| &e.kind) {
+                    Some(ExprKind::Str(name)) => NormalMapConvention::from_name(name),
+                    _ => None,
+                };
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let v = self.expr_as(b, &mut fr, ctx, encoded, &Ty::Vector);
+                let encoded = self.lanes(b, v, &Ty::Vector);
+                let mapped =
+                    self.normal_map_ctx(b, &encoded, strength, convention.unwrap_or(NormalMapConvention::OpenGl), ctx);
+                self.mat_method(b, &m, im, args, &mapped)
             }
             TreeNode::Scale => {
                 let Some(m) = child(1) else { return missing(self, b) };
@@ -496,6 +514,66 @@ impl<'p> Lowerer<'p> {
                 b.select(degenerate, n[k], oriented)
             })
             .collect();
+        self.with_overrides(b, ctx, vec![("N", new_n)])
+    }
+}
+
+impl<'p> Lowerer<'p> {
+    /// `normal_map`: the stored normal `encoded` (in [0, 1]³) decoded to
+    /// `2c - 1`, green negated for DirectX, its tangent components times
+    /// `strength` and `z` kept above the surface, taken to world space in
+    /// the frame (s, t, N) of Mitsuba's `normalmap`: `s` is `dPdu` made
+    /// orthogonal to `N` (Gram-Schmidt), `t = N x s` turned to `dPdv`'s side
+    /// (a mirrored layout keeps green along +v). The subtree sees the unit
+    /// result as N; a zero or NaN result keeps N.
+    pub(super) fn normal_map_ctx(
+        &mut self,
+        b: &mut Builder,
+        encoded: &[Value],
+        strength: Value,
+        convention: NormalMapConvention,
+        ctx: &Ctx,
+    ) -> Ctx {
+        let (zero, one, two) = (b.f(0.0), b.f(1.0), b.f(2.0));
+        let decoded: Vec<Value> = encoded
+            .iter()
+            .map(|c| {
+                let twice = b.fmul(*c, two);
+                b.fsub(twice, one)
+            })
+            .collect();
+        let x = b.fmul(decoded[0], strength);
+        let y = b.fmul(decoded[1], strength);
+        let y = match convention {
+            NormalMapConvention::OpenGl => y,
+            NormalMapConvention::DirectX => b.un(UnOp::FNeg, y),
+        };
+        let z = b.fmax(decoded[2], zero);
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.shading_global(b, ctx, name);
+        let (dpdu, dpdv, n) = (g(self, b, "dPdu"), g(self, b, "dPdv"), g(self, b, "N"));
+        let along_n = b.dot(&n, &dpdu);
+        let n_part = b.scale(&n, along_n);
+        let s = b.map2(BinOp::FSub, &dpdu, &n_part);
+        let s = b.normalize(&s);
+        let t = b.cross(&n, &s);
+        let t_side = b.dot(&t, &dpdv);
+        let mirrored = b.flt(t_side, zero);
+        let t: Vec<Value> = t
+            .iter()
+            .map(|tk| {
+                let neg = b.un(UnOp::FNeg, *tk);
+                b.select(mirrored, neg, *tk)
+            })
+            .collect();
+        let xs = b.scale(&s, x);
+        let yt = b.scale(&t, y);
+        let zn = b.scale(&n, z);
+        let w = b.map2(BinOp::FAdd, &xs, &yt);
+        let w = b.map2(BinOp::FAdd, &w, &zn);
+        let len2 = b.dot(&w, &w);
+        let nonzero = b.flt(zero, len2);
+        let unit = b.normalize(&w);
+        let new_n: Vec<Value> = (0..3).map(|k| b.select(nonzero, unit[k], n[k])).collect();
         self.with_overrides(b, ctx, vec![("N", new_n)])
     }
 }
