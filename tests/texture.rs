@@ -1,7 +1,8 @@
-//! Image textures from source to shading: `texture` and `texture_float`
-//! calls are checked, their images loaded at check time (missing or bad
-//! files are located errors), and both back ends sample them alike, with
-//! the footprint the renderer gives and in both color models.
+//! Image textures from source to shading: `texture`, `texture_float` and
+//! `texture_vector` calls are checked, their images loaded at check time
+//! (missing or bad files are located errors), and both back ends sample
+//! them alike, with the footprint the renderer gives and in both color
+//! models; `normal_map` turns stored normals into the shading normal.
 
 use std::path::{Path, PathBuf};
 use tsl::texture::srgb_to_linear;
@@ -367,4 +368,178 @@ fn non_finite_texels_are_replaced_before_the_pyramid_and_warned_once() {
         assert!(text.contains(&expected), "{expected}: {text}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------- normal maps
+
+/// The shading normal a material sees, through its `normal` method.
+fn seen_normal(p: &Program, material: &str, g: &ShadingGlobals) -> [f32; 3] {
+    let n = both(p, &format!("{material}.normal"), g);
+    [n[0], n[1], n[2]]
+}
+
+fn assert_near(got: [f32; 3], want: [f32; 3], tolerance: f32, what: &str) {
+    let off = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(off <= tolerance, "{what}: {got:?}, expected {want:?}");
+}
+
+/// The stored colour of a tangent-space normal: `(n + 1) / 2`.
+fn encode(n: [f32; 3]) -> String {
+    let c = n.map(|x| 0.5 * x + 0.5);
+    format!("({}, {}, {})", c[0], c[1], c[2])
+}
+
+/// A constant tilted map turns N by the decoded angle toward dPdu or
+/// dPdv: green along +v for OpenGL, -v for DirectX; strength scales the
+/// tangent components; the frame follows the tangents at any angle.
+#[test]
+fn normal_maps_tilt_n_in_the_frame_of_the_tangents() {
+    let dir = temp_dir("normal-tilt");
+    let angle = 30f32.to_radians();
+    let toward_v = encode([0.0, angle.sin(), angle.cos()]);
+    let toward_u = encode([angle.sin(), 0.0, angle.cos()]);
+    let src = format!(
+        r#"
+        material flat = normal_map((0.5, 0.5, 1), lambert);
+        material gl = normal_map({toward_v}, lambert);
+        material dx = normal_map({toward_v}, lambert, convention: "directx");
+        material along_u = normal_map({toward_u}, lambert);
+        material none = normal_map({toward_v}, lambert, strength: 0);
+        material half = normal_map({toward_u}, lambert, strength: 0.5);
+        "#
+    );
+    let p = compile(&dir, &src, ColorModel::Rgb).unwrap();
+    let (s, c) = (angle.sin(), angle.cos());
+    // Tangents of any length, dPdu leaning out of the tangent plane: the
+    // frame is dPdu made orthogonal to N, then N x s.
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], dpdu: [2.0, 0.0, 0.7], dpdv: [0.0, 3.0, 0.0], ..Default::default() };
+    assert_near(seen_normal(&p, "flat", &g), [0.0, 0.0, 1.0], 1e-6, "a flat map");
+    assert_near(seen_normal(&p, "gl", &g), [0.0, s, c], 1e-6, "OpenGL: green along +v");
+    assert_near(seen_normal(&p, "dx", &g), [0.0, -s, c], 1e-6, "DirectX: green along -v");
+    assert_near(seen_normal(&p, "along_u", &g), [s, 0.0, c], 1e-6, "red along +u");
+    assert_near(seen_normal(&p, "none", &g), [0.0, 0.0, 1.0], 1e-6, "strength 0");
+    let len = (0.25 * s * s + c * c).sqrt();
+    assert_near(seen_normal(&p, "half", &g), [0.5 * s / len, 0.0, c / len], 1e-6, "strength 0.5");
+    // A mirrored layout (dPdv against N x dPdu): green still follows +v.
+    let mirrored = ShadingGlobals { dpdv: [0.0, -1.0, 0.0], ..g };
+    assert_near(seen_normal(&p, "gl", &mirrored), [0.0, -s, c], 1e-6, "mirrored uv");
+    // Any orientation: the tilt is the decoded angle from N, toward dPdv.
+    let mut rng = Rng(5);
+    for _ in 0..200 {
+        let g = common::shading_point(&mut rng);
+        let n = seen_normal(&p, "gl", &g);
+        let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let tangential = dot(g.dpdu, g.n).abs() < 0.999 && dot(g.dpdv, g.n).abs() < 0.999;
+        if !tangential {
+            continue;
+        }
+        assert!((dot(n, n) - 1.0).abs() < 1e-5, "unit: {n:?}");
+        assert!((dot(n, g.n) - c).abs() < 1e-4, "{} degrees from N at {g:?}", dot(n, g.n).acos().to_degrees());
+        let t = g.dpdv;
+        let t_off_n = dot(t, g.n);
+        let t_in_plane = [t[0] - t_off_n * g.n[0], t[1] - t_off_n * g.n[1], t[2] - t_off_n * g.n[2]];
+        assert!(dot(n, t_in_plane) > 0.0, "tilted toward dPdv: {n:?} at {g:?}");
+    }
+}
+
+/// A flat texel, or strength 0, gives the material N itself: its results
+/// are the plain material's, bit for bit, in both back ends.
+#[test]
+fn a_flat_normal_map_leaves_a_material_unchanged() {
+    let dir = temp_dir("normal-flat");
+    let src = r#"
+        material plain = phong(kd: rgb(0.6, 0.3, 0.2), ks: gray(0.3), ns: 40);
+        material flat = normal_map((0.5, 0.5, 1), plain);
+        material zero_strength = normal_map((0.9, 0.2, 0.6), plain, strength: 0);
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let mut rng = Rng(17);
+    for _ in 0..300 {
+        let g = common::shading_point(&mut rng);
+        let (wi, wo) = (rng.unit(), rng.unit());
+        let mut args: Vec<u32> = wi.iter().map(|x| x.to_bits()).collect();
+        args.extend(light.lanes().iter().map(|x| x.to_bits()));
+        args.extend(wo.iter().map(|x| x.to_bits()));
+        let reflection = |name: &str| {
+            let f = p.function(&format!("{name}.reflection")).unwrap();
+            let (mut a, mut b) = ([0u32; 3], [0u32; 3]);
+            f.call_words(Backend::Jit, &g, &args, &mut a).unwrap();
+            f.call_words(Backend::Interpreter, &g, &args, &mut b).unwrap();
+            assert_eq!(a, b, "{name}: the back ends agree");
+            a.map(f32::from_bits)
+        };
+        let want = reflection("plain");
+        for name in ["flat", "zero_strength"] {
+            let got = reflection(name);
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{name}: {got:?} vs {want:?} at {g:?}");
+        }
+    }
+}
+
+/// A 2 x 1 PNG of two stored normals: texel 0 (200, 100, 255) and
+/// texel 1 flat (128, 128, 255).
+fn normals_png(dir: &Path) -> PathBuf {
+    let path = dir.join("normals.png");
+    image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(if x == 0 { [200, 100, 255] } else { [128, 128, 255] }))
+        .save(&path)
+        .unwrap();
+    path
+}
+
+/// A normal map is data: `texture_vector` returns the stored texel (no
+/// sRGB decoding, no spectral upsampling), so `normal_map` decodes the
+/// same normal in every color model.
+#[test]
+fn texture_vector_reads_stored_values_in_every_color_model() {
+    let dir = temp_dir("texture-vector");
+    normals_png(&dir);
+    let src = r#"
+        vector stored() { return texture_vector("normals.png", filter: "nearest"); }
+        vector decoded() { return to_rgb(texture("normals.png", filter: "nearest")); }
+        material mapped = normal_map(texture_vector("normals.png", filter: "nearest"), lambert);
+    "#;
+    let want = [200.0 / 255.0, 100.0 / 255.0, 1.0];
+    let g = ShadingGlobals { dpdu: [1.0, 0.0, 0.0], dpdv: [0.0, 1.0, 0.0], ..at(0.25, 0.5) };
+    let rgb = compile(&dir, src, ColorModel::Rgb).unwrap();
+    assert_eq!(both(&rgb, "stored", &g), want);
+    let decoded = both(&rgb, "decoded", &g);
+    assert!((decoded[0] - srgb_to_linear(200.0 / 255.0)).abs() < 1e-5, "texture decodes sRGB: {decoded:?}");
+    let tangent = want.map(|c| 2.0 * c - 1.0);
+    let len = tangent.iter().map(|x| x * x).sum::<f32>().sqrt();
+    let n = seen_normal(&rgb, "mapped", &g);
+    assert_near(n, tangent.map(|x| x / len), 1e-6, "the decoded texel");
+    for model in [ColorModel::Spectral { samples: 8 }, ColorModel::Hero] {
+        let p = compile(&dir, src, model).unwrap();
+        assert_eq!(both(&p, "stored", &g), want, "{model:?}: no upsampling");
+        assert_eq!(seen_normal(&p, "mapped", &g), n, "{model:?}");
+    }
+}
+
+/// A color where a stored normal belongs, an unknown convention, wrong
+/// argument types: errors at the argument, with help.
+#[test]
+fn bad_normal_maps_are_located_errors() {
+    let dir = temp_dir("normal-errors");
+    normals_png(&dir);
+    let text = check_errors(&dir, "material m = normal_map(texture(\"normals.png\"), lambert);\n");
+    assert!(
+        text.contains("a normal map is data, not a color")
+            && text.contains("texture_vector")
+            && text.contains("bad.tsl:1:25"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), lambert, convention: \"direct-x\");\n");
+    assert!(
+        text.contains("unknown convention `direct-x`")
+            && text.contains("did you mean `directx`")
+            && text.contains("bad.tsl:1:61"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), lambert, strength: \"strong\");\n");
+    assert!(text.contains("expected `float`, found `string`") && text.contains("bad.tsl:1:59"), "{text}");
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), 2);\n");
+    assert!(text.contains("expected `material`") && text.contains("bad.tsl:1:40"), "{text}");
+    let text = check_errors(&dir, "vector f() { return texture_vector(\"normals.png\", colorspace: \"linear\"); }\n");
+    assert!(text.contains("colorspace"), "{text}");
 }

@@ -525,7 +525,7 @@ impl<'p> Lowerer<'p> {
     /// the frame (s, t, N) of Mitsuba's `normalmap`: `s` is `dPdu` made
     /// orthogonal to `N` (Gram-Schmidt), `t = N x s` turned to `dPdv`'s side
     /// (a mirrored layout keeps green along +v). The subtree sees the unit
-    /// result as N; a zero or NaN result keeps N.
+    /// result as N; a flat texel, a zero or a NaN result keeps N.
     pub(super) fn normal_map_ctx(
         &mut self,
         b: &mut Builder,
@@ -572,8 +572,14 @@ impl<'p> Lowerer<'p> {
         let w = b.map2(BinOp::FAdd, &w, &zn);
         let len2 = b.dot(&w, &w);
         let nonzero = b.flt(zero, len2);
+        // No tangential part (a flat texel, strength 0): N itself, bit for
+        // bit, rather than N renormalised.
+        let (flat_x, flat_y) = (b.feq(x, zero), b.feq(y, zero));
+        let flat = b.and(flat_x, flat_y);
+        let tilted = b.not(flat);
+        let keep_tilt = b.and(nonzero, tilted);
         let unit = b.normalize(&w);
-        let new_n: Vec<Value> = (0..3).map(|k| b.select(nonzero, unit[k], n[k])).collect();
+        let new_n: Vec<Value> = (0..3).map(|k| b.select(keep_tilt, unit[k], n[k])).collect();
         self.with_overrides(b, ctx, vec![("N", new_n)])
     }
 }
