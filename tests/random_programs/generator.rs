@@ -867,6 +867,12 @@ fn tree(g: &Gen, env: &Env, depth: u32, leaves: &[&str]) -> S {
                 ),
             ),
             (2, map3(e(T::F), e(T::F), sub(), |h, a, m| format!("bump({h}, {a}, {m})"))),
+            (
+                2,
+                (e(T::V), sub(), e(T::F), pick(&["opengl", "directx"]))
+                    .prop_map(|(n, m, s, c)| format!("normal_map({n}, {m}, strength: {s}, convention: \"{c}\")"))
+                    .boxed(),
+            ),
             (2, map2(e(T::C), sub(), |c, m| format!("scale({c}, {m})"))),
             (2, map2(g.expr(env, T::M, 2), sub(), |x, m| format!("transform({x}, {m})"))),
             (1, map3(e(T::B), sub(), sub(), |c, a, b| format!("({c} ? {a} : {b})"))),
