@@ -758,6 +758,7 @@ fn technique_examples_match_their_reference_images() {
         "bump_procedural",
         "bump_image",
         "normal_map",
+        "triplanar",
         "microvariation",
         "image_spectral",
         "spectral_perturbation",

@@ -543,3 +543,74 @@ fn bad_normal_maps_are_located_errors() {
     let text = check_errors(&dir, "vector f() { return texture_vector(\"normals.png\", colorspace: \"linear\"); }\n");
     assert!(text.contains("colorspace"), "{text}");
 }
+
+// ---------------------------------------------------------------- triplanar
+
+/// `triplanar` reads its value with (u, v) from the position along the
+/// axis the normal faces, each projection upright and unmirrored from
+/// outside, blended by |N|^sharpness between axes; its footprint is the
+/// position's.
+#[test]
+fn triplanar_projects_along_the_axes_the_normal_faces() {
+    let dir = temp_dir("triplanar");
+    let src = r#"
+        float code() { return triplanar(u * 10 + v * 100, 8); }
+        float footprint() { return triplanar(dudx + 10 * dvdy); }
+        color constant() { return triplanar(rgb(0.2, 0.4, 0.6), sharpness: 2); }
+        vector painted() { return to_rgb(triplanar(texture("ramp.png", (u, v), filter: "nearest"))); }
+    "#;
+    ramp_png(&dir);
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let point = |n: [f32; 3]| ShadingGlobals { p: [0.3, 0.4, 0.5], n, ..Default::default() };
+    for (n, want) in [
+        ([0.0, 0.0, 1.0], 43.0),  // (Px, Py)
+        ([0.0, 0.0, -1.0], 37.0), // (-Px, Py)
+        ([1.0, 0.0, 0.0], 35.0),  // (-Pz, Py)
+        ([-1.0, 0.0, 0.0], 45.0), // (Pz, Py)
+        ([0.0, 1.0, 0.0], -47.0), // (Px, -Pz)
+        ([0.0, -1.0, 0.0], 53.0), // (Px, Pz)
+    ] {
+        let got = both(&p, "code", &point(n))[0];
+        assert!((got - want).abs() < 1e-4, "N {n:?}: {got}, expected {want}");
+    }
+    // Halfway between +x and +y: the mean of the two projections.
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let got = both(&p, "code", &point([h, h, 0.0]))[0];
+    assert!((got - (35.0 - 47.0) / 2.0).abs() < 1e-4, "{got}");
+    // Mostly +z: the z projection dominates by (0.8 / 0.6)^8.
+    let got = both(&p, "code", &point([0.6, 0.0, 0.8]))[0];
+    let (wz, wx) = (0.8f32.powi(8), 0.6f32.powi(8));
+    assert!((got - (43.0 * wz + 35.0 * wx) / (wz + wx)).abs() < 1e-3, "{got}");
+    // The footprint is the position's, projected: dPdx.x is du/dx on +z.
+    let g = ShadingGlobals { dpdx: [0.01, 0.0, 0.0], dpdy: [0.0, 0.02, 0.0], ..point([0.0, 0.0, 1.0]) };
+    assert!((both(&p, "footprint", &g)[0] - 0.21).abs() < 1e-6);
+    // Weights sum to one at any normal, a zero or NaN one included.
+    let mut rng = Rng(23);
+    for k in 0..100 {
+        let n = match k {
+            0 => [0.0; 3],
+            1 => [f32::NAN; 3],
+            _ => rng.unit(),
+        };
+        let c = both(&p, "constant", &point(n));
+        assert_near([c[0], c[1], c[2]], [0.2, 0.4, 0.6], 1e-6, &format!("a constant at N {n:?}"));
+    }
+    // An image: on +z, column 2 of the ramp at u = 0.6 (red 170, decoded).
+    let g = ShadingGlobals { p: [0.6, 0.9, 0.0], ..point([0.0, 0.0, 1.0]) };
+    let rgb = both(&p, "painted", &g);
+    assert!((rgb[0] - srgb_to_linear(170.0 / 255.0)).abs() < 1e-5, "{rgb:?}");
+}
+
+#[test]
+fn bad_triplanar_calls_are_located_errors() {
+    let dir = temp_dir("triplanar-errors");
+    let text = check_errors(&dir, "material m = triplanar(lambert);\n");
+    assert!(
+        text.contains("`triplanar` takes a float, vec2, vector or color") && text.contains("bad.tsl:1:24"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "float f() { return triplanar(u, sharpness: \"hard\"); }\n");
+    assert!(text.contains("expected `float`, found `string`") && text.contains("bad.tsl:1:44"), "{text}");
+    let text = check_errors(&dir, "const float K = triplanar(1.0);\n");
+    assert!(text.contains("`triplanar` cannot be used in a constant") && text.contains("bad.tsl:1:17"), "{text}");
+}

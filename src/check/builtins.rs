@@ -71,6 +71,7 @@ pub enum BuiltinFn {
     Texture,
     TextureFloat,
     TextureVector,
+    Triplanar,
     Mix,
     Blend,
     Select,
@@ -349,6 +350,12 @@ pub const BUILTINS: &[Builtin] = &[
             opt("dy", "st at the next pixel in y, less st"),
         ],
         "texture_vector(string file, vec2 st = (u, v), string filter, ...) -> vector",
+    ),
+    b(
+        BuiltinFn::Triplanar,
+        "triplanar",
+        &[req("value"), opt("sharpness", "4")],
+        "triplanar(T value, float sharpness = 4) -> T, T a float, vec2, triple or color",
     ),
     b(
         BuiltinFn::Mix,
@@ -639,6 +646,15 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
                 TextureFloat => Ty::Float,
                 _ => Ty::Vector,
             })
+        }
+        Triplanar => {
+            if args.get(1).is_some_and(|a| a.is_some()) {
+                expect(args, 1, &Ty::Float)?;
+            }
+            match a0 {
+                Ty::Color => Ok(Ty::Color),
+                _ => unary("a float, vec2, vector or color"),
+            }
         }
         Mix => {
             expect(args, 0, &Ty::Float)?;

@@ -372,6 +372,7 @@ impl<'a> Checker<'a> {
             BuiltinFn::Texture | BuiltinFn::TextureFloat | BuiltinFn::TextureVector => {
                 self.check_texture(b, &bound, span)
             }
+            BuiltinFn::Triplanar => self.check_point_reader(b.name, span),
             BuiltinFn::NormalMap => {
                 let names = NormalMapConvention::NAMES;
                 self.option_literal(b.arg(&bound, "convention"), "convention", names, NormalMapConvention::from_name);
@@ -450,6 +451,22 @@ impl<'a> Checker<'a> {
             wrap: [swrap.unwrap_or(wrap), twrap.unwrap_or(wrap)],
         };
         self.texture_calls.insert(span, call);
+    }
+
+    /// A builtin that reads the shading point itself (`triplanar` reads
+    /// `P` and `N`): allowed where the globals are, and recorded as reading
+    /// them.
+    fn check_point_reader(&mut self, name: &str, span: Span) {
+        if !self.body.globals_allowed {
+            self.error(
+                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
+                    .with_help("it projects along the shading point's position and normal"),
+            );
+            return;
+        }
+        if let Some(node) = &self.body.node {
+            self.reads_globals.entry(*node).or_insert(span);
+        }
     }
 
     /// An optional string-literal option: `Some(None)` when absent,

@@ -276,6 +276,15 @@ impl Gen {
                 .boxed(),
             ));
         }
+        if ty == T::F && env.globals {
+            // Its value three times, in the coordinate contexts of the axes.
+            arms.push((
+                1,
+                map2(self.expr(env, T::F, d), self.expr(env, T::F, d), |x, s| {
+                    format!("triplanar({x}, sharpness: {s})")
+                }),
+            ));
+        }
         if ty == T::F && env.arr_helper {
             let fa = self.expr(env, T::FA, d);
             arms.push((2, map2(fa, self.expr(env, T::I, d), |a, k| format!("g_arr({a}, {k})"))));

@@ -82,6 +82,9 @@ impl<'p> Lowerer<'p> {
         if matches!(f, Texture | TextureFloat | TextureVector) {
             return self.texture(b, fr, ctx, spec, &bound, e);
         }
+        if f == Triplanar {
+            return self.triplanar(b, fr, ctx, &bound, &ty);
+        }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
         for a in &bound {
             vals.push(a.map(|a| (self.expr(b, fr, ctx, a), self.ty_of(a))));
@@ -474,8 +477,9 @@ impl<'p> Lowerer<'p> {
                 }
                 Val::Lanes(acc)
             }
-            // Only over materials: lowered by `tree_node`, never here.
-            Texture | TextureFloat | TextureVector | Bump | NormalMap | Transform => {
+            // Only over materials: lowered by `tree_node`, never here (and
+            // the texture calls and `triplanar` above).
+            Texture | TextureFloat | TextureVector | Triplanar | Bump | NormalMap | Transform => {
                 ruled_out!("`{}` reached the value builtins", f.name());
                 Val::Lanes(b.zeros(n))
             }
