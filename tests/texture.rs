@@ -406,6 +406,7 @@ fn normal_maps_tilt_n_in_the_frame_of_the_tangents() {
         material along_u = normal_map({toward_u}, lambert);
         material none = normal_map({toward_v}, lambert, strength: 0);
         material half = normal_map({toward_u}, lambert, strength: 0.5);
+        material named = normal_map(m: lambert, map: {toward_v}, convention: "opengl");
         "#
     );
     let p = compile(&dir, &src, ColorModel::Rgb).unwrap();
@@ -415,6 +416,7 @@ fn normal_maps_tilt_n_in_the_frame_of_the_tangents() {
     let g = ShadingGlobals { n: [0.0, 0.0, 1.0], dpdu: [2.0, 0.0, 0.7], dpdv: [0.0, 3.0, 0.0], ..Default::default() };
     assert_near(seen_normal(&p, "flat", &g), [0.0, 0.0, 1.0], 1e-6, "a flat map");
     assert_near(seen_normal(&p, "gl", &g), [0.0, s, c], 1e-6, "OpenGL: green along +v");
+    assert_near(seen_normal(&p, "named", &g), [0.0, s, c], 1e-6, "named arguments");
     assert_near(seen_normal(&p, "dx", &g), [0.0, -s, c], 1e-6, "DirectX: green along -v");
     assert_near(seen_normal(&p, "along_u", &g), [s, 0.0, c], 1e-6, "red along +u");
     assert_near(seen_normal(&p, "none", &g), [0.0, 0.0, 1.0], 1e-6, "strength 0");

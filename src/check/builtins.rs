@@ -379,8 +379,8 @@ pub const BUILTINS: &[Builtin] = &[
     b(
         BuiltinFn::NormalMap,
         "normal_map",
-        &[req("normal"), req("m"), opt("strength", "1"), opt("convention", "\"opengl\"")],
-        "normal_map(vector normal, material m, float strength = 1, string convention = \"opengl\") -> material",
+        &[req("map"), req("m"), opt("strength", "1"), opt("convention", "\"opengl\"")],
+        "normal_map(vector map, material m, float strength = 1, string convention = \"opengl\") -> material",
     ),
     b(
         BuiltinFn::Scale,
