@@ -21,7 +21,10 @@ one pixel per texel. Cases:
 Mitsuba's bitmap puts v = 0 at the image's top row and TSL's at the
 bottom; Mitsuba's texture gets `to_uv` = scale(1, -1) so both show the
 picture upright. Its `normalmap` frame is then the same as TSL's (s along
-dPdu, t = n x s along +v). Prints, per case, the two images' means, the
+dPdu, t = n x s along +v), and both weigh the light by the bump-terminator
+shadowing of Conty Estevez et al. (TSL's `shadowing: true`, the default).
+With `filter_type` nearest on both sides the two agree to 0.00% (RMSE
+0.01%); what remains with bilinear lookups is the filters' difference. Prints, per case, the two images' means, the
 mean of |TSL - Mitsuba| over the square relative to Mitsuba's mean, and
 the RMSE relative to the mean.
 """

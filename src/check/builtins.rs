@@ -379,8 +379,8 @@ pub const BUILTINS: &[Builtin] = &[
     b(
         BuiltinFn::NormalMap,
         "normal_map",
-        &[req("map"), req("m"), opt("strength", "1"), opt("convention", "\"opengl\"")],
-        "normal_map(vector map, material m, float strength = 1, string convention = \"opengl\") -> material",
+        &[req("map"), req("m"), opt("strength", "1"), opt("convention", "\"opengl\""), opt("shadowing", "true")],
+        "normal_map(vector map, material m, float strength = 1, string convention = \"opengl\", bool shadowing = true) -> material",
     ),
     b(
         BuiltinFn::Scale,
@@ -714,6 +714,9 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             }
             if args.get(3).is_some_and(|a| a.is_some()) {
                 expect(args, 3, &Ty::String)?;
+            }
+            if args.get(4).is_some_and(|a| a.is_some()) {
+                expect(args, 4, &Ty::Bool)?;
             }
             Ok(Ty::Material)
         }

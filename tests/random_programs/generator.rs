@@ -878,8 +878,10 @@ fn tree(g: &Gen, env: &Env, depth: u32, leaves: &[&str]) -> S {
             (2, map3(e(T::F), e(T::F), sub(), |h, a, m| format!("bump({h}, {a}, {m})"))),
             (
                 2,
-                (e(T::V), sub(), e(T::F), pick(&["opengl", "directx"]))
-                    .prop_map(|(n, m, s, c)| format!("normal_map({n}, {m}, strength: {s}, convention: \"{c}\")"))
+                (e(T::V), sub(), e(T::F), pick(&["opengl", "directx"]), e(T::B))
+                    .prop_map(|(n, m, s, c, sh)| {
+                        format!("normal_map({n}, {m}, strength: {s}, convention: \"{c}\", shadowing: {sh})")
+                    })
                     .boxed(),
             ),
             (2, map2(e(T::C), sub(), |c, m| format!("scale({c}, {m})"))),

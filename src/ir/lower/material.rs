@@ -422,10 +422,11 @@ impl<'p> Lowerer<'p> {
                         _ => false,
                     };
                 }
-                // Only values (`spline:`, `strength:`, `convention:`) may be
-                // named; a named material child, or `only:` (which changes
-                // where a method comes from), is not analysed.
-                let value_option = |n: &str| matches!(n, "spline" | "strength" | "convention");
+                // Only values (`spline:`, `strength:`, `convention:`,
+                // `shadowing:`) may be named; a named material child, or
+                // `only:` (which changes where a method comes from), is not
+                // analysed.
+                let value_option = |n: &str| matches!(n, "spline" | "strength" | "convention" | "shadowing");
                 if call_args.iter().any(|a| a.name.as_ref().is_some_and(|n| !value_option(&n.name))) {
                     return false;
                 }

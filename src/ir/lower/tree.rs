@@ -134,12 +134,32 @@ impl<'p> Lowerer<'p> {
                     Some(ExprKind::Str(name)) => NormalMapConvention::from_name(name),
                     _ => None,
                 };
+                let shadowing = match bound.get(4).copied().flatten() {
+                    Some(e) => self.node_scalar(b, mat, e, ctx),
+                    None => b.b(true),
+                };
                 let mut fr = self.env_frame(&mat.env, mat.in_prelude);
                 let v = self.expr_as(b, &mut fr, ctx, encoded, &Ty::Vector);
                 let encoded = self.lanes(b, v, &Ty::Vector);
-                let mapped =
-                    self.normal_map_ctx(b, &encoded, strength, convention.unwrap_or(NormalMapConvention::OpenGl), ctx);
-                self.mat_method(b, &m, im, args, &mapped)
+                let convention = convention.unwrap_or(NormalMapConvention::OpenGl);
+                let (mapped, tilted) = self.normal_map_ctx(b, &encoded, strength, convention, ctx);
+                let inner = self.mat_method(b, &m, im, args, &mapped);
+                if !matches!(im.name, "reflection" | "refraction" | "sample") {
+                    return inner;
+                }
+                let shadowed = b.and(tilted, shadowing);
+                let n = self.shading_global(b, ctx, "N");
+                let mapped_n = self.shading_global(b, &mapped, "N");
+                let shadowing = |_: &mut Self, b: &mut Builder, wi: &[Value]| {
+                    let g = bump_shadowing(b, &n, &mapped_n, wi);
+                    let one = b.f(1.0);
+                    b.select(shadowed, g, one)
+                };
+                if im.name == "sample" {
+                    return self.weigh_sample(b, &inner, shadowing);
+                }
+                let g = shadowing(self, b, &args[0]);
+                b.scale(&inner, g)
             }
             TreeNode::Scale => {
                 let Some(m) = child(1) else { return missing(self, b) };
@@ -525,7 +545,8 @@ impl<'p> Lowerer<'p> {
     /// the frame (s, t, N) of Mitsuba's `normalmap`: `s` is `dPdu` made
     /// orthogonal to `N` (Gram-Schmidt), `t = N x s` turned to `dPdv`'s side
     /// (a mirrored layout keeps green along +v). The subtree sees the unit
-    /// result as N; a flat texel, a zero or a NaN result keeps N.
+    /// result as N; a flat texel, a zero or a NaN result keeps N. Also
+    /// returns whether N was tilted.
     pub(super) fn normal_map_ctx(
         &mut self,
         b: &mut Builder,
@@ -533,7 +554,7 @@ impl<'p> Lowerer<'p> {
         strength: Value,
         convention: NormalMapConvention,
         ctx: &Ctx,
-    ) -> Ctx {
+    ) -> (Ctx, Value) {
         let (zero, one, two) = (b.f(0.0), b.f(1.0), b.f(2.0));
         let decoded: Vec<Value> = encoded
             .iter()
@@ -580,8 +601,50 @@ impl<'p> Lowerer<'p> {
         let keep_tilt = b.and(nonzero, tilted);
         let unit = b.normalize(&w);
         let new_n: Vec<Value> = (0..3).map(|k| b.select(keep_tilt, unit[k], n[k])).collect();
-        self.with_overrides(b, ctx, vec![("N", new_n)])
+        (self.with_overrides(b, ctx, vec![("N", new_n)]), keep_tilt)
     }
+}
+
+/// The shadowing of a tilted shading normal (Conty Estevez, Lecocq and
+/// Stein, "A Microfacet-Based Shadowing Function to Solve the Bump
+/// Terminator Problem", Ray Tracing Gems 2019, as Mitsuba 3's `normalmap`
+/// and Cycles apply it): the light from `wi` reaching a surface whose
+/// normal `n` was turned to `mapped` is weighted by
+/// `2 / (1 + sqrt(1 + a² tan²θ))`, `a² = min(tan²(n, mapped) / 8, 1)` and
+/// θ the angle of `wi` from `n`, so light grazing the unmapped surface
+/// fades instead of ending at a hard terminator. 1 when `mapped` is `n`.
+fn bump_shadowing(b: &mut Builder, n: &[Value], mapped: &[Value], wi: &[Value]) -> Value {
+    let (zero, one) = (b.f(0.0), b.f(1.0));
+    // tan² of the turn; at 90 degrees (a zero cosine) it is infinite and
+    // a² below is 1.
+    let cos_d = b.dot(n, mapped);
+    let cos2_d = b.fmul(cos_d, cos_d);
+    let sin2_d = b.fsub(one, cos2_d);
+    let sin2_d = b.fmax(sin2_d, zero);
+    let tan2_d = b.fdiv(sin2_d, cos2_d);
+    let eighth = b.f(0.125);
+    let alpha2 = b.fmul(eighth, tan2_d);
+    let alpha2 = b.fmax(alpha2, zero);
+    let alpha2 = b.fmin(alpha2, one);
+    let len2 = b.dot(wi, wi);
+    let cos_i = b.dot(n, wi);
+    // wi need not be unit: tan²θ = (|wi|² - (n·wi)²) / (n·wi)².
+    let cos2_i = b.fmul(cos_i, cos_i);
+    let sin2_i = b.fsub(len2, cos2_i);
+    let sin2_i = b.fmax(sin2_i, zero);
+    let spread = b.fmul(alpha2, sin2_i);
+    // alpha2 tan²θ without dividing by a zero cosine: at 90° the light is
+    // fully shadowed (unless the normal did not turn).
+    let grazing = b.feq(cos2_i, zero);
+    let spread = b.fdiv(spread, cos2_i);
+    let root_arg = b.fadd(one, spread);
+    let root = b.un(UnOp::Sqrt, root_arg);
+    let denom = b.fadd(one, root);
+    let two = b.f(2.0);
+    let g = b.fdiv(two, denom);
+    let flat = b.feq(alpha2, zero);
+    let g = b.select(grazing, zero, g);
+    b.select(flat, one, g)
 }
 
 /// The step of the forward differences in `bump`, in (u, v) units.
