@@ -5,7 +5,11 @@
 //! - `tiles_height.png` (256 x 256, gray): the height of 4 x 4 ceramic
 //!   tiles with rounded edges and grout, for bump mapping from an image;
 //! - `perforated.png` (256 x 256, RGBA): a brass-coloured sheet whose
-//!   alpha is 0 in a staggered grid of round holes, for cutouts.
+//!   alpha is 0 in a staggered grid of round holes, for cutouts;
+//! - `bricks_normal.png` (256 x 256, RGB): a tangent-space normal map
+//!   (OpenGL convention: green is +v, up the picture) of staggered
+//!   bricks with bevelled edges, mortar joints and a grain, for normal
+//!   mapping; it tiles.
 //!
 //! ```sh
 //! cargo run --release --example make_textures
@@ -110,12 +114,50 @@ fn perforated() -> image::RgbaImage {
     })
 }
 
+/// The height of staggered bricks (8 rows of 4, 256 x 256 texels, row y
+/// from the top): 0 in the mortar, bevelled up to 1 on each brick, each
+/// brick slightly tilted and grained. Periodic, so the map tiles.
+fn brick_height(px: i32, py: i32) -> f32 {
+    let (size, brick_w, brick_h) = (256, 64, 32);
+    let (px, py) = (px.rem_euclid(size), py.rem_euclid(size));
+    let row = py / brick_h;
+    let x = (px + if row % 2 == 1 { brick_w / 2 } else { 0 }).rem_euclid(size);
+    let col = x / brick_w;
+    let (fx, fy) = ((x % brick_w) as f32 + 0.5, (py % brick_h) as f32 + 0.5);
+    // Distance to the brick's nearest edge, in texels.
+    let edge = fx.min(brick_w as f32 - fx).min(fy).min(brick_h as f32 - fy);
+    let (mortar, bevel) = (2.5, 5.0);
+    if edge < mortar {
+        return 0.0;
+    }
+    let t = ((edge - mortar) / bevel).min(1.0);
+    let tilt = (hash(col, row, 5) - 0.5) * (fx / brick_w as f32 - 0.5)
+        + (hash(col, row, 6) - 0.5) * (fy / brick_h as f32 - 0.5);
+    let grain = 0.5 * (hash(px, py, 9) - 0.5) + 0.5 * ((px as f32 * 0.4).sin() * (py as f32 * 0.7).sin());
+    t * t * (3.0 - 2.0 * t) + 0.6 * tilt + 0.04 * grain
+}
+
+/// [`brick_height`]'s normals by central differences, encoded `(n + 1) / 2`
+/// with green up the picture (OpenGL), as 8-bit RGB.
+fn bricks_normal() -> image::RgbImage {
+    let slope = 2.0;
+    image::RgbImage::from_fn(256, 256, |px, py| {
+        let (x, y) = (px as i32, py as i32);
+        let dx = 0.5 * (brick_height(x + 1, y) - brick_height(x - 1, y));
+        let dy_up = 0.5 * (brick_height(x, y - 1) - brick_height(x, y + 1));
+        let n = [-dx * slope, -dy_up * slope, 1.0];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        image::Rgb(n.map(|c| byte(0.5 * c / len + 0.5)))
+    })
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/textures");
     std::fs::create_dir_all(&dir)?;
     painting().save(dir.join("painting.png"))?;
     tiles_height().save(dir.join("tiles_height.png"))?;
     perforated().save(dir.join("perforated.png"))?;
-    println!("wrote painting.png, tiles_height.png and perforated.png to {}", dir.display());
+    bricks_normal().save(dir.join("bricks_normal.png"))?;
+    println!("wrote painting.png, tiles_height.png, perforated.png and bricks_normal.png to {}", dir.display());
     Ok(())
 }

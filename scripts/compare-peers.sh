@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -32,6 +32,10 @@
 #             Mitsuba with the red wall's spectrum fitted exactly
 #             (scripts/peers/exact_reflectance.py). Not part of `all`
 #             (minutes of rendering).
+# normal_map  normal_map against Mitsuba 3's normalmap on a diffuse square
+#             (examples/textures/bricks_normal.png; OpenGL, DirectX, strength
+#             0.5, and no map): means, mean |difference| and RMSE relative to
+#             Mitsuba's mean (scripts/peers/normal_map.py). Not part of `all`.
 #
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
 # Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
@@ -62,8 +66,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | spectral | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|all]" >&2; exit 2 ;;
 esac
 
 UPDATE_DOCS=${UPDATE_DOCS:-0}
@@ -284,4 +288,7 @@ spectral() {
 }
 if [[ $which == spectral ]]; then
     figures spectral spectral
+fi
+if [[ $which == normal_map ]]; then
+    figures normal_map python3 scripts/peers/normal_map.py "$TSLC" "$OUT/normal_map" 64
 fi

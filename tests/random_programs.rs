@@ -6,7 +6,7 @@
 //! with locals, `if`/`else`, bounded `for` loops with `break` and
 //! `continue`, early returns, compound assignment and arrays indexed
 //! dynamically; materials implementing interface methods; and texture trees
-//! over them (`mix`, `blend`, `select`, `bump`, `scale`, `transform`,
+//! over them (`mix`, `blend`, `select`, `bump`, `normal_map`, `scale`, `transform`,
 //! templates, `?:`). Every program must compile in the RGB and a spectral
 //! color model, and every entry point must give the same words on both back
 //! ends at a set of random (and a few extreme) shading points and arguments.

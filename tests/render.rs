@@ -665,6 +665,43 @@ fn nan_samples_are_dropped_and_counted() {
     assert!(image.color.iter().all(|p| p.iter().all(|c| c.is_finite())));
 }
 
+/// A normal map changes what a sphere looks like (light grazing its ridges)
+/// and never makes a sample that is not a number, with either integrator,
+/// even where the tangents vanish (the poles).
+#[test]
+fn a_normal_mapped_sphere_differs_from_a_plain_one_and_stays_finite() {
+    let src = |material: &str, integrator: &str| {
+        format!(
+            r#"
+            vector ridges() {{ return (0.5 + 0.45 * sin(u * 120), 0.5 + 0.45 * cos(v * 60), 0.6); }}
+            scene {{
+                camera {{ from (0, 0.5, 3); to (0, 0, 0); fov 45; }}
+                render {{ width 24; height 24; spp 4; max_depth 3; integrator "{integrator}"; }}
+                light directional {{ direction (1, -0.3, -0.2); irradiance gray(3); }}
+                object sphere {{ center (0, 0, 0); radius 1; material {material}; }}
+            }}"#
+        )
+    };
+    for integrator in ["path", "whitted"] {
+        let render = |material: &str| {
+            let scene = scene_of(&src(material, integrator), ColorModel::Rgb, &Overrides::default());
+            render::render(&scene, &RenderOptions::default()).unwrap()
+        };
+        let plain_material = "phong(kd: gray(0.6), ks: gray(0.2), ns: 30)";
+        let (plain, _) = render(plain_material);
+        let (mapped, stats) = render(&format!("normal_map(ridges(), {plain_material})"));
+        assert_eq!(stats.dropped_samples, 0, "{integrator}: no NaN samples");
+        assert!(mapped.color.iter().all(|p| p.iter().all(|c| c.is_finite())), "{integrator}");
+        let differs = plain
+            .color
+            .iter()
+            .zip(&mapped.color)
+            .filter(|(a, b)| (a[0] - b[0]).abs() > 0.05 * a[0].abs().max(0.05))
+            .count();
+        assert!(differs * 4 >= plain.color.len() / 4, "{integrator}: only {differs} pixels changed");
+    }
+}
+
 /// AOV samples whose albedo or normal is NaN or infinite are dropped from
 /// those layers and counted, as radiance samples are, and `tslc render`
 /// says how many: the layers hold only numbers. (A material's normal that
@@ -720,6 +757,8 @@ fn technique_examples_match_their_reference_images() {
     for example in [
         "bump_procedural",
         "bump_image",
+        "normal_map",
+        "triplanar",
         "microvariation",
         "image_spectral",
         "spectral_perturbation",

@@ -1,7 +1,8 @@
-//! Image textures from source to shading: `texture` and `texture_float`
-//! calls are checked, their images loaded at check time (missing or bad
-//! files are located errors), and both back ends sample them alike, with
-//! the footprint the renderer gives and in both color models.
+//! Image textures from source to shading: `texture`, `texture_float` and
+//! `texture_vector` calls are checked, their images loaded at check time
+//! (missing or bad files are located errors), and both back ends sample
+//! them alike, with the footprint the renderer gives and in both color
+//! models; `normal_map` turns stored normals into the shading normal.
 
 use std::path::{Path, PathBuf};
 use tsl::texture::srgb_to_linear;
@@ -367,4 +368,307 @@ fn non_finite_texels_are_replaced_before_the_pyramid_and_warned_once() {
         assert!(text.contains(&expected), "{expected}: {text}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------- normal maps
+
+/// The shading normal a material sees, through its `normal` method.
+fn seen_normal(p: &Program, material: &str, g: &ShadingGlobals) -> [f32; 3] {
+    let n = both(p, &format!("{material}.normal"), g);
+    [n[0], n[1], n[2]]
+}
+
+fn assert_near(got: [f32; 3], want: [f32; 3], tolerance: f32, what: &str) {
+    let off = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+    assert!(off <= tolerance, "{what}: {got:?}, expected {want:?}");
+}
+
+/// The stored colour of a tangent-space normal: `(n + 1) / 2`.
+fn encode(n: [f32; 3]) -> String {
+    let c = n.map(|x| 0.5 * x + 0.5);
+    format!("({}, {}, {})", c[0], c[1], c[2])
+}
+
+/// A constant tilted map turns N by the decoded angle toward dPdu or
+/// dPdv: green along +v for OpenGL, -v for DirectX; strength scales the
+/// tangent components; the frame follows the tangents at any angle.
+#[test]
+fn normal_maps_tilt_n_in_the_frame_of_the_tangents() {
+    let dir = temp_dir("normal-tilt");
+    let angle = 30f32.to_radians();
+    let toward_v = encode([0.0, angle.sin(), angle.cos()]);
+    let toward_u = encode([angle.sin(), 0.0, angle.cos()]);
+    let src = format!(
+        r#"
+        material flat = normal_map((0.5, 0.5, 1), lambert);
+        material gl = normal_map({toward_v}, lambert);
+        material dx = normal_map({toward_v}, lambert, convention: "directx");
+        material along_u = normal_map({toward_u}, lambert);
+        material none = normal_map({toward_v}, lambert, strength: 0);
+        material half = normal_map({toward_u}, lambert, strength: 0.5);
+        material named = normal_map(m: lambert, map: {toward_v}, convention: "opengl");
+        "#
+    );
+    let p = compile(&dir, &src, ColorModel::Rgb).unwrap();
+    let (s, c) = (angle.sin(), angle.cos());
+    // Tangents of any length, dPdu leaning out of the tangent plane: the
+    // frame is dPdu made orthogonal to N, then N x s.
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], dpdu: [2.0, 0.0, 0.7], dpdv: [0.0, 3.0, 0.0], ..Default::default() };
+    assert_near(seen_normal(&p, "flat", &g), [0.0, 0.0, 1.0], 1e-6, "a flat map");
+    assert_near(seen_normal(&p, "gl", &g), [0.0, s, c], 1e-6, "OpenGL: green along +v");
+    assert_near(seen_normal(&p, "named", &g), [0.0, s, c], 1e-6, "named arguments");
+    assert_near(seen_normal(&p, "dx", &g), [0.0, -s, c], 1e-6, "DirectX: green along -v");
+    assert_near(seen_normal(&p, "along_u", &g), [s, 0.0, c], 1e-6, "red along +u");
+    assert_near(seen_normal(&p, "none", &g), [0.0, 0.0, 1.0], 1e-6, "strength 0");
+    let len = (0.25 * s * s + c * c).sqrt();
+    assert_near(seen_normal(&p, "half", &g), [0.5 * s / len, 0.0, c / len], 1e-6, "strength 0.5");
+    // A mirrored layout (dPdv against N x dPdu): green still follows +v.
+    let mirrored = ShadingGlobals { dpdv: [0.0, -1.0, 0.0], ..g };
+    assert_near(seen_normal(&p, "gl", &mirrored), [0.0, -s, c], 1e-6, "mirrored uv");
+    // Any orientation: the tilt is the decoded angle from N, toward dPdv.
+    let mut rng = Rng(5);
+    for _ in 0..200 {
+        let g = common::shading_point(&mut rng);
+        let n = seen_normal(&p, "gl", &g);
+        let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let tangential = dot(g.dpdu, g.n).abs() < 0.999 && dot(g.dpdv, g.n).abs() < 0.999;
+        if !tangential {
+            continue;
+        }
+        assert!((dot(n, n) - 1.0).abs() < 1e-5, "unit: {n:?}");
+        assert!((dot(n, g.n) - c).abs() < 1e-4, "{} degrees from N at {g:?}", dot(n, g.n).acos().to_degrees());
+        let t = g.dpdv;
+        let t_off_n = dot(t, g.n);
+        let t_in_plane = [t[0] - t_off_n * g.n[0], t[1] - t_off_n * g.n[1], t[2] - t_off_n * g.n[2]];
+        assert!(dot(n, t_in_plane) > 0.0, "tilted toward dPdv: {n:?} at {g:?}");
+    }
+}
+
+/// A flat texel, or strength 0, gives the material N itself: its results
+/// are the plain material's, bit for bit, in both back ends.
+#[test]
+fn a_flat_normal_map_leaves_a_material_unchanged() {
+    let dir = temp_dir("normal-flat");
+    let src = r#"
+        material plain = phong(kd: rgb(0.6, 0.3, 0.2), ks: gray(0.3), ns: 40);
+        material flat = normal_map((0.5, 0.5, 1), plain);
+        material zero_strength = normal_map((0.9, 0.2, 0.6), plain, strength: 0);
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let mut rng = Rng(17);
+    for _ in 0..300 {
+        let g = common::shading_point(&mut rng);
+        let (wi, wo) = (rng.unit(), rng.unit());
+        let mut args: Vec<u32> = wi.iter().map(|x| x.to_bits()).collect();
+        args.extend(light.lanes().iter().map(|x| x.to_bits()));
+        args.extend(wo.iter().map(|x| x.to_bits()));
+        let reflection = |name: &str| {
+            let f = p.function(&format!("{name}.reflection")).unwrap();
+            let (mut a, mut b) = ([0u32; 3], [0u32; 3]);
+            f.call_words(Backend::Jit, &g, &args, &mut a).unwrap();
+            f.call_words(Backend::Interpreter, &g, &args, &mut b).unwrap();
+            assert_eq!(a, b, "{name}: the back ends agree");
+            a.map(f32::from_bits)
+        };
+        let want = reflection("plain");
+        for name in ["flat", "zero_strength"] {
+            let got = reflection(name);
+            assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{name}: {got:?} vs {want:?} at {g:?}");
+        }
+    }
+}
+
+/// A 2 x 1 PNG of two stored normals: texel 0 (200, 100, 255) and
+/// texel 1 flat (128, 128, 255).
+fn normals_png(dir: &Path) -> PathBuf {
+    let path = dir.join("normals.png");
+    image::RgbImage::from_fn(2, 1, |x, _| image::Rgb(if x == 0 { [200, 100, 255] } else { [128, 128, 255] }))
+        .save(&path)
+        .unwrap();
+    path
+}
+
+/// A normal map is data: `texture_vector` returns the stored texel (no
+/// sRGB decoding, no spectral upsampling), so `normal_map` decodes the
+/// same normal in every color model.
+#[test]
+fn texture_vector_reads_stored_values_in_every_color_model() {
+    let dir = temp_dir("texture-vector");
+    normals_png(&dir);
+    let src = r#"
+        vector stored() { return texture_vector("normals.png", filter: "nearest"); }
+        vector decoded() { return to_rgb(texture("normals.png", filter: "nearest")); }
+        material mapped = normal_map(texture_vector("normals.png", filter: "nearest"), lambert);
+    "#;
+    let want = [200.0 / 255.0, 100.0 / 255.0, 1.0];
+    let g = ShadingGlobals { dpdu: [1.0, 0.0, 0.0], dpdv: [0.0, 1.0, 0.0], ..at(0.25, 0.5) };
+    let rgb = compile(&dir, src, ColorModel::Rgb).unwrap();
+    assert_eq!(both(&rgb, "stored", &g), want);
+    let decoded = both(&rgb, "decoded", &g);
+    assert!((decoded[0] - srgb_to_linear(200.0 / 255.0)).abs() < 1e-5, "texture decodes sRGB: {decoded:?}");
+    let tangent = want.map(|c| 2.0 * c - 1.0);
+    let len = tangent.iter().map(|x| x * x).sum::<f32>().sqrt();
+    let n = seen_normal(&rgb, "mapped", &g);
+    assert_near(n, tangent.map(|x| x / len), 1e-6, "the decoded texel");
+    for model in [ColorModel::Spectral { samples: 8 }, ColorModel::Hero] {
+        let p = compile(&dir, src, model).unwrap();
+        assert_eq!(both(&p, "stored", &g), want, "{model:?}: no upsampling");
+        assert_eq!(seen_normal(&p, "mapped", &g), n, "{model:?}");
+    }
+}
+
+/// A color where a stored normal belongs, an unknown convention, wrong
+/// argument types: errors at the argument, with help.
+#[test]
+fn bad_normal_maps_are_located_errors() {
+    let dir = temp_dir("normal-errors");
+    normals_png(&dir);
+    let text = check_errors(&dir, "material m = normal_map(texture(\"normals.png\"), lambert);\n");
+    assert!(
+        text.contains("a normal map is data, not a color")
+            && text.contains("texture_vector")
+            && text.contains("bad.tsl:1:25"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), lambert, convention: \"direct-x\");\n");
+    assert!(
+        text.contains("unknown convention `direct-x`")
+            && text.contains("did you mean `directx`")
+            && text.contains("bad.tsl:1:61"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), lambert, strength: \"strong\");\n");
+    assert!(text.contains("expected `float`, found `string`") && text.contains("bad.tsl:1:59"), "{text}");
+    let text = check_errors(&dir, "material m = normal_map((0.5, 0.5, 1), 2);\n");
+    assert!(text.contains("expected `material`") && text.contains("bad.tsl:1:40"), "{text}");
+    let text = check_errors(&dir, "vector f() { return texture_vector(\"normals.png\", colorspace: \"linear\"); }\n");
+    assert!(text.contains("colorspace"), "{text}");
+}
+
+// ---------------------------------------------------------------- triplanar
+
+/// `triplanar` reads its value with (u, v) from the position along the
+/// axis the normal faces, each projection upright and unmirrored from
+/// outside, blended by |N|^sharpness between axes; its footprint is the
+/// position's.
+#[test]
+fn triplanar_projects_along_the_axes_the_normal_faces() {
+    let dir = temp_dir("triplanar");
+    let src = r#"
+        float code() { return triplanar(u * 10 + v * 100, 8); }
+        float footprint() { return triplanar(dudx + 10 * dvdy); }
+        color constant() { return triplanar(rgb(0.2, 0.4, 0.6), sharpness: 2); }
+        vector painted() { return to_rgb(triplanar(texture("ramp.png", (u, v), filter: "nearest"))); }
+    "#;
+    ramp_png(&dir);
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let point = |n: [f32; 3]| ShadingGlobals { p: [0.3, 0.4, 0.5], n, ..Default::default() };
+    for (n, want) in [
+        ([0.0, 0.0, 1.0], 43.0),  // (Px, Py)
+        ([0.0, 0.0, -1.0], 37.0), // (-Px, Py)
+        ([1.0, 0.0, 0.0], 35.0),  // (-Pz, Py)
+        ([-1.0, 0.0, 0.0], 45.0), // (Pz, Py)
+        ([0.0, 1.0, 0.0], -47.0), // (Px, -Pz)
+        ([0.0, -1.0, 0.0], 53.0), // (Px, Pz)
+    ] {
+        let got = both(&p, "code", &point(n))[0];
+        assert!((got - want).abs() < 1e-4, "N {n:?}: {got}, expected {want}");
+    }
+    // Halfway between +x and +y: the mean of the two projections.
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let got = both(&p, "code", &point([h, h, 0.0]))[0];
+    assert!((got - (35.0 - 47.0) / 2.0).abs() < 1e-4, "{got}");
+    // Mostly +z: the z projection dominates by (0.8 / 0.6)^8.
+    let got = both(&p, "code", &point([0.6, 0.0, 0.8]))[0];
+    let (wz, wx) = (0.8f32.powi(8), 0.6f32.powi(8));
+    assert!((got - (43.0 * wz + 35.0 * wx) / (wz + wx)).abs() < 1e-3, "{got}");
+    // The footprint is the position's, projected: dPdx.x is du/dx on +z.
+    let g = ShadingGlobals { dpdx: [0.01, 0.0, 0.0], dpdy: [0.0, 0.02, 0.0], ..point([0.0, 0.0, 1.0]) };
+    assert!((both(&p, "footprint", &g)[0] - 0.21).abs() < 1e-6);
+    // Weights sum to one at any normal, a zero or NaN one included.
+    let mut rng = Rng(23);
+    for k in 0..100 {
+        let n = match k {
+            0 => [0.0; 3],
+            1 => [f32::NAN; 3],
+            _ => rng.unit(),
+        };
+        let c = both(&p, "constant", &point(n));
+        assert_near([c[0], c[1], c[2]], [0.2, 0.4, 0.6], 1e-6, &format!("a constant at N {n:?}"));
+    }
+    // An image: on +z, column 2 of the ramp at u = 0.6 (red 170, decoded).
+    let g = ShadingGlobals { p: [0.6, 0.9, 0.0], ..point([0.0, 0.0, 1.0]) };
+    let rgb = both(&p, "painted", &g);
+    assert!((rgb[0] - srgb_to_linear(170.0 / 255.0)).abs() < 1e-5, "{rgb:?}");
+}
+
+#[test]
+fn bad_triplanar_calls_are_located_errors() {
+    let dir = temp_dir("triplanar-errors");
+    let text = check_errors(&dir, "material m = triplanar(lambert);\n");
+    assert!(
+        text.contains("`triplanar` takes a float, vec2, vector or color") && text.contains("bad.tsl:1:24"),
+        "{text}"
+    );
+    let text = check_errors(&dir, "float f() { return triplanar(u, sharpness: \"hard\"); }\n");
+    assert!(text.contains("expected `float`, found `string`") && text.contains("bad.tsl:1:44"), "{text}");
+    let text = check_errors(&dir, "const float K = triplanar(1.0);\n");
+    assert!(text.contains("`triplanar` cannot be used in a constant") && text.contains("bad.tsl:1:17"), "{text}");
+}
+
+/// Conty Estevez et al.'s shadowing of a tilted normal, as Mitsuba 3's
+/// `normalmap` applies it: `n` the surface's normal, `mapped` the map's,
+/// `wi` the light (unit).
+fn bump_shadowing(n: [f32; 3], mapped: [f32; 3], wi: [f32; 3]) -> f32 {
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cos_d = dot(n, mapped);
+    let alpha2 = (0.125 * (1.0 - cos_d * cos_d) / (cos_d * cos_d)).clamp(0.0, 1.0);
+    let cos_i = dot(n, wi);
+    let tan2_i = (1.0 - cos_i * cos_i) / (cos_i * cos_i);
+    2.0 / (1.0 + (1.0 + alpha2 * tan2_i).sqrt())
+}
+
+/// A tilted normal darkens light that grazes the unmapped surface by the
+/// bump-terminator shadowing (on by default, as in Mitsuba 3 and Cycles;
+/// `shadowing: false` for the plain cosine); `sample`'s weight carries it
+/// too, so it stays `f · cos / pdf`.
+#[test]
+fn normal_maps_shadow_grazing_light_as_mitsuba_does() {
+    let dir = temp_dir("normal-shadowing");
+    let src = r#"
+        material shadowed = normal_map((0.7, 0.5, 0.9), lambert(kd: gray(1)));
+        material plain_cosine = normal_map((0.7, 0.5, 0.9), lambert(kd: gray(1)), shadowing: false);
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], dpdu: [2.0, 0.0, 0.0], dpdv: [0.0, 2.0, 0.0], ..Default::default() };
+    let mapped = {
+        let l = (0.4f32 * 0.4 + 0.8 * 0.8).sqrt();
+        [0.4 / l, 0.0, 0.8 / l]
+    };
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let wo = [0.0, 0.0, 1.0];
+    let k = 1.0 / 3f32.sqrt();
+    let wi = [-k, k, k];
+    let cos = mapped[0] * wi[0] + mapped[2] * wi[2];
+    let plain = p.material("plain_cosine").unwrap().reflection(&g, wi, &light, wo).lanes()[0];
+    assert!((plain - cos / std::f32::consts::PI).abs() < 1e-6, "{plain}");
+    let shadowed = p.material("shadowed").unwrap().reflection(&g, wi, &light, wo).lanes()[0];
+    let factor = bump_shadowing(g.n, mapped, wi);
+    assert!((shadowed - plain * factor).abs() < 1e-6, "{shadowed} vs {plain} x {factor}");
+    // Mitsuba 3.9.1's normalmap over diffuse gives 0.0404709 for kd 0.5.
+    assert!((shadowed * 0.5 - 0.0404709).abs() < 1e-6, "{shadowed}");
+    // Sampling: the weight is f cos / pdf at the direction drawn.
+    let m = p.material("shadowed").unwrap();
+    let eta = p.rgb(1.0, 1.0, 1.0);
+    let mut rng = Rng(31);
+    for _ in 0..200 {
+        let s = m.sample(&g, wo, &eta, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+        if s.pdf <= 0.0 {
+            continue;
+        }
+        let f = m.reflection(&g, s.wi, &light, wo).lanes()[0];
+        let w = s.weight.lanes()[0];
+        assert!((w - f / s.pdf).abs() <= 1e-4 * w.max(1.0), "weight {w} vs f cos / pdf {} at {:?}", f / s.pdf, s.wi);
+    }
 }

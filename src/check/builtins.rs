@@ -70,10 +70,13 @@ pub enum BuiltinFn {
     TransformNormal,
     Texture,
     TextureFloat,
+    TextureVector,
+    Triplanar,
     Mix,
     Blend,
     Select,
     Bump,
+    NormalMap,
     Scale,
     Transform,
 }
@@ -96,6 +99,7 @@ impl BuiltinFn {
             BuiltinFn::Blend => TreeNode::Blend,
             BuiltinFn::Select => TreeNode::Select,
             BuiltinFn::Bump => TreeNode::Bump,
+            BuiltinFn::NormalMap => TreeNode::NormalMap,
             BuiltinFn::Scale => TreeNode::Scale,
             BuiltinFn::Transform => TreeNode::Transform,
             _ => return None,
@@ -110,6 +114,7 @@ pub enum TreeNode {
     Blend,
     Select,
     Bump,
+    NormalMap,
     Scale,
     Transform,
 }
@@ -122,10 +127,33 @@ impl TreeNode {
             TreeNode::Blend => BuiltinFn::Blend,
             TreeNode::Select => BuiltinFn::Select,
             TreeNode::Bump => BuiltinFn::Bump,
+            TreeNode::NormalMap => BuiltinFn::NormalMap,
             TreeNode::Scale => BuiltinFn::Scale,
             TreeNode::Transform => BuiltinFn::Transform,
         }
         .builtin()
+    }
+}
+
+/// How a normal map's green channel points (`normal_map`'s
+/// `convention:`): OpenGL (and MaterialX, Mitsuba, Blender) store +v as
+/// green up, DirectX (and Unreal, 3ds Max) as green down.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NormalMapConvention {
+    OpenGl,
+    DirectX,
+}
+
+impl NormalMapConvention {
+    /// The names `convention:` accepts, in the order of the variants.
+    pub const NAMES: &'static [&'static str] = &["opengl", "directx"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "opengl" => Some(Self::OpenGl),
+            "directx" => Some(Self::DirectX),
+            _ => None,
+        }
     }
 }
 
@@ -309,6 +337,27 @@ pub const BUILTINS: &[Builtin] = &[
         "texture_float(string file, vec2 st = (u, v), int channel = 0, string filter, ...) -> float",
     ),
     b(
+        BuiltinFn::TextureVector,
+        "texture_vector",
+        &[
+            req("file"),
+            opt("st", "(u, v)"),
+            opt("filter", "\"trilinear\""),
+            opt("wrap", "\"repeat\""),
+            opt("swrap", "the wrap: value"),
+            opt("twrap", "the wrap: value"),
+            opt("dx", "st at the next pixel in x, less st"),
+            opt("dy", "st at the next pixel in y, less st"),
+        ],
+        "texture_vector(string file, vec2 st = (u, v), string filter, ...) -> vector",
+    ),
+    b(
+        BuiltinFn::Triplanar,
+        "triplanar",
+        &[req("value"), opt("sharpness", "4")],
+        "triplanar(T value, float sharpness = 4) -> T, T a float, vec2, triple or color",
+    ),
+    b(
         BuiltinFn::Mix,
         "mix",
         &[req("t"), req("a"), req("b"), opt("only", "every method")],
@@ -326,6 +375,12 @@ pub const BUILTINS: &[Builtin] = &[
         "bump",
         &[req("height"), req("amount"), req("m")],
         "bump(float height, float amount, material m) -> material",
+    ),
+    b(
+        BuiltinFn::NormalMap,
+        "normal_map",
+        &[req("map"), req("m"), opt("strength", "1"), opt("convention", "\"opengl\""), opt("shadowing", "true")],
+        "normal_map(vector map, material m, float strength = 1, string convention = \"opengl\", bool shadowing = true) -> material",
     ),
     b(
         BuiltinFn::Scale,
@@ -580,14 +635,26 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
                 _ => Ty::Normal,
             })
         }
-        Texture | TextureFloat => {
-            let color = f == Texture;
-            for (i, want) in texture_param_types(color).iter().enumerate() {
+        Texture | TextureFloat | TextureVector => {
+            for (i, want) in texture_param_types(f).iter().enumerate() {
                 if args.get(i).is_some_and(|a| a.is_some()) {
                     expect(args, i, want)?;
                 }
             }
-            Ok(if color { Ty::Color } else { Ty::Float })
+            Ok(match f {
+                Texture => Ty::Color,
+                TextureFloat => Ty::Float,
+                _ => Ty::Vector,
+            })
+        }
+        Triplanar => {
+            if args.get(1).is_some_and(|a| a.is_some()) {
+                expect(args, 1, &Ty::Float)?;
+            }
+            match a0 {
+                Ty::Color => Ok(Ty::Color),
+                _ => unary("a float, vec2, vector or color"),
+            }
         }
         Mix => {
             expect(args, 0, &Ty::Float)?;
@@ -628,6 +695,31 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             expect(args, 2, &Ty::Material)?;
             Ok(Ty::Material)
         }
+        NormalMap => {
+            if a0 == Ty::Color {
+                return Err(ArgError {
+                    arg: Some(0),
+                    message: "a normal map is data, not a color: expected `vector`, found `color`".into(),
+                    help: Some(
+                        "read the image with texture_vector(\"normal.png\"), which returns its stored values \
+                         (no sRGB decoding, no spectral upsampling)"
+                            .into(),
+                    ),
+                });
+            }
+            expect(args, 0, &Ty::Vector)?;
+            expect(args, 1, &Ty::Material)?;
+            if args.get(2).is_some_and(|a| a.is_some()) {
+                expect(args, 2, &Ty::Float)?;
+            }
+            if args.get(3).is_some_and(|a| a.is_some()) {
+                expect(args, 3, &Ty::String)?;
+            }
+            if args.get(4).is_some_and(|a| a.is_some()) {
+                expect(args, 4, &Ty::Bool)?;
+            }
+            Ok(Ty::Material)
+        }
         Scale => {
             if args.get(1).is_some_and(|o| o.is_some()) {
                 expect(args, 0, &Ty::Color)?;
@@ -651,11 +743,15 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
     }
 }
 
-/// The parameter types of `texture` (`color`) and `texture_float`, in the
-/// order of their [`BUILTINS`] entries.
-pub fn texture_param_types(color: bool) -> [Ty; 9] {
+/// The parameter types of `texture`, `texture_float` and
+/// `texture_vector`, in the order of their [`BUILTINS`] entries.
+pub fn texture_param_types(f: BuiltinFn) -> Vec<Ty> {
     use Ty::{Int, String as S, Vec2};
-    if color { [S, Vec2, S, S, S, S, S, Vec2, Vec2] } else { [S, Vec2, Int, S, S, S, S, Vec2, Vec2] }
+    match f {
+        BuiltinFn::Texture => vec![S, Vec2, S, S, S, S, S, Vec2, Vec2],
+        BuiltinFn::TextureFloat => vec![S, Vec2, Int, S, S, S, S, Vec2, Vec2],
+        _ => vec![S, Vec2, S, S, S, S, Vec2, Vec2],
+    }
 }
 
 /// The common type of two branches (`?:`, `mix`, array items).

@@ -369,7 +369,14 @@ impl<'a> Checker<'a> {
                     self.check_spectrum(samples);
                 }
             }
-            BuiltinFn::Texture | BuiltinFn::TextureFloat => self.check_texture(b, &bound, span),
+            BuiltinFn::Texture | BuiltinFn::TextureFloat | BuiltinFn::TextureVector => {
+                self.check_texture(b, &bound, span)
+            }
+            BuiltinFn::Triplanar => self.check_point_reader(b.name, span),
+            BuiltinFn::NormalMap => {
+                let names = NormalMapConvention::NAMES;
+                self.option_literal(b.arg(&bound, "convention"), "convention", names, NormalMapConvention::from_name);
+            }
             _ => {}
         }
         result
@@ -395,7 +402,8 @@ impl<'a> Checker<'a> {
         let wrap = self.option_literal(arg("wrap"), "wrap", Wrap::NAMES, Wrap::from_name);
         let swrap = self.option_literal(arg("swrap"), "swrap", Wrap::NAMES, Wrap::from_name);
         let twrap = self.option_literal(arg("twrap"), "twrap", Wrap::NAMES, Wrap::from_name);
-        // texture_float has no colorspace parameter: it reads stored values.
+        // texture_float and texture_vector have no colorspace parameter:
+        // they read stored values.
         let encoding = self.option_literal(arg("colorspace"), "colorspace", &["srgb", "linear"], |n| match n {
             "srgb" => Some(Encoding::Srgb),
             "linear" => Some(Encoding::Raw),
@@ -443,6 +451,22 @@ impl<'a> Checker<'a> {
             wrap: [swrap.unwrap_or(wrap), twrap.unwrap_or(wrap)],
         };
         self.texture_calls.insert(span, call);
+    }
+
+    /// A builtin that reads the shading point itself (`triplanar` reads
+    /// `P` and `N`): allowed where the globals are, and recorded as reading
+    /// them.
+    fn check_point_reader(&mut self, name: &str, span: Span) {
+        if !self.body.globals_allowed {
+            self.error(
+                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
+                    .with_help("it projects along the shading point's position and normal"),
+            );
+            return;
+        }
+        if let Some(node) = &self.body.node {
+            self.reads_globals.entry(*node).or_insert(span);
+        }
     }
 
     /// An optional string-literal option: `Some(None)` when absent,

@@ -237,6 +237,7 @@ impl<'a> Sizes<'a> {
                         None => 0,
                     },
                     TreeNode::Bump => child(2).map_or(0, |c| self.count(c, env)),
+                    TreeNode::NormalMap => child(1).map_or(0, |c| self.count(c, env)),
                     TreeNode::Scale | TreeNode::Transform => child(1).map_or(0, |c| self.count(c, env)),
                 }
             }

@@ -28,7 +28,7 @@ mod stmt;
 mod ty;
 mod types;
 
-pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, TreeNode, builtin};
+pub use builtins::{BUILTINS, Builtin, BuiltinFn, BuiltinParam, NormalMapConvention, TreeNode, builtin};
 pub use instance::{CheckedExpr, check_material_expr};
 pub use interface::{FRAME_GLOBALS, GLOBALS, INTERFACE, InterfaceMethod, Method, interface_method};
 pub use scene::{SceneProperty, scene_blocks, scene_kinds, scene_properties};
@@ -87,7 +87,8 @@ pub struct Program {
     pub builtin_calls: HashMap<Span, BuiltinFn>,
     /// The images `texture` calls name, each once per file and encoding.
     pub images: Vec<ImageUse>,
-    /// Every `texture` / `texture_float` call, keyed by its span.
+    /// Every `texture` / `texture_float` / `texture_vector` call, keyed by
+    /// its span.
     pub texture_calls: HashMap<Span, TextureCall>,
 }
 

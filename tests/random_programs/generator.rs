@@ -276,6 +276,15 @@ impl Gen {
                 .boxed(),
             ));
         }
+        if ty == T::F && env.globals {
+            // Its value three times, in the coordinate contexts of the axes.
+            arms.push((
+                1,
+                map2(self.expr(env, T::F, d), self.expr(env, T::F, d), |x, s| {
+                    format!("triplanar({x}, sharpness: {s})")
+                }),
+            ));
+        }
         if ty == T::F && env.arr_helper {
             let fa = self.expr(env, T::FA, d);
             arms.push((2, map2(fa, self.expr(env, T::I, d), |a, k| format!("g_arr({a}, {k})"))));
@@ -867,6 +876,14 @@ fn tree(g: &Gen, env: &Env, depth: u32, leaves: &[&str]) -> S {
                 ),
             ),
             (2, map3(e(T::F), e(T::F), sub(), |h, a, m| format!("bump({h}, {a}, {m})"))),
+            (
+                2,
+                (e(T::V), sub(), e(T::F), pick(&["opengl", "directx"]), e(T::B))
+                    .prop_map(|(n, m, s, c, sh)| {
+                        format!("normal_map({n}, {m}, strength: {s}, convention: \"{c}\", shadowing: {sh})")
+                    })
+                    .boxed(),
+            ),
             (2, map2(e(T::C), sub(), |c, m| format!("scale({c}, {m})"))),
             (2, map2(g.expr(env, T::M, 2), sub(), |x, m| format!("transform({x}, {m})"))),
             (1, map3(e(T::B), sub(), sub(), |c, a, b| format!("({c} ? {a} : {b})"))),

@@ -79,8 +79,11 @@ impl<'p> Lowerer<'p> {
         let ty = self.ty_of(e);
         let spec = f.builtin();
         let bound = bind_builtin_args(spec, args);
-        if matches!(f, Texture | TextureFloat) {
+        if matches!(f, Texture | TextureFloat | TextureVector) {
             return self.texture(b, fr, ctx, spec, &bound, e);
+        }
+        if f == Triplanar {
+            return self.triplanar(b, fr, ctx, &bound, &ty);
         }
         let mut vals: Vec<Option<(Val<'p>, Ty)>> = Vec::new();
         for a in &bound {
@@ -474,8 +477,9 @@ impl<'p> Lowerer<'p> {
                 }
                 Val::Lanes(acc)
             }
-            // Only over materials: lowered by `tree_node`, never here.
-            Texture | TextureFloat | Bump | Transform => {
+            // Only over materials: lowered by `tree_node`, never here (and
+            // the texture calls and `triplanar` above).
+            Texture | TextureFloat | TextureVector | Triplanar | Bump | NormalMap | Transform => {
                 ruled_out!("`{}` reached the value builtins", f.name());
                 Val::Lanes(b.zeros(n))
             }

@@ -422,10 +422,12 @@ impl<'p> Lowerer<'p> {
                         _ => false,
                     };
                 }
-                // Only `spline:` (a value) may be named; a named material
-                // child, or `only:` (which changes where a method comes
-                // from), is not analysed.
-                if call_args.iter().any(|a| a.name.as_ref().is_some_and(|n| n.name != "spline")) {
+                // Only values (`spline:`, `strength:`, `convention:`,
+                // `shadowing:`) may be named; a named material child, or
+                // `only:` (which changes where a method comes from), is not
+                // analysed.
+                let value_option = |n: &str| matches!(n, "spline" | "strength" | "convention" | "shadowing");
+                if call_args.iter().any(|a| a.name.as_ref().is_some_and(|n| !value_option(&n.name))) {
                     return false;
                 }
                 let positional: Vec<&'p ast::Arg> = call_args.iter().filter(|a| a.name.is_none()).collect();
@@ -441,8 +443,9 @@ impl<'p> Lowerer<'p> {
                 match node {
                     TreeNode::Mix => all([child(1), child(2)].into_iter().flatten().collect()),
                     TreeNode::Blend | TreeNode::Select => all(self.material_items(child(1).map(|m| m.expr), mat)),
-                    // bump changes the normal; transform moves the point.
+                    // bump and normal_map change the normal; transform moves the point.
                     TreeNode::Bump => im.name != "normal" && all(child(2).into_iter().collect()),
+                    TreeNode::NormalMap => im.name != "normal" && all(child(1).into_iter().collect()),
                     TreeNode::Transform => all(child(1).into_iter().collect()),
                     // scale keeps a black default black.
                     TreeNode::Scale => {

@@ -47,8 +47,8 @@ pub use spectral::curve_table_name;
 use super::builder::{Builder, Const, MemoKey};
 use super::*;
 use crate::check::{
-    BuiltinFn, INTERFACE, InterfaceMethod, Method, Program, Symbol, SymbolKind, TextureCall, TreeNode, Ty,
-    interface_method,
+    BuiltinFn, INTERFACE, InterfaceMethod, Method, NormalMapConvention, Program, Symbol, SymbolKind, TextureCall,
+    TreeNode, Ty, interface_method,
 };
 use crate::color::{self, ColorModel};
 use crate::diag::{Diagnostic, Span};

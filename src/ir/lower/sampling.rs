@@ -672,6 +672,21 @@ impl<'p> Lowerer<'p> {
         Sample { weight, ..s }.lanes()
     }
 
+    /// `sample` of a node that weighs its child's light by a factor of
+    /// the light's direction (`normal_map`'s shadowing): the child's
+    /// sample with its weight times the factor at the direction drawn.
+    pub(super) fn weigh_sample(
+        &mut self,
+        b: &mut Builder,
+        sample: &[Value],
+        factor: impl FnOnce(&mut Self, &mut Builder, &[Value]) -> Value,
+    ) -> Vec<Value> {
+        let mut s = Sample::split(sample, self.lanes);
+        let f = factor(self, b, &s.wi);
+        s.weight = b.scale(&s.weight, f);
+        s.lanes()
+    }
+
     /// `sample` of `scale(c, m)`: m's sample with its weight times `c`.
     pub(super) fn scale_sample(&self, b: &mut Builder, sample: &[Value], c: &[Value]) -> Vec<Value> {
         let mut s = Sample::split(sample, self.lanes);

@@ -1,6 +1,6 @@
-//! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `scale` and
-//! `transform`, and the coordinate contexts `bump` and `transform` give
-//! their subtrees.
+//! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `normal_map`,
+//! `scale` and `transform`, and the coordinate contexts `bump`,
+//! `normal_map` and `transform` give their subtrees.
 
 use super::*;
 
@@ -122,6 +122,44 @@ impl<'p> Lowerer<'p> {
                 let Some(height) = bound.first().copied().flatten() else { return missing(self, b) };
                 let bumped = self.bump_ctx(b, height, mat, amount, ctx);
                 self.mat_method(b, &m, im, args, &bumped)
+            }
+            TreeNode::NormalMap => {
+                let Some(m) = child(1) else { return missing(self, b) };
+                let Some(encoded) = bound.first().copied().flatten() else { return missing(self, b) };
+                let strength = match bound.get(2).copied().flatten() {
+                    Some(e) => self.node_float(b, mat, e, ctx),
+                    None => b.f(1.0),
+                };
+                let convention = match bound.get(3).copied().flatten().map(|e| &e.kind) {
+                    Some(ExprKind::Str(name)) => NormalMapConvention::from_name(name),
+                    _ => None,
+                };
+                let shadowing = match bound.get(4).copied().flatten() {
+                    Some(e) => self.node_scalar(b, mat, e, ctx),
+                    None => b.b(true),
+                };
+                let mut fr = self.env_frame(&mat.env, mat.in_prelude);
+                let v = self.expr_as(b, &mut fr, ctx, encoded, &Ty::Vector);
+                let encoded = self.lanes(b, v, &Ty::Vector);
+                let convention = convention.unwrap_or(NormalMapConvention::OpenGl);
+                let (mapped, tilted) = self.normal_map_ctx(b, &encoded, strength, convention, ctx);
+                let inner = self.mat_method(b, &m, im, args, &mapped);
+                if !matches!(im.name, "reflection" | "refraction" | "sample") {
+                    return inner;
+                }
+                let shadowed = b.and(tilted, shadowing);
+                let n = self.shading_global(b, ctx, "N");
+                let mapped_n = self.shading_global(b, &mapped, "N");
+                let shadowing = |_: &mut Self, b: &mut Builder, wi: &[Value]| {
+                    let g = bump_shadowing(b, &n, &mapped_n, wi);
+                    let one = b.f(1.0);
+                    b.select(shadowed, g, one)
+                };
+                if im.name == "sample" {
+                    return self.weigh_sample(b, &inner, shadowing);
+                }
+                let g = shadowing(self, b, &args[0]);
+                b.scale(&inner, g)
             }
             TreeNode::Scale => {
                 let Some(m) = child(1) else { return missing(self, b) };
@@ -498,6 +536,115 @@ impl<'p> Lowerer<'p> {
             .collect();
         self.with_overrides(b, ctx, vec![("N", new_n)])
     }
+}
+
+impl<'p> Lowerer<'p> {
+    /// `normal_map`: the stored normal `encoded` (in [0, 1]³) decoded to
+    /// `2c - 1`, green negated for DirectX, its tangent components times
+    /// `strength` and `z` kept above the surface, taken to world space in
+    /// the frame (s, t, N) of Mitsuba's `normalmap`: `s` is `dPdu` made
+    /// orthogonal to `N` (Gram-Schmidt), `t = N x s` turned to `dPdv`'s side
+    /// (a mirrored layout keeps green along +v). The subtree sees the unit
+    /// result as N; a flat texel, a zero or a NaN result keeps N. Also
+    /// returns whether N was tilted.
+    pub(super) fn normal_map_ctx(
+        &mut self,
+        b: &mut Builder,
+        encoded: &[Value],
+        strength: Value,
+        convention: NormalMapConvention,
+        ctx: &Ctx,
+    ) -> (Ctx, Value) {
+        let (zero, one, two) = (b.f(0.0), b.f(1.0), b.f(2.0));
+        let decoded: Vec<Value> = encoded
+            .iter()
+            .map(|c| {
+                let twice = b.fmul(*c, two);
+                b.fsub(twice, one)
+            })
+            .collect();
+        let x = b.fmul(decoded[0], strength);
+        let y = b.fmul(decoded[1], strength);
+        let y = match convention {
+            NormalMapConvention::OpenGl => y,
+            NormalMapConvention::DirectX => b.un(UnOp::FNeg, y),
+        };
+        let z = b.fmax(decoded[2], zero);
+        let g = |me: &mut Self, b: &mut Builder, name: &str| me.shading_global(b, ctx, name);
+        let (dpdu, dpdv, n) = (g(self, b, "dPdu"), g(self, b, "dPdv"), g(self, b, "N"));
+        let along_n = b.dot(&n, &dpdu);
+        let n_part = b.scale(&n, along_n);
+        let s = b.map2(BinOp::FSub, &dpdu, &n_part);
+        let s = b.normalize(&s);
+        let t = b.cross(&n, &s);
+        let t_side = b.dot(&t, &dpdv);
+        let mirrored = b.flt(t_side, zero);
+        let t: Vec<Value> = t
+            .iter()
+            .map(|tk| {
+                let neg = b.un(UnOp::FNeg, *tk);
+                b.select(mirrored, neg, *tk)
+            })
+            .collect();
+        let xs = b.scale(&s, x);
+        let yt = b.scale(&t, y);
+        let zn = b.scale(&n, z);
+        let w = b.map2(BinOp::FAdd, &xs, &yt);
+        let w = b.map2(BinOp::FAdd, &w, &zn);
+        let len2 = b.dot(&w, &w);
+        let nonzero = b.flt(zero, len2);
+        // No tangential part (a flat texel, strength 0): N itself, bit for
+        // bit, rather than N renormalised.
+        let (flat_x, flat_y) = (b.feq(x, zero), b.feq(y, zero));
+        let flat = b.and(flat_x, flat_y);
+        let tilted = b.not(flat);
+        let keep_tilt = b.and(nonzero, tilted);
+        let unit = b.normalize(&w);
+        let new_n: Vec<Value> = (0..3).map(|k| b.select(keep_tilt, unit[k], n[k])).collect();
+        (self.with_overrides(b, ctx, vec![("N", new_n)]), keep_tilt)
+    }
+}
+
+/// The shadowing of a tilted shading normal (Conty Estevez, Lecocq and
+/// Stein, "A Microfacet-Based Shadowing Function to Solve the Bump
+/// Terminator Problem", Ray Tracing Gems 2019, as Mitsuba 3's `normalmap`
+/// and Cycles apply it): the light from `wi` reaching a surface whose
+/// normal `n` was turned to `mapped` is weighted by
+/// `2 / (1 + sqrt(1 + a² tan²θ))`, `a² = min(tan²(n, mapped) / 8, 1)` and
+/// θ the angle of `wi` from `n`, so light grazing the unmapped surface
+/// fades instead of ending at a hard terminator. 1 when `mapped` is `n`.
+fn bump_shadowing(b: &mut Builder, n: &[Value], mapped: &[Value], wi: &[Value]) -> Value {
+    let (zero, one) = (b.f(0.0), b.f(1.0));
+    // tan² of the turn; at 90 degrees (a zero cosine) it is infinite and
+    // a² below is 1.
+    let cos_d = b.dot(n, mapped);
+    let cos2_d = b.fmul(cos_d, cos_d);
+    let sin2_d = b.fsub(one, cos2_d);
+    let sin2_d = b.fmax(sin2_d, zero);
+    let tan2_d = b.fdiv(sin2_d, cos2_d);
+    let eighth = b.f(0.125);
+    let alpha2 = b.fmul(eighth, tan2_d);
+    let alpha2 = b.fmax(alpha2, zero);
+    let alpha2 = b.fmin(alpha2, one);
+    let len2 = b.dot(wi, wi);
+    let cos_i = b.dot(n, wi);
+    // wi need not be unit: tan²θ = (|wi|² - (n·wi)²) / (n·wi)².
+    let cos2_i = b.fmul(cos_i, cos_i);
+    let sin2_i = b.fsub(len2, cos2_i);
+    let sin2_i = b.fmax(sin2_i, zero);
+    let spread = b.fmul(alpha2, sin2_i);
+    // alpha2 tan²θ without dividing by a zero cosine: at 90° the light is
+    // fully shadowed (unless the normal did not turn).
+    let grazing = b.feq(cos2_i, zero);
+    let spread = b.fdiv(spread, cos2_i);
+    let root_arg = b.fadd(one, spread);
+    let root = b.un(UnOp::Sqrt, root_arg);
+    let denom = b.fadd(one, root);
+    let two = b.f(2.0);
+    let g = b.fdiv(two, denom);
+    let flat = b.feq(alpha2, zero);
+    let g = b.select(grazing, zero, g);
+    b.select(flat, one, g)
 }
 
 /// The step of the forward differences in `bump`, in (u, v) units.
