@@ -372,7 +372,9 @@ impl<'a> Checker<'a> {
             BuiltinFn::Texture | BuiltinFn::TextureFloat | BuiltinFn::TextureVector => {
                 self.check_texture(b, &bound, span)
             }
-            BuiltinFn::Triplanar => self.check_point_reader(b.name, span),
+            BuiltinFn::Triplanar => {
+                self.check_point_reader(b.name, span, "it projects along the shading point's position and normal");
+            }
             BuiltinFn::NormalMap => {
                 let names = NormalMapConvention::NAMES;
                 self.option_literal(b.arg(&bound, "convention"), "convention", names, NormalMapConvention::from_name);
@@ -388,15 +390,9 @@ impl<'a> Checker<'a> {
     pub(super) fn check_texture(&mut self, b: &Builtin, bound: &[Option<&Expr>], span: Span) {
         let (name, color) = (b.name, b.func == BuiltinFn::Texture);
         let arg = |param: &str| b.arg(bound, param);
-        if !self.body.globals_allowed {
-            self.error(
-                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
-                    .with_help("a texture lookup depends on the shading point and its pixel footprint"),
-            );
+        if !self.check_point_reader(name, span, "a texture lookup depends on the shading point and its pixel footprint")
+        {
             return;
-        }
-        if let Some(node) = &self.body.node {
-            self.reads_globals.entry(*node).or_insert(span);
         }
         let filter = self.option_literal(arg("filter"), "filter", Filter::NAMES, Filter::from_name);
         let wrap = self.option_literal(arg("wrap"), "wrap", Wrap::NAMES, Wrap::from_name);
@@ -453,20 +449,20 @@ impl<'a> Checker<'a> {
         self.texture_calls.insert(span, call);
     }
 
-    /// A builtin that reads the shading point itself (`triplanar` reads
-    /// `P` and `N`): allowed where the globals are, and recorded as reading
-    /// them.
-    fn check_point_reader(&mut self, name: &str, span: Span) {
+    /// A builtin that reads the shading point itself (a texture lookup,
+    /// `triplanar`): allowed where the globals are, and recorded as reading
+    /// them; else an error with `help`, and false.
+    fn check_point_reader(&mut self, name: &str, span: Span, help: &str) -> bool {
         if !self.body.globals_allowed {
             self.error(
-                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context))
-                    .with_help("it projects along the shading point's position and normal"),
+                Diagnostic::error(span, format!("`{name}` cannot be used in {}", self.body.context)).with_help(help),
             );
-            return;
+            return false;
         }
         if let Some(node) = &self.body.node {
             self.reads_globals.entry(*node).or_insert(span);
         }
+        true
     }
 
     /// An optional string-literal option: `Some(None)` when absent,
