@@ -14,15 +14,13 @@ TREE = """
 /// A marbled plastic: a texture tree over P, u and v.
 material marbled = rough_plastic(
     diffuse_reflectance: mix(clamp(noise(P * 4) + 0.5, 0, 1), rgb(0.8, 0.7, 0.6), rgb(0.2, 0.1, 0.1)),
-    // One roughness: a rough_plastic interface is tabulated per distinct
-    // alpha (a per-point alpha is issue 32's open rough-interface item).
-    alpha: 0.25,
+    alpha: 0.1 + 0.3 * u,
 );
 
 /// The same tree as a template whose scale and colours a host binds.
 material veined(float scale = 4, color vein = rgb(0.2, 0.1, 0.1), float roughness = 0.2) = rough_plastic(
     diffuse_reflectance: mix(clamp(noise(P * scale) + 0.5, 0, 1), rgb(0.8, 0.7, 0.6), vein),
-    alpha: roughness,
+    alpha: roughness * (0.5 + u),
 );
 """
 

@@ -828,23 +828,23 @@ pub(super) fn blend_weights(b: &mut Builder, t: Value, spline: Value, n: usize) 
 }
 
 /// `rough_transmittance`: with a constant roughness, index and
-/// distribution, the interface's table as constant data and a linear
-/// interpolation in `cos_theta` (the operations of
+/// distribution, the interface's blended table as constant data and a
+/// linear interpolation in `cos_theta` (the operations of
 /// [`runtime::rough_interface::lerp_transmittance`], so both agree bit for
-/// bit); otherwise a call of the native, which finds or computes the table
+/// bit); otherwise a call of the native, which blends the same grid nodes
 /// at run time.
 fn rough_transmittance(b: &mut Builder, cos_theta: Value, alpha: Value, eta: Value, ggx: Value) -> Value {
-    use crate::runtime::rough_interface::{ROUGH_INTERFACE_NODES, rough_interface};
+    use crate::runtime::rough_interface::{ROUGH_INTERFACE_NODES, constant_table};
     let constant = match (b.fconst(alpha), b.fconst(eta), b.konst(ggx)) {
-        (Some(alpha), Some(eta), Some(Const::B(ggx))) => rough_interface(alpha, eta, ggx),
+        (Some(alpha), Some(eta), Some(Const::B(ggx))) => constant_table(alpha, eta, ggx),
         _ => None,
     };
-    let Some(interface) = constant else {
+    let Some(table) = constant else {
         let (one, zero) = (b.f(1.0), b.f(0.0));
         let ggx = b.select(ggx, one, zero);
         return b.call("tsl_rough_transmittance", vec![cos_theta, alpha, eta, ggx]);
     };
-    let table: &'static [u32] = &interface.transmittance;
+    let table: &'static [u32] = table;
     let (zero, one) = (b.f(0.0), b.f(1.0));
     let c = b.fmax(cos_theta, zero);
     let c = b.fmin(c, one);
