@@ -14,7 +14,7 @@
 //! set does not have, or in a tile whose file cannot be read, it is
 //! transparent black; a failed read is remembered in its tile
 //! ([`UdimSet::failures`]), and the renderer reports it as an error after
-//! the render ([`crate::render::render`]).
+//! the render (`render::render`).
 
 use super::TextureManager;
 use super::mipmap::MipMap;
