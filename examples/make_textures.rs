@@ -140,13 +140,9 @@ fn brick_height(px: i32, py: i32) -> f32 {
     t * t * (3.0 - 2.0 * t) + 0.6 * tilt + 0.04 * grain
 }
 
-/// The UDIM tiles of the crate and each one's wood colour (linear).
-const PLANK_TILES: [(u32, [f32; 3]); 4] = [
-    (1001, [0.62, 0.42, 0.24]),
-    (1002, [0.6, 0.16, 0.12]),
-    (1011, [0.85, 0.7, 0.45]),
-    (1012, [0.2, 0.45, 0.5]),
-];
+/// The UDIM tiles of the crate and each one's wood colour (as stored: sRGB).
+const PLANK_TILES: [(u32, [f32; 3]); 4] =
+    [(1001, [0.62, 0.42, 0.24]), (1002, [0.6, 0.16, 0.12]), (1011, [0.85, 0.7, 0.45]), (1012, [0.2, 0.45, 0.5])];
 
 /// One 64 x 64 tile of four horizontal planks in `wood`: grain along the
 /// planks, a dark seam between them and a nail at each end.
