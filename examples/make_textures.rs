@@ -10,6 +10,9 @@
 //!   (OpenGL convention: green is +v, up the picture) of staggered
 //!   bricks with bevelled edges, mortar joints and a grain, for normal
 //!   mapping; it tiles.
+//! - `udim/planks.1001.png`, `.1002`, `.1011`, `.1012` (64 x 64 each, sRGB):
+//!   a UDIM tile set of wooden planks, one wood per tile (oak, red paint,
+//!   pine, teal paint), for the UDIM example's crate.
 //!
 //! ```sh
 //! cargo run --release --example make_textures
@@ -137,6 +140,27 @@ fn brick_height(px: i32, py: i32) -> f32 {
     t * t * (3.0 - 2.0 * t) + 0.6 * tilt + 0.04 * grain
 }
 
+/// The UDIM tiles of the crate and each one's wood colour (as stored: sRGB).
+const PLANK_TILES: [(u32, [f32; 3]); 4] =
+    [(1001, [0.62, 0.42, 0.24]), (1002, [0.6, 0.16, 0.12]), (1011, [0.85, 0.7, 0.45]), (1012, [0.2, 0.45, 0.5])];
+
+/// One 64 x 64 tile of four horizontal planks in `wood`: grain along the
+/// planks, a dark seam between them and a nail at each end.
+fn planks(number: u32, wood: [f32; 3]) -> image::RgbImage {
+    image::RgbImage::from_fn(64, 64, |px, py| {
+        let (x, y) = (px as f32 + 0.5, py as f32 + 0.5);
+        let plank = py / 16;
+        let grain = fbm(x / 24.0, y / 2.0 + plank as f32 * 7.0, number);
+        let mut c = wood.map(|w| w * (0.75 + 0.5 * grain));
+        let seam = py % 16 == 0;
+        let nail = [6.0, 58.0].iter().any(|&nx| (x - nx).powi(2) + (y - (plank as f32 * 16.0 + 8.0)).powi(2) < 2.5);
+        if seam || nail {
+            c = c.map(|w| w * 0.3);
+        }
+        image::Rgb(c.map(byte))
+    })
+}
+
 /// [`brick_height`]'s normals by central differences, encoded `(n + 1) / 2`
 /// with green up the picture (OpenGL), as 8-bit RGB.
 fn bricks_normal() -> image::RgbImage {
@@ -158,6 +182,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     tiles_height().save(dir.join("tiles_height.png"))?;
     perforated().save(dir.join("perforated.png"))?;
     bricks_normal().save(dir.join("bricks_normal.png"))?;
-    println!("wrote painting.png, tiles_height.png, perforated.png and bricks_normal.png to {}", dir.display());
+    std::fs::create_dir_all(dir.join("udim"))?;
+    for (number, wood) in PLANK_TILES {
+        planks(number, wood).save(dir.join(format!("udim/planks.{number}.png")))?;
+    }
+    println!(
+        "wrote painting.png, tiles_height.png, perforated.png, bricks_normal.png and udim/planks.*.png to {}",
+        dir.display()
+    );
     Ok(())
 }

@@ -340,15 +340,27 @@ impl Loader<'_> {
 /// search directories holding it (the current directory when there is no
 /// base).
 pub(crate) fn find_file(base: Option<&Path>, path: &str, search: &[PathBuf]) -> Option<PathBuf> {
+    find_where(base, path, search, |p| p.is_file())
+}
+
+/// [`find_file`]'s search order with another test of a place: the first
+/// of `path` itself (absolute), under `base`, under each of `search`, or
+/// as given (without a base) that passes `found`.
+pub(crate) fn find_where(
+    base: Option<&Path>,
+    path: &str,
+    search: &[PathBuf],
+    mut found: impl FnMut(&Path) -> bool,
+) -> Option<PathBuf> {
     let direct = Path::new(path);
     if direct.is_absolute() {
-        return direct.is_file().then(|| direct.to_path_buf());
+        return found(direct).then(|| direct.to_path_buf());
     }
     base.into_iter()
         .chain(search.iter().map(PathBuf::as_path))
         .map(|dir| dir.join(path))
-        .find(|p| p.is_file())
-        .or_else(|| (base.is_none() && direct.is_file()).then(|| direct.to_path_buf()))
+        .find(|p| found(p))
+        .or_else(|| (base.is_none() && found(direct)).then(|| direct.to_path_buf()))
 }
 
 /// The directories `find_file` searched, for a message.

@@ -201,6 +201,33 @@ impl Material {
         Material::with_facts(program, code, facts)
     }
 
+    /// The UDIM tile sets this material looks up at the shading point's own
+    /// (u, v) ([`crate::ir::Function::lookups_at_uv`]), each once: a mesh's
+    /// texture coordinates name the tiles such a lookup reads, so a scene
+    /// can check them before rendering. Lookups at coordinates computed
+    /// from (u, v) are not among them.
+    pub fn udim_sets_at_uv(&self) -> Vec<Arc<crate::texture::UdimSet>> {
+        let code = &self.code;
+        let hit =
+            code.hit.iter().flat_map(|h| std::iter::once(h.material.prepare_function()).chain(h.material.functions()));
+        let functions = (code.methods.iter().flatten())
+            .chain(&code.eval_pdf)
+            .chain(&code.delta_lobes)
+            .chain(code.reflection_sum.iter().map(|(_, f)| f))
+            .chain(hit);
+        let mut sets: Vec<Arc<crate::texture::UdimSet>> = Vec::new();
+        for f in functions {
+            for sampler in f.ir().lookups_at_uv() {
+                if let crate::texture::TextureImage::Udim(set) = &sampler.0.image
+                    && !sets.iter().any(|s| Arc::ptr_eq(s, set))
+                {
+                    sets.push(set.clone());
+                }
+            }
+        }
+        sets
+    }
+
     /// A material of `code` whose facts are known already (those of other
     /// code compiled from the same IR): a run-time-bound instance's.
     pub(super) fn with_facts(program: Program, code: Code, facts: MaterialFacts) -> Material {

@@ -2,6 +2,7 @@
 //! materials, builtins, and the string options and literals some take.
 
 use super::*;
+use crate::texture::is_udim_pattern;
 
 impl<'a> Checker<'a> {
     /// Matches call arguments to parameters. Returns, per parameter, the
@@ -429,7 +430,9 @@ impl<'a> Checker<'a> {
             return;
         };
         let encoding = encoding.unwrap_or(if color { Encoding::Srgb } else { Encoding::Raw });
-        let wrap = wrap.unwrap_or(Wrap::Repeat);
+        // A tile set's tiles meet edge to edge, so by default a tile's
+        // filter reads its own edge texels there, not the opposite edge.
+        let wrap = wrap.unwrap_or(if is_udim_pattern(path) { Wrap::Clamp } else { Wrap::Repeat });
         let image = match self
             .images
             .iter()

@@ -39,11 +39,10 @@ pub use types::{ExprTypes, ExprTypesWithin};
 use crate::diag::{Diagnostic, Span, did_you_mean};
 use crate::load::Loaded;
 use crate::syntax::ast::*;
-use crate::texture::{Encoding, Filter, MipMap, Wrap};
+use crate::texture::{Encoding, Filter, TextureImage, Wrap};
 use builtins::{ArgError, elementwise, type_builtin, unify};
 use rustc_hash::FxHashMap;
 use std::collections::HashMap;
-use std::sync::Arc;
 
 /// The most elements an array may have.
 pub const MAX_ARRAY_LEN: u32 = 4096;
@@ -93,15 +92,17 @@ pub struct Program {
 }
 
 /// An image named by a `texture` call. Checking records the path as
-/// written; the front end then resolves and loads it (`image`).
+/// written; the front end then resolves and loads it (`image`): a path
+/// with the `<UDIM>` token becomes a tile set, its tiles listed but not
+/// read.
 #[derive(Debug, Clone)]
 pub struct ImageUse {
     /// The string literal naming the file.
     pub span: Span,
     pub path: String,
     pub encoding: Encoding,
-    /// The loaded pyramid, once the front end has read the file.
-    pub image: Option<Arc<MipMap>>,
+    /// The loaded pyramid (or tile set), once the front end has found it.
+    pub image: Option<TextureImage>,
 }
 
 /// What one `texture` call reads and how.

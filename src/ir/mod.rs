@@ -219,7 +219,7 @@ impl PartialEq for SamplerRef {
 impl fmt::Debug for SamplerRef {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let s = &self.0;
-        write!(f, "\"{}\" {:?} {:?}/{:?}", s.image.name, s.filter, s.wrap[0], s.wrap[1])
+        write!(f, "\"{}\" {:?} {:?}/{:?}", s.image.name(), s.filter, s.wrap[0], s.wrap[1])
     }
 }
 
@@ -248,6 +248,34 @@ pub struct Function {
 impl Function {
     pub fn value_type(&self, v: Value) -> Scalar {
         self.values[v.0 as usize]
+    }
+
+    /// The samplers this function looks up at the shading point's own
+    /// (u, v): lookups whose coordinates are the globals `u` and `v` as
+    /// read, not computed from them (nor moved by a `transform` or a
+    /// `triplanar`), so a mesh's texture coordinates say which part of the
+    /// image they read (the scene's UDIM tile check).
+    pub fn lookups_at_uv(&self) -> Vec<&SamplerRef> {
+        let word = |name| crate::globals::word_of(name).map(|(w, _)| w);
+        let (Some(u), Some(v)) = (word("u"), word("v")) else { return Vec::new() };
+        let mut globals: std::collections::HashMap<Value, u32> = std::collections::HashMap::new();
+        for_each_inst(&self.body, &mut |inst| {
+            if let Inst::Def(value, Op::Global(w)) = inst {
+                globals.insert(*value, *w);
+            }
+        });
+        let mut found: Vec<&SamplerRef> = Vec::new();
+        for_each_inst(&self.body, &mut |inst| {
+            if let Inst::Texture { sampler, coords, .. } = inst
+                && coords.len() >= 2
+                && globals.get(&coords[0]) == Some(&u)
+                && globals.get(&coords[1]) == Some(&v)
+                && !found.contains(&sampler)
+            {
+                found.push(sampler);
+            }
+        });
+        found
     }
 }
 
@@ -474,7 +502,7 @@ pub fn count_insts(body: &[Inst]) -> usize {
 
 /// Calls `f` on every instruction of `body`, nested bodies included
 /// (a nested body's instructions after the instruction that holds it).
-pub fn for_each_inst(body: &[Inst], f: &mut impl FnMut(&Inst)) {
+pub fn for_each_inst<'a>(body: &'a [Inst], f: &mut impl FnMut(&'a Inst)) {
     for inst in body {
         f(inst);
         match inst {

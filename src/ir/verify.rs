@@ -493,7 +493,7 @@ mod tests {
     fn sampler() -> SamplerRef {
         let image = MipMap::new("one", Level { width: 1, height: 1, texels: vec![[1.0; 4]] }, false);
         SamplerRef(std::sync::Arc::new(Sampler {
-            image: std::sync::Arc::new(image),
+            image: crate::texture::TextureImage::Single(std::sync::Arc::new(image)),
             filter: Filter::Nearest,
             wrap: [Wrap::Repeat; 2],
             spectral: None,

@@ -248,7 +248,9 @@ fn render_lanes<const N: usize>(
     if samples.is_empty() || samples.end > crate::scene::MAX_SPP {
         return Err(format!("the sample range {samples:?} is empty or beyond {}", crate::scene::MAX_SPP));
     }
-    let cancelled = || options.cancel.is_some_and(|c| c.load(Ordering::Relaxed));
+    // A UDIM tile that cannot be read stops the render (reported below).
+    let tile_failed = || scene.tile_sets.iter().any(|set| set.has_failed());
+    let cancelled = || options.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || tile_failed();
     let total = u64::from(width) * u64::from(height);
     let done = AtomicU64::new(0);
     let start = std::time::Instant::now();
@@ -266,6 +268,9 @@ fn render_lanes<const N: usize>(
             })
             .collect()
     });
+    if let Some(e) = tile_failure(scene) {
+        return Err(e);
+    }
     let Some(outs) = outs else { return Err(CANCELLED.into()) };
     let mut image = RenderedImage {
         full_width: s.width,
@@ -306,6 +311,14 @@ fn render_lanes<const N: usize>(
     stats.samples = total * u64::from(samples.end - samples.start);
     stats.seconds = start.elapsed().as_secs_f64();
     Ok((image, stats))
+}
+
+/// The first UDIM tile of `scene` that failed to load, in words: its file
+/// and why.
+fn tile_failure(scene: &Scene) -> Option<String> {
+    let set = scene.tile_sets.iter().find(|s| s.has_failed())?;
+    let (tile, reason) = set.failures().into_iter().next()?;
+    Some(format!("cannot read the UDIM tile {} `{}` of `{}`: {reason}", tile.number, tile.path.display(), set.name))
 }
 
 /// Renders the pixels of one tile `(x0, y0, w, h)`, taking `samples` at

@@ -21,6 +21,7 @@ use crate::scene::{
     AreaEmission, EnvironmentDesc, EnvironmentSourceDesc, Frame, LightColor, LightDesc, MaterialRef, ObjectDesc,
     SceneDesc, ShapeDesc, Surface,
 };
+use crate::texture::{LAST_UDIM_TILE, TextureImage, UDIM_TOKEN, UdimSet, udim_tile_at};
 use crate::{Color, ColorModel, Error, HitCalls, Material, MaterialSource, Program, SurfaceOptions};
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -176,6 +177,9 @@ pub struct Scene {
     /// Seconds spent placing shapes and meshes, compiling object materials
     /// and building the BVH (meshes are read when the program is compiled).
     pub build_seconds: f64,
+    /// The program's UDIM tile sets, whose tiles load during the render: a
+    /// tile that fails to load makes [`super::render`] an error.
+    pub tile_sets: Vec<Arc<UdimSet>>,
 }
 
 impl Scene {
@@ -398,8 +402,20 @@ impl<'a> Builder<'a> {
         let mut has_emitters = false;
         let count = descs.len();
         let mut surface_of_object: Vec<u32> = Vec::with_capacity(count);
+        // Per mesh object with texture coordinates, when the program has
+        // tile sets: its surface, its file's span and path, the tiles its uv cover.
+        let has_tile_sets =
+            self.program.checked().images.iter().any(|i| matches!(i.image, Some(TextureImage::Udim(_))));
+        let mut mesh_tiles: Vec<(u32, Span, std::path::PathBuf, Vec<u32>)> = Vec::new();
         for o in descs.iter() {
             let to_world = o.to_world();
+            if has_tile_sets && let (ShapeDesc::Mesh { file }, Surface::Material(m)) = (&o.shape, &o.surface) {
+                let surface = m.name.as_ref().and_then(|n| by_name.get(&**n).copied()).unwrap_or(objects.len() as u32);
+                let tiles = udim_tiles_of(&file.value);
+                if !tiles.is_empty() {
+                    mesh_tiles.push((surface, file.span, file.value.path.clone(), tiles));
+                }
+            }
             let placed = match (&o.shape, o.shape.kind()) {
                 (ShapeDesc::Mesh { file }, _) => Mesh::from_data(&file.value, to_world)
                     .map(|m| ObjectGeometry::Mesh(Box::new(m)))
@@ -468,6 +484,32 @@ impl<'a> Builder<'a> {
             optimize_large: overrides.optimize_code.unwrap_or(samples >= OPTIMIZE_FROM_SAMPLES),
         };
         let materials = self.program.compile_surfaces(&sources, &options)?;
+        for (surface, span, path, tiles) in &mesh_tiles {
+            let material = &materials[objects[*surface as usize].0];
+            for set in material.udim_sets_at_uv() {
+                if let Some(&missing) = tiles.iter().find(|&&n| set.tile(n).is_none()) {
+                    let have: Vec<String> = set.tiles.iter().map(|t| t.number.to_string()).collect();
+                    let tile_file = set.name.replace(UDIM_TOKEN, &format!("{missing:04}"));
+                    return Err(self.program.error(
+                        Diagnostic::error(
+                            *span,
+                            format!(
+                                "the mesh `{}` has texture coordinates in UDIM tile {missing}, which `{}` does not have",
+                                path.display(),
+                                set.name
+                            ),
+                        )
+                        .with_help(format!("the set has tiles {}; add `{tile_file}`", have.join(", "))),
+                    ));
+                }
+            }
+        }
+        let tile_sets: Vec<Arc<UdimSet>> = (self.program.checked().images.iter())
+            .filter_map(|i| match &i.image {
+                Some(TextureImage::Udim(set)) => Some(set.clone()),
+                _ => None,
+            })
+            .collect();
         let objects: Vec<Object> = objects
             .into_iter()
             .map(|(source, emission_scale, span)| Object { material: materials[source].clone(), emission_scale, span })
@@ -505,8 +547,25 @@ impl<'a> Builder<'a> {
             light_sampler,
             model: self.model,
             build_seconds: 0.0,
+            tile_sets,
         })
     }
+}
+
+/// The UDIM tiles a mesh's texture coordinates lie in, ascending: the
+/// tile of each triangle's uv centroid (a triangle whose corners sit on a
+/// tile's edge, as uv shells laid out in a tile do, belongs to that tile).
+fn udim_tiles_of(mesh: &crate::scene::MeshData) -> Vec<u32> {
+    let Some(uvs) = &mesh.uvs else { return Vec::new() };
+    let mut seen = vec![false; (LAST_UDIM_TILE + 1) as usize];
+    for tri in &mesh.triangles {
+        let [a, b, c] = tri.map(|i| uvs.get(i as usize).copied().unwrap_or_default());
+        let centroid = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
+        if let Some(tile) = udim_tile_at(centroid[0], centroid[1]) {
+            seen[tile as usize] = true;
+        }
+    }
+    (0..=LAST_UDIM_TILE).filter(|&n| seen[n as usize]).collect()
 }
 
 fn scale_color(c: &Color, s: f32) -> Color {

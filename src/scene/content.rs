@@ -2,7 +2,8 @@
 //! came from the same scene. It covers everything that makes the picture
 //! and nothing about where the files are: the text of the program's own
 //! source files (the root and its imports, in load order; the prelude is
-//! tslc's version), every texture's decoded texels, and the meshes and
+//! tslc's version), every texture's decoded texels (a UDIM tile's file
+//! bytes: its pixels are read only when a lookup needs them), and the meshes and
 //! environment image the scene read. BLAKE3 (256 bits, printed as 64 hex
 //! digits): five times faster than SHA3 over float texels, which matters at
 //! the start of every render of a scene with large textures.
@@ -10,7 +11,7 @@
 use super::{EnvironmentImage, EnvironmentSourceDesc, MeshData, SceneDesc, ShapeDesc};
 use crate::check::Program;
 use crate::diag::Span;
-use crate::texture::MipMap;
+use crate::texture::{MipMap, TextureImage, UdimTile};
 use std::path::Path;
 
 /// One file a program and its scene were made from, and what was read
@@ -36,6 +37,8 @@ pub enum InputContent<'a> {
     /// An imported file's text.
     Import(&'a str),
     Texture(&'a MipMap),
+    /// A tile of a UDIM set (its file is hashed, not its pixels).
+    UdimTile(&'a UdimTile),
     Mesh(&'a MeshData),
     Environment(&'a EnvironmentImage),
 }
@@ -48,6 +51,7 @@ impl InputContent<'_> {
             InputContent::Source(_) => "the source",
             InputContent::Import(_) => "an imported file",
             InputContent::Texture(_) => "a texture",
+            InputContent::UdimTile(_) => "a UDIM tile",
             InputContent::Mesh(_) => "a mesh",
             InputContent::Environment(_) => "the environment image",
         }
@@ -67,9 +71,18 @@ pub fn input_files<'a>(program: &'a Program, scene: Option<&'a SceneDesc>) -> Ve
         inputs.push(InputFile { path: Some(Path::new(loaded.sources.name(module.file))), span: None, content });
     }
     for image in &program.images {
-        if let Some(texture) = &image.image {
-            let path = Some(Path::new(texture.name.as_str()));
-            inputs.push(InputFile { path, span: Some(image.span), content: InputContent::Texture(texture) });
+        match &image.image {
+            Some(TextureImage::Single(texture)) => {
+                let path = Some(Path::new(texture.name.as_str()));
+                inputs.push(InputFile { path, span: Some(image.span), content: InputContent::Texture(texture) });
+            }
+            Some(TextureImage::Udim(set)) => {
+                for tile in &set.tiles {
+                    let path = Some(tile.path.as_path());
+                    inputs.push(InputFile { path, span: Some(image.span), content: InputContent::UdimTile(tile) });
+                }
+            }
+            None => {}
         }
     }
     let Some(scene) = scene else { return inputs };
@@ -109,6 +122,10 @@ pub fn content_hash(program: &Program, scene: Option<&SceneDesc>) -> String {
                 h.bytes("texture", &[level.width.to_le_bytes(), level.height.to_le_bytes()].concat());
                 h.floats("texels", level.texels.as_flattened());
             }
+            InputContent::UdimTile(tile) => {
+                h.bytes("udim-tile", &tile.number.to_le_bytes());
+                h.file(&tile.path);
+            }
             InputContent::Mesh(mesh) => {
                 let positions: Vec<f32> = mesh.positions.iter().flat_map(|p| p.to_array()).collect();
                 h.floats("mesh", &positions);
@@ -137,6 +154,18 @@ impl Pieces {
         self.0.update(tag.as_bytes());
         self.0.update(&(bytes.len() as u64).to_le_bytes());
         self.0.update(bytes);
+    }
+
+    /// The bytes of the file at `path`, streamed; one that cannot be read
+    /// hashes as its error (the render that follows reports it).
+    fn file(&mut self, path: &Path) {
+        let mut file = blake3::Hasher::new();
+        let read = crate::input_file::open_regular(path)
+            .and_then(|(f, _)| file.update_reader(f).map(|_| ()).map_err(|e| e.to_string()));
+        match read {
+            Ok(()) => self.bytes("file", file.finalize().as_bytes()),
+            Err(e) => self.bytes("unreadable", e.as_bytes()),
+        }
     }
 
     /// `xs` as little-endian bytes, streamed through a small buffer.

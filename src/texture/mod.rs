@@ -20,11 +20,16 @@
 
 mod mipmap;
 mod sampler;
+mod udim;
 
 // Decoding lives in the leaf `image_io`, which the renderer shares.
 pub use crate::image_io::{Encoding, MAX_IMAGE_SIZE, srgb_to_linear};
 pub use mipmap::{Level, MipMap};
-pub use sampler::{Filter, Lookup, Sampler, SpectralLanes, Wrap, tsl_texture, tsl_texture_spectrum};
+pub use sampler::{Filter, Lookup, Sampler, SpectralLanes, TextureImage, Wrap, tsl_texture, tsl_texture_spectrum};
+pub use udim::{
+    FIRST_UDIM_TILE, LAST_UDIM_TILE, UDIM_ROW, UDIM_TOKEN, UdimPattern, UdimSet, UdimTile, is_udim_pattern,
+    udim_tile_at,
+};
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -2,6 +2,7 @@
 //! bilinear and trilinear filtering, and the native the generated code calls.
 
 use super::mipmap::{Level, MipMap};
+use super::udim::UdimSet;
 use crate::runtime::floor_to_i64;
 use std::sync::Arc;
 
@@ -85,10 +86,28 @@ impl Filter {
     pub const NAMES: &'static [&'static str] = &["nearest", "closest", "bilinear", "linear", "trilinear", "mipmap"];
 }
 
+/// What a texture call reads: one image, or a UDIM tile set whose tile
+/// each lookup picks by its coordinates.
+#[derive(Debug, Clone)]
+pub enum TextureImage {
+    Single(Arc<MipMap>),
+    Udim(Arc<UdimSet>),
+}
+
+impl TextureImage {
+    /// The file (or the tile set's pattern) as found, for messages.
+    pub fn name(&self) -> &str {
+        match self {
+            TextureImage::Single(image) => &image.name,
+            TextureImage::Udim(set) => &set.name,
+        }
+    }
+}
+
 /// An image with the filter and address modes of one kind of lookup.
 #[derive(Debug)]
 pub struct Sampler {
-    pub image: Arc<MipMap>,
+    pub image: TextureImage,
     pub filter: Filter,
     /// Address modes along s and t.
     pub wrap: [Wrap; 2],
@@ -123,17 +142,27 @@ impl Sampler {
     /// The filtered RGBA value at `(s, t)`. `s` runs left to right and `t`
     /// bottom to top over the picture, one tile per unit; texel centres
     /// sit at half-integers of `s * width` and `t * height`. Non-finite
-    /// coordinates give black.
+    /// coordinates give black. A tile set's lookup reads the tile `(s, t)`
+    /// falls in at the coordinates' fractions, the address modes applying
+    /// at that tile's edges ([`UdimSet::lookup`]; transparent black where
+    /// there is no tile).
     pub fn sample(&self, q: &Lookup) -> [f32; 4] {
         if !(q.s.is_finite() && q.t.is_finite()) {
             return [0.0; 4];
         }
-        let levels = &self.image.levels;
+        match &self.image {
+            TextureImage::Single(image) => self.sample_image(image, q),
+            TextureImage::Udim(set) => set.lookup(q).map_or([0.0; 4], |(image, q)| self.sample_image(image, &q)),
+        }
+    }
+
+    fn sample_image(&self, image: &MipMap, q: &Lookup) -> [f32; 4] {
+        let levels = &image.levels;
         match self.filter {
             Filter::Nearest => self.nearest(&levels[0], q.s, q.t),
             Filter::Bilinear => self.bilinear(&levels[0], q.s, q.t),
             Filter::Trilinear => {
-                let (lo, f) = self.mip_levels(q);
+                let (lo, f) = Self::mip_levels(image, q);
                 let a = self.bilinear(&levels[lo], q.s, q.t);
                 if f == 0.0 {
                     return a;
@@ -146,8 +175,8 @@ impl Sampler {
 
     /// The level a trilinear lookup starts at and the weight of the next
     /// one (0: that level alone).
-    fn mip_levels(&self, q: &Lookup) -> (usize, f32) {
-        let levels = &self.image.levels;
+    fn mip_levels(image: &MipMap, q: &Lookup) -> (usize, f32) {
+        let levels = &image.levels;
         let (w, h) = (levels[0].width as f32, levels[0].height as f32);
         let width = (q.dsdx.abs() * w).max(q.dtdx.abs() * h).max(q.dsdy.abs() * w).max(q.dtdy.abs() * h);
         // NaN and tiny footprints select the finest level.
@@ -178,10 +207,17 @@ impl Sampler {
         if !(q.s.is_finite() && q.t.is_finite()) {
             return;
         }
-        let spectra = self.image.spectra();
+        let (image, q) = match &self.image {
+            TextureImage::Single(image) => (&**image, *q),
+            TextureImage::Udim(set) => match set.lookup(q) {
+                Some(found) => found,
+                None => return,
+            },
+        };
+        let spectra = image.spectra();
         match self.filter {
             Filter::Nearest => {
-                let level = &self.image.levels[0];
+                let level = &image.levels[0];
                 let (x, y) = Self::texel_coords(level, q.s, q.t);
                 let (x, y) = (floor_to_i64(x), floor_to_i64(y));
                 if let (Some(x), Some(y)) = (self.wrap[0].index(x, level.width), self.wrap[1].index(y, level.height)) {
@@ -189,29 +225,28 @@ impl Sampler {
                     add_spectra(&[texel], complement_weight(texel[3], 1.0), ts, out);
                 }
             }
-            Filter::Bilinear => self.bilinear_spectrum(0, &spectra[0], q, 1.0, ts, out),
+            Filter::Bilinear => self.bilinear_spectrum(&image.levels[0], &spectra[0], &q, 1.0, ts, out),
             Filter::Trilinear => {
-                let (lo, f) = self.mip_levels(q);
-                self.bilinear_spectrum(lo, &spectra[lo], q, 1.0 - f, ts, out);
+                let (lo, f) = Self::mip_levels(image, &q);
+                self.bilinear_spectrum(&image.levels[lo], &spectra[lo], &q, 1.0 - f, ts, out);
                 if f != 0.0 {
-                    self.bilinear_spectrum(lo + 1, &spectra[lo + 1], q, f, ts, out);
+                    self.bilinear_spectrum(&image.levels[lo + 1], &spectra[lo + 1], &q, f, ts, out);
                 }
             }
         }
     }
 
-    /// Adds `weight` times the bilinear blend of the spectra of level
-    /// `index` at the lookup to `out`.
+    /// Adds `weight` times the bilinear blend of the spectra of `level` at
+    /// the lookup to `out`.
     fn bilinear_spectrum(
         &self,
-        index: usize,
+        level: &Level,
         spectra: &[[f32; 4]],
         q: &Lookup,
         weight: f32,
         ts: &[f32],
         out: &mut [f32],
     ) {
-        let level = &self.image.levels[index];
         let (x, y) = Self::texel_coords(level, q.s, q.t);
         let ((x0, fx), (y0, fy)) = (floor_fract(x - 0.5), floor_fract(y - 0.5));
         let (sx, sy) = (self.wrap[0], self.wrap[1]);
@@ -400,7 +435,7 @@ mod tests {
     }
 
     fn sampler(filter: Filter, wrap: Wrap) -> Sampler {
-        Sampler { image: numbered(), filter, wrap: [wrap, wrap], spectral: None }
+        Sampler { image: TextureImage::Single(numbered()), filter, wrap: [wrap, wrap], spectral: None }
     }
 
     fn at(s: &Sampler, x: f32, y: f32) -> [f32; 4] {

@@ -14,6 +14,7 @@ use std::path::{Component, Path, PathBuf};
 use tsl::Checked;
 use tsl::scene::{EnvironmentSourceDesc, ShapeDesc};
 use tsl::syntax::ast;
+use tsl::texture::TextureImage;
 
 /// The files one build read: a change to any of them starts a new build.
 #[derive(Default)]
@@ -114,8 +115,11 @@ pub fn inputs_of(scene: &Path, checked: &Checked, import_paths: &[PathBuf]) -> I
         }
     }
     for image in &program.images {
-        if let Some(loaded) = &image.image {
-            inputs.add(Path::new(&loaded.name));
+        match &image.image {
+            Some(TextureImage::Single(loaded)) => inputs.add(Path::new(&loaded.name)),
+            // The tiles found; a tile added later is seen at the next check.
+            Some(TextureImage::Udim(set)) => set.tiles.iter().for_each(|t| inputs.add(&t.path)),
+            None => {}
         }
         for place in lookup_places(&base_of(image.span.file), &image.path, import_paths) {
             inputs.add(&place);
