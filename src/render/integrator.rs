@@ -587,6 +587,11 @@ impl<'s, const N: usize> Tracer<'s, N> {
         let mut prev: Option<(Vec3, f32)> = None;
         let mut depth = 1u32;
         let mut dispersed = false;
+        // The squared relative indices of the surfaces crossed: a rough
+        // dielectric's transmission divides radiance by eta², which
+        // Russian roulette must not mistake for a path losing its worth
+        // (Mitsuba's `eta`, pbrt-v4's `etaScale`).
+        let mut eta_scale = 1.0f32;
         loop {
             let Some(hit) = self.nearest(&ray) else {
                 // The environment found by following the path, weighed
@@ -653,6 +658,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 }
                 let straight = wi.dot(-sh.wo) >= DELTA_CONE;
                 media = self.crossed(&sh, &media, entering, straight);
+                let relative = eta.mean(N);
+                eta_scale *= relative * relative;
             }
             beta *= weight;
             // Emission found along a delta lobe (or where light sampling
@@ -660,7 +667,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             prev = (!s.delta && !in_delta_cone(wi, &deltas)).then_some((sh.surface.p, s.pdf));
             // Russian roulette, as Mitsuba: from the fifth vertex on.
             if depth >= 5 {
-                let q = beta.max_lane().min(0.95);
+                let q = (beta.max_lane() * eta_scale).min(0.95);
                 if sampler.next_1d() >= q {
                     break;
                 }
