@@ -799,6 +799,7 @@ fn technique_examples_match_their_reference_images() {
         "cutout",
         "reversal_tiling",
         "shapes",
+        "clear_coat",
     ] {
         check_against_reference(&format!("techniques/{example}"), 4);
     }

@@ -205,6 +205,7 @@ const STDLIB: &str = "
     material t_mirror = mirror;
     material t_conductor = conductor(eta: AG_ETA, k: AG_K);
     material t_standard = standard_surface(base_color: rgb(0.6, 0.3, 0.1), coat: 0.8, coat_roughness: 0.2);
+    material t_coated = layer(glass, lambert);
     material t_standard_metal = standard_surface(metalness: 0.7, specular_roughness: 0.4, base_color: rgb(0.9, 0.6, 0.3));
 ";
 
@@ -261,7 +262,9 @@ fn delta_materials_draw_their_perfect_directions() {
     let g = surface();
     let wo = direction(35.0, 20.0);
     let mirror_dir = [-wo[0], -wo[1], wo[2]];
-    for (name, pure) in [("t_mirror", true), ("t_conductor", true), ("t_glass", true), ("t_plastic", false)] {
+    let names =
+        [("t_mirror", true), ("t_conductor", true), ("t_glass", true), ("t_plastic", false), ("t_coated", false)];
+    for (name, pure) in names {
         let m = p.material(name).unwrap();
         let eta = p.rgb(1.5, 1.5, 1.5);
         let mut rng = Rng(7);
@@ -510,5 +513,187 @@ fn conductor_fresnel_matches_the_exact_formula() {
         }
         none.call_words(tsl::Backend::Jit, &ShadingGlobals::default(), &[c.to_bits()], &mut out).unwrap();
         assert!(out.iter().all(|w| f32::from_bits(*w) == 1.0), "eta 0, k 1 reflects exactly everything at cos {c}");
+    }
+}
+
+/// Layers: `layer(top, base)` over stdlib and user materials, smooth and
+/// rough tops, tops with and without `albedo`, and layers in mixtures.
+const LAYERS: &str = "
+    // A thin sheet that scatters diffusely both ways: a top whose samples
+    // also go through the surface (they find the base's refraction).
+    material translucent(color kr = gray(0.3), color kt = gray(0.4)) {
+        color reflection(vector wi, color light, vector wo) {
+            return light * kr * max(dot(faceforward(N, -wo), wi), 0) * INV_PI;
+        }
+        color refraction(vector wi, color light, color eta, vector wo) {
+            return light * kt * max(-dot(faceforward(N, -wo), wi), 0) * INV_PI;
+        }
+        bsdf_sample sample(vector wo, color eta, float u1, vec2 u2) {
+            normal n = faceforward(N, -wo);
+            vector wi = u1 < 0.5 ? sample_cosine(n, u2) : sample_cosine(-n, u2);
+            color f = u1 < 0.5 ? reflection(wi, gray(1), wo) : refraction(wi, gray(1), eta, wo);
+            return weighted_sample(wi, f, pdf(wi, wo, eta));
+        }
+        float pdf(vector wi, vector wo, color eta) {
+            return 0.5 * abs(dot(N, wi)) * INV_PI;
+        }
+        color albedo(vector wo) {
+            return kr;
+        }
+        bool opaque() {
+            return false;
+        }
+    }
+    material l_rough = layer(coat(alpha: 0.2), lambert(kd: rgb(0.7, 0.4, 0.2)));
+    material l_smooth = layer(coat, lambert(kd: gray(0.6)));
+    material l_beckmann = layer(coat(alpha: 0.3, distribution: \"beckmann\"), phong(ns: 20));
+    material l_translucent_top = layer(translucent, lambert);
+    material l_glossy_top = layer(phong(kd: gray(0.1), ks: gray(0.3), ns: 60), lambert(kd: gray(0.5)));
+    material l_over_mix = layer(coat(alpha: 0.1), mix(0.4, lambert, rough_conductor(alpha: 0.2)));
+    material l_in_mix = mix(0.3, layer(coat(alpha: 0.05), lambert), phong(ns: 10));
+    material l_nested = layer(coat(alpha: 0.4), layer(coat(alpha: 0.1, int_ior: 1.8), lambert(kd: gray(0.3))));
+";
+
+#[test]
+fn layers_sample_their_pdf() {
+    let p = compile(LAYERS);
+    let mut seed = 3000;
+    for (t, ph) in VIEWS {
+        seed += 1;
+        assert_sampling(&p, "l_rough", &surface(), direction(t, ph), 1.0, seed);
+    }
+    // One view each (a top without albedo estimates it from 64 samples a
+    // call: `l_glossy_top` takes ten times as long as the others).
+    let names = ["l_smooth", "l_beckmann", "l_over_mix", "l_in_mix", "l_nested", "l_translucent_top", "l_glossy_top"];
+    for (k, name) in names.into_iter().enumerate() {
+        let (t, ph) = [(20.0, 10.0), (55.0, 120.0), (70.0, 250.0)][k % 3];
+        assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, 3100 + k as u64);
+    }
+}
+
+/// Fresnel reflectance of a smooth dielectric of relative index `eta`
+/// (unpolarised, from outside), in f64.
+fn fresnel(cos_i: f64, eta: f64) -> f64 {
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    (rs * rs + rp * rp) / 2.0
+}
+
+/// The closed form of a layer (MaterialX's albedo scaling): over a lambert
+/// base of albedo `kd`, `R + (1 - E) kd`, R what the top reflects toward
+/// `wo` and E its `albedo(wo)`. A smooth coat's E is R, its Fresnel term,
+/// so over a white base it reflects all the light; a rough coat's E is
+/// `1 - T`, T the interface's transmittance from rough_plastic's tables,
+/// which also counts what single scattering loses, so `R + T <= 1`.
+#[test]
+fn a_coat_over_lambert_reflects_its_closed_form() {
+    let p = compile(
+        "material white_smooth = layer(coat, lambert(kd: gray(1)));
+        material white_rough = layer(coat(alpha: 0.2), lambert(kd: gray(1)));
+        material grey_rough = layer(coat(alpha: 0.3, distribution: \"beckmann\"), lambert(kd: gray(0.5)));
+        material smooth_top = coat;
+        material rough_top = coat(alpha: 0.2);
+        material beckmann_top = coat(alpha: 0.3, distribution: \"beckmann\");",
+    );
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let g = surface();
+    for t in [0.0f32, 45.0, 80.0] {
+        let wo = direction(t, 40.0);
+        let cos = f64::from(wo[2]);
+        // The smooth coat's albedo is its Fresnel term.
+        let e_smooth = f64::from(p.material("smooth_top").unwrap().albedo(&g, wo).brightness());
+        let want = fresnel(cos, 1.5 / 1.000277);
+        assert!((e_smooth - want).abs() < 1e-4, "smooth coat at {t} degrees: albedo {e_smooth}, Fresnel {want}");
+        // The rough coat's albedo (its tables) is what its reflection
+        // integrates to, and what single scattering loses.
+        for (top, layer, kd) in [("rough_top", "white_rough", 1.0), ("beckmann_top", "grey_rough", 0.5)] {
+            let e = f64::from(p.material(top).unwrap().albedo(&g, wo).brightness());
+            let (reflected, _) = albedo(&p.material(top).unwrap(), &g, wo, &one, 20_000);
+            let lost = e - reflected;
+            // Single scattering loses up to 9% at 80 degrees (GGX, alpha 0.2).
+            assert!((-0.005..0.12).contains(&lost), "`{top}` at {t} degrees: 1 - T = {e}, R = {reflected}");
+            let want = reflected + (1.0 - e) * kd;
+            let (got, _) = albedo(&p.material(layer).unwrap(), &g, wo, &one, 20_000);
+            assert!((got - want).abs() < 0.01, "`{layer}` at {t} degrees reflects {got}; R + (1 - E) kd = {want}");
+            assert!(got <= 1.005, "`{layer}` at {t} degrees reflects {got}: more than it receives");
+            // The node's own albedo method composes the same way.
+            let own = f64::from(p.material(layer).unwrap().albedo(&g, wo).brightness());
+            let composed = e + (1.0 - e) * kd;
+            assert!((own - composed).abs() < 1e-5, "`{layer}`'s albedo(wo) {own} vs E + (1 - E) kd = {composed}");
+        }
+        // Smooth: the delta reflection and the base through the coat.
+        let (got, _) = albedo(&p.material("white_smooth").unwrap(), &g, wo, &one, 20_000);
+        assert!((got - 1.0).abs() < 0.01 && got <= 1.005, "`white_smooth` at {t} degrees reflects {got}, not 1");
+    }
+}
+
+#[test]
+fn a_layer_under_a_top_that_reflects_nothing_is_its_base() {
+    let p = compile(
+        "material base = phong(kd: rgb(0.5, 0.3, 0.2), ks: gray(0.4), ns: 25);
+        material clear = layer(coat(specular_reflectance: black()), base);
+        material black_top = layer(lambert(kd: black()), base);",
+    );
+    let g = surface();
+    let eta = p.rgb(1.0, 1.0, 1.0);
+    let light = p.rgb(0.9, 0.7, 0.4);
+    let base = p.material("base").unwrap();
+    let mut rng = Rng(5);
+    for name in ["clear", "black_top"] {
+        let m = p.material(name).unwrap();
+        for _ in 0..200 {
+            let (wo, wi) = (rng.unit(), rng.unit());
+            let wo = [wo[0], wo[1], wo[2].abs()];
+            assert_eq!(m.reflection(&g, wi, &light, wo), base.reflection(&g, wi, &light, wo), "`{name}`");
+            assert_eq!(m.pdf(&g, wi, wo, &eta), base.pdf(&g, wi, wo, &eta), "`{name}`");
+            let (uc, u) = (rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+            let (s, want) = (m.sample(&g, wo, &eta, uc, u), base.sample(&g, wo, &eta, uc, u));
+            assert_eq!((s.wi, s.pdf, s.delta), (want.wi, want.pdf, want.delta), "`{name}`");
+            for (a, b) in s.weight.lanes().iter().zip(want.weight.lanes()) {
+                assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "`{name}`: weight {a} vs the base's {b}");
+            }
+        }
+    }
+}
+
+/// A top without `albedo` is estimated from its own sampling: a user's
+/// lambert (its every sample weighs kd) exactly, a phong within 5% of a
+/// long Monte Carlo integral (64 points against 100,000).
+#[test]
+fn the_default_albedo_integrates_the_materials_own_sampling() {
+    let p = compile(
+        "material own_lambert(color kd = gray(0.5)) {
+            color reflection(vector wi, color light, vector wo) {
+                return light * kd * max(dot(faceforward(N, -wo), wi), 0) * INV_PI;
+            }
+            bsdf_sample sample(vector wo, color eta, float u1, vec2 u2) {
+                normal n = faceforward(N, -wo);
+                vector wi = sample_cosine(n, u2);
+                return bsdf_sample(wi, kd, cosine_pdf(n, wi));
+            }
+            float pdf(vector wi, vector wo, color eta) {
+                return cosine_pdf(faceforward(N, -wo), wi);
+            }
+        }
+        material user = own_lambert(kd: rgb(0.2, 0.4, 0.6));
+        material glossy = phong(kd: gray(0.2), ks: gray(0.5), ns: 20);",
+    );
+    let g = surface();
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (t, ph) in VIEWS {
+        let wo = direction(t, ph);
+        let e = p.material("user").unwrap().albedo(&g, wo);
+        for (got, want) in e.lanes().iter().zip([0.2f32, 0.4, 0.6]) {
+            assert!((got - want).abs() < 1e-6, "the user lambert's albedo {got}, its kd {want}");
+        }
+        let glossy = p.material("glossy").unwrap();
+        let estimate = f64::from(glossy.albedo(&g, wo).brightness());
+        let (integrated, _) = albedo(&glossy, &g, wo, &one, 100_000);
+        assert!(
+            (estimate - integrated).abs() < 0.05 * integrated.max(0.1),
+            "phong at {t} degrees: default albedo {estimate}, integral {integrated}"
+        );
     }
 }

@@ -404,6 +404,22 @@ impl Material {
         self.once(g, wo, None, |s| s.emission())
     }
 
+    /// The material's directional albedo toward `wo`: the fraction of
+    /// light from `wo` it reflects (`albedo(wo)` in TSL), which a `layer`
+    /// with this material on top does not let through to its base.
+    ///
+    /// ```
+    /// # use tsl::{Compiler, ShadingGlobals};
+    /// let program = Compiler::new().source("a.tsl", "material m = lambert(kd: gray(0.25));").compile()?;
+    /// let m = program.material("m")?;
+    /// let g = ShadingGlobals { n: [0.0, 0.0, 1.0], ng: [0.0, 0.0, 1.0], ..ShadingGlobals::default() };
+    /// assert_eq!(m.albedo(&g, [0.0, 0.0, 1.0]).lanes(), &[0.25; 3]);
+    /// # Ok::<(), tsl::Error>(())
+    /// ```
+    pub fn albedo(&self, g: &ShadingGlobals, wo: [f32; 3]) -> Color {
+        self.once(g, wo, None, |s| s.albedo())
+    }
+
     pub fn ambient(&self, g: &ShadingGlobals, light: &Color) -> Color {
         self.once(g, [0.0; 3], None, |s| s.ambient(light))
     }

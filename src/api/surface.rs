@@ -313,6 +313,15 @@ impl<'a, C: Lanes> Surface<'a, C> {
         self.out_color()
     }
 
+    /// The fraction of light from the viewer that the surface reflects
+    /// (its directional albedo toward `wo`; what a `layer` above it would
+    /// not let through).
+    pub fn albedo(&mut self) -> C {
+        let wo = self.wo;
+        self.method(Method::Albedo, &[Arg::F(&wo)]);
+        self.out_color()
+    }
+
     pub fn ambient(&mut self, light: &C) -> C {
         self.method(Method::Ambient, &[Arg::C(light)]);
         self.out_color()

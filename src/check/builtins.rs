@@ -79,6 +79,7 @@ pub enum BuiltinFn {
     NormalMap,
     Scale,
     Transform,
+    Layer,
 }
 
 impl BuiltinFn {
@@ -102,6 +103,7 @@ impl BuiltinFn {
             BuiltinFn::NormalMap => TreeNode::NormalMap,
             BuiltinFn::Scale => TreeNode::Scale,
             BuiltinFn::Transform => TreeNode::Transform,
+            BuiltinFn::Layer => TreeNode::Layer,
             _ => return None,
         })
     }
@@ -117,6 +119,7 @@ pub enum TreeNode {
     NormalMap,
     Scale,
     Transform,
+    Layer,
 }
 
 impl TreeNode {
@@ -130,6 +133,7 @@ impl TreeNode {
             TreeNode::NormalMap => BuiltinFn::NormalMap,
             TreeNode::Scale => BuiltinFn::Scale,
             TreeNode::Transform => BuiltinFn::Transform,
+            TreeNode::Layer => BuiltinFn::Layer,
         }
         .builtin()
     }
@@ -389,6 +393,7 @@ pub const BUILTINS: &[Builtin] = &[
         "scale(color c, material m) -> material | scale(vector|float s) -> matrix",
     ),
     b(BuiltinFn::Transform, "transform", &[req("xform"), req("m")], "transform(matrix xform, material m) -> material"),
+    b(BuiltinFn::Layer, "layer", &[req("top"), req("base")], "layer(material top, material base) -> material"),
 ];
 
 pub fn builtin(name: &str) -> Option<&'static Builtin> {
@@ -738,6 +743,19 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
         Transform => {
             expect(args, 0, &Ty::Matrix)?;
             expect(args, 1, &Ty::Material)?;
+            Ok(Ty::Material)
+        }
+        Layer => {
+            for k in 0..2 {
+                expect(args, k, &Ty::Material).map_err(|mut e| {
+                    e.help = Some(
+                        "layer(top, base) puts one material over another, e.g. a coat over a base; \
+                         to blend by a weight, write mix(t, a, b)"
+                            .into(),
+                    );
+                    e
+                })?;
+            }
             Ok(Ty::Material)
         }
     }

@@ -239,6 +239,12 @@ impl<'a> Sizes<'a> {
                     TreeNode::Bump => child(2).map_or(0, |c| self.count(c, env)),
                     TreeNode::NormalMap => child(1).map_or(0, |c| self.count(c, env)),
                     TreeNode::Scale | TreeNode::Transform => child(1).map_or(0, |c| self.count(c, env)),
+                    // Both children are lowered, even when they are the same material.
+                    TreeNode::Layer => {
+                        let (top, base) =
+                            (child(0).map_or(0, |c| self.count(c, env)), child(1).map_or(0, |c| self.count(c, env)));
+                        top.saturating_add(base)
+                    }
                 }
             }
             _ => 0,

@@ -15,7 +15,9 @@ pub struct InterfaceMethod {
 
 /// The interface: the paper's eleven methods in the order of its Figure 3,
 /// then the two that let a material importance-sample itself (pbrt's
-/// `Sample_f` and `PDF`, Mitsuba's `sample` and `pdf`).
+/// `Sample_f` and `PDF`, Mitsuba's `sample` and `pdf`), then the
+/// directional albedo a `layer` node weighs what lies beneath by
+/// (MaterialX's albedo scaling).
 pub const INTERFACE: &[InterfaceMethod] = &[
     InterfaceMethod {
         name: "reflection",
@@ -65,6 +67,12 @@ pub const INTERFACE: &[InterfaceMethod] = &[
         params: &[("wi", Ty::Vector), ("wo", Ty::Vector), ("eta", Ty::Color)],
         default: "the solid-angle density of the default sample",
     },
+    InterfaceMethod {
+        name: "albedo",
+        ret: Ty::Color,
+        params: &[("wo", Ty::Vector)],
+        default: "estimated from the material's own sample at ALBEDO_SAMPLES fixed points",
+    },
 ];
 
 /// An interface method by name in Rust: the index of its row in
@@ -94,11 +102,12 @@ pub enum Method {
     Opaque,
     Sample,
     Pdf,
+    Albedo,
 }
 
 impl Method {
     /// Every method, in the order of [`INTERFACE`].
-    pub const ALL: [Method; 13] = [
+    pub const ALL: [Method; 14] = [
         Method::Reflection,
         Method::Refraction,
         Method::RefractionIndex,
@@ -112,6 +121,7 @@ impl Method {
         Method::Opaque,
         Method::Sample,
         Method::Pdf,
+        Method::Albedo,
     ];
 
     /// The method's name in TSL (`reflection_dir`).
@@ -130,6 +140,7 @@ impl Method {
             Method::Opaque => "opaque",
             Method::Sample => "sample",
             Method::Pdf => "pdf",
+            Method::Albedo => "albedo",
         }
     }
 
@@ -228,7 +239,8 @@ mod tests {
             interface_method("reflection").unwrap().signature(),
             "color reflection(vector wi, color light, vector wo)"
         );
-        assert_eq!(INTERFACE.len(), 13, "the paper's eleven methods, sample and pdf");
+        assert_eq!(INTERFACE.len(), 14, "the paper's eleven methods, sample, pdf and albedo");
+        assert_eq!(interface_method("albedo").unwrap().signature(), "color albedo(vector wo)");
         assert_eq!(
             interface_method("sample").unwrap().signature(),
             "bsdf_sample sample(vector wo, color eta, float u1, vec2 u2)"

@@ -479,7 +479,7 @@ impl<'p> Lowerer<'p> {
             }
             // Only over materials: lowered by `tree_node`, never here (and
             // the texture calls and `triplanar` above).
-            Texture | TextureFloat | TextureVector | Triplanar | Bump | NormalMap | Transform => {
+            Texture | TextureFloat | TextureVector | Triplanar | Bump | NormalMap | Transform | Layer => {
                 ruled_out!("`{}` reached the value builtins", f.name());
                 Val::Lanes(b.zeros(n))
             }

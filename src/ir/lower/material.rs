@@ -119,6 +119,7 @@ impl<'p> Lowerer<'p> {
             "opaque" => vec![b.b(true)],
             "sample" => self.default_sample(b, inst, args, ctx),
             "pdf" => self.default_pdf(b, inst, args, ctx),
+            "albedo" => self.default_albedo(b, inst, args, ctx),
             // Black, or no direction.
             "reflection" | "refraction" | "reflection_dir" | "refraction_dir" | "emission" | "diffuse" => {
                 b.zeros(self.lanes_of(&im.ret))
@@ -461,6 +462,16 @@ impl<'p> Lowerer<'p> {
                                 | "opaque"
                         ) && all(child(1).into_iter().collect())
                     }
+                    // The body's methods are the base's; the light's are both children's.
+                    TreeNode::Layer => match im.name {
+                        "refraction" | "refraction_index" | "refraction_dir" | "absorption" | "opaque" | "normal" => {
+                            all(child(1).into_iter().collect())
+                        }
+                        "reflection" | "emission" | "diffuse" | "reflection_dir" => {
+                            all([child(0), child(1)].into_iter().flatten().collect())
+                        }
+                        _ => false,
+                    },
                 }
             }
             _ => false,
@@ -533,7 +544,7 @@ impl<'p> Lowerer<'p> {
             "normal" => self.shading_global(b, ctx, "N"),
             "opaque" => vec![b.b(true)],
             // These read the material's other methods.
-            "ambient" | "sample" | "pdf" => return None,
+            "ambient" | "sample" | "pdf" | "albedo" => return None,
             // Black, or no direction.
             "reflection" | "refraction" | "reflection_dir" | "refraction_dir" | "emission" | "diffuse" => {
                 b.zeros(self.lanes_of(&im.ret))

@@ -26,6 +26,7 @@ mod constants;
 mod context;
 mod expr;
 mod hit;
+mod layer;
 mod layout;
 mod material;
 mod noise;

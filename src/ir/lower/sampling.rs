@@ -20,19 +20,19 @@ use super::*;
 const DELTA_CONE: f32 = 0.9999;
 
 /// The largest f32 below 1: remapped random numbers stay in [0, 1).
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+pub(super) const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The parts of a `bsdf_sample` value.
-struct Sample {
-    wi: Vec<Value>,
-    weight: Vec<Value>,
-    pdf: Value,
+pub(super) struct Sample {
+    pub(super) wi: Vec<Value>,
+    pub(super) weight: Vec<Value>,
+    pub(super) pdf: Value,
     /// 1.0 for a delta lobe, else 0.0.
-    delta: Value,
+    pub(super) delta: Value,
 }
 
 impl Sample {
-    fn split(lanes: &[Value], model_lanes: usize) -> Sample {
+    pub(super) fn split(lanes: &[Value], model_lanes: usize) -> Sample {
         let layout = SampleLayout { lanes: model_lanes };
         Sample {
             wi: lanes[SampleLayout::WI].to_vec(),
@@ -42,7 +42,7 @@ impl Sample {
         }
     }
 
-    fn lanes(&self) -> Vec<Value> {
+    pub(super) fn lanes(&self) -> Vec<Value> {
         SampleLayout { lanes: self.weight.len() }.assemble(&self.wi, &self.weight, self.pdf, self.delta)
     }
 }
@@ -65,17 +65,17 @@ struct DeltaLobes {
 }
 
 impl Builder {
-    fn mean(&mut self, lanes: &[Value]) -> Value {
+    pub(super) fn mean(&mut self, lanes: &[Value]) -> Value {
         let w = vec![1.0 / lanes.len().max(1) as f32; lanes.len()];
         self.weighted(&w, lanes)
     }
 
-    fn select_lanes(&mut self, cond: Value, a: &[Value], b: &[Value]) -> Vec<Value> {
+    pub(super) fn select_lanes(&mut self, cond: Value, a: &[Value], b: &[Value]) -> Vec<Value> {
         a.iter().zip(b).map(|(x, y)| self.select(cond, *x, *y)).collect()
     }
 
     /// `x / y`, or 0 where `y` is not positive.
-    fn safe_div(&mut self, x: Value, y: Value) -> Value {
+    pub(super) fn safe_div(&mut self, x: Value, y: Value) -> Value {
         let zero = self.f(0.0);
         let positive = self.flt(zero, y);
         let q = self.fdiv(x, y);
@@ -141,7 +141,7 @@ impl<'p> Lowerer<'p> {
     }
 
     /// The words of "no sample" (the path ends): all zero.
-    fn no_sample(&self, b: &mut Builder) -> Vec<Value> {
+    pub(super) fn no_sample(&self, b: &mut Builder) -> Vec<Value> {
         b.zeros(5 + self.lanes)
     }
 
@@ -378,7 +378,7 @@ impl<'p> Lowerer<'p> {
     }
 
     /// Whether `wi` and `wo` are on the same side of the geometric normal.
-    fn same_side(&mut self, b: &mut Builder, wi: &[Value], wo: &[Value], ctx: &Ctx) -> Value {
+    pub(super) fn same_side(&mut self, b: &mut Builder, wi: &[Value], wo: &[Value], ctx: &Ctx) -> Value {
         let ng = self.shading_global(b, ctx, "Ng");
         let (ci, co) = (b.dot(wi, &ng), b.dot(wo, &ng));
         let side = b.fmul(ci, co);

@@ -1,6 +1,7 @@
 //! Texture-tree nodes: `mix`, `blend`, `select`, `bump`, `normal_map`,
-//! `scale` and `transform`, and the coordinate contexts `bump`,
-//! `normal_map` and `transform` give their subtrees.
+//! `scale`, `transform` and `layer` (in `lower::layer`), and the
+//! coordinate contexts `bump`, `normal_map` and `transform` give their
+//! subtrees.
 
 use super::*;
 
@@ -204,6 +205,10 @@ impl<'p> Lowerer<'p> {
                 };
                 let moved = self.transform_ctx(b, &xf, ctx);
                 self.mat_method(b, &m, im, args, &moved)
+            }
+            TreeNode::Layer => {
+                let (Some(top), Some(base)) = (child(0), child(1)) else { return missing(self, b) };
+                self.layer_node(b, mat, &top, &base, im, args, ctx)
             }
         }
     }
