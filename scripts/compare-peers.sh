@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -36,6 +36,12 @@
 #             (examples/textures/bricks_normal.png; OpenGL, DirectX, strength
 #             0.5, and no map): means, mean |difference| and RMSE relative to
 #             Mitsuba's mean (scripts/peers/normal_map.py). Not part of `all`.
+# materials   each stdlib physically based material on one sphere under the
+#             sky against its Mitsuba 3 plugin: per-channel means at 1024 spp
+#             against a 2048-spp Mitsuba reference (REF_SPP and HIGH_SPP
+#             there), RMSE of both at 64 spp over four seeds and their ratio
+#             (scripts/peers/materials.py; the reference is kept in
+#             target/peers/materials). Not part of `all` (ten minutes).
 #
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
 # Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
@@ -66,8 +72,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | materials | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|all]" >&2; exit 2 ;;
 esac
 
 UPDATE_DOCS=${UPDATE_DOCS:-0}
@@ -291,4 +297,9 @@ if [[ $which == spectral ]]; then
 fi
 if [[ $which == normal_map ]]; then
     figures normal_map python3 scripts/peers/normal_map.py "$TSLC" "$OUT/normal_map" 64
+fi
+if [[ $which == materials ]]; then
+    [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
+    python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
+    figures materials python3 scripts/peers/materials.py "$TSLC" "$OUT/materials" "$OUT/sky_mitsuba.exr"
 fi
