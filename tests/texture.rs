@@ -672,3 +672,31 @@ fn normal_maps_shadow_grazing_light_as_mitsuba_does() {
         assert!((w - f / s.pdf).abs() <= 1e-4 * w.max(1.0), "weight {w} vs f cos / pdf {} at {:?}", f / s.pdf, s.wi);
     }
 }
+
+/// `bump` shadows grazing light as `normal_map` does, and as Mitsuba 3's
+/// `bumpmap` does by default: without it a bumped square under a light at
+/// 45 degrees rendered 2.9% brighter than Mitsuba's (amount 0.1 on
+/// examples/textures/tiles_height.png, scripts/peers/bump.py), with it
+/// the same within noise. `shadowing: false` gives the plain cosine.
+#[test]
+fn bump_shadows_grazing_light_as_mitsuba_does() {
+    let dir = temp_dir("bump-shadowing");
+    let src = r#"
+        material shadowed = bump(u * 4, 1, lambert(kd: gray(1)));
+        material plain_cosine = bump(u * 4, 1, lambert(kd: gray(1)), shadowing: false);
+    "#;
+    let p = compile(&dir, src, ColorModel::Rgb).unwrap();
+    let g = ShadingGlobals { n: [0.0, 0.0, 1.0], dpdu: [2.0, 0.0, 0.0], dpdv: [0.0, 2.0, 0.0], ..Default::default() };
+    // dp/du + 4 N crossed with dp/dv: (-2, 0, 1) / sqrt(5).
+    let bumped = [-2.0 / 5f32.sqrt(), 0.0, 1.0 / 5f32.sqrt()];
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let wo = [0.0, 0.0, 1.0];
+    let k = 1.0 / 3f32.sqrt();
+    let wi = [-k, k, k];
+    let cos = bumped[0] * wi[0] + bumped[2] * wi[2];
+    let plain = p.material("plain_cosine").unwrap().reflection(&g, wi, &light, wo).lanes()[0];
+    assert!((plain - cos / std::f32::consts::PI).abs() < 1e-4, "{plain} vs {}", cos / std::f32::consts::PI);
+    let shadowed = p.material("shadowed").unwrap().reflection(&g, wi, &light, wo).lanes()[0];
+    let factor = bump_shadowing(g.n, bumped, wi);
+    assert!(factor < 0.99 && (shadowed - plain * factor).abs() < 1e-4, "{shadowed} vs {plain} x {factor}");
+}

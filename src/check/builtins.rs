@@ -377,8 +377,8 @@ pub const BUILTINS: &[Builtin] = &[
     b(
         BuiltinFn::Bump,
         "bump",
-        &[req("height"), req("amount"), req("m")],
-        "bump(float height, float amount, material m) -> material",
+        &[req("height"), req("amount"), req("m"), opt("shadowing", "true")],
+        "bump(float height, float amount, material m, bool shadowing = true) -> material",
     ),
     b(
         BuiltinFn::NormalMap,
@@ -698,6 +698,9 @@ pub fn type_builtin(f: BuiltinFn, args: &[Option<Ty>]) -> Result<Ty, ArgError> {
             expect(args, 0, &Ty::Float)?;
             expect(args, 1, &Ty::Float)?;
             expect(args, 2, &Ty::Material)?;
+            if args.get(3).is_some_and(|a| a.is_some()) {
+                expect(args, 3, &Ty::Bool)?;
+            }
             Ok(Ty::Material)
         }
         NormalMap => {

@@ -121,8 +121,13 @@ impl<'p> Lowerer<'p> {
                 let Some(m) = child(2) else { return missing(self, b) };
                 let amount = scalar(self, b, 1, ctx);
                 let Some(height) = bound.first().copied().flatten() else { return missing(self, b) };
+                let shadowing = match bound.get(3).copied().flatten() {
+                    Some(e) => self.node_scalar(b, mat, e, ctx),
+                    None => b.b(true),
+                };
                 let bumped = self.bump_ctx(b, height, mat, amount, ctx);
-                self.mat_method(b, &m, im, args, &bumped)
+                let inner = self.mat_method(b, &m, im, args, &bumped);
+                self.shadowed(b, inner, im, args, shadowing, ctx, &bumped)
             }
             TreeNode::NormalMap => {
                 let Some(m) = child(1) else { return missing(self, b) };
@@ -145,22 +150,8 @@ impl<'p> Lowerer<'p> {
                 let convention = convention.unwrap_or(NormalMapConvention::OpenGl);
                 let (mapped, tilted) = self.normal_map_ctx(b, &encoded, strength, convention, ctx);
                 let inner = self.mat_method(b, &m, im, args, &mapped);
-                if !matches!(im.name, "reflection" | "refraction" | "sample") {
-                    return inner;
-                }
                 let shadowed = b.and(tilted, shadowing);
-                let n = self.shading_global(b, ctx, "N");
-                let mapped_n = self.shading_global(b, &mapped, "N");
-                let shadowing = |_: &mut Self, b: &mut Builder, wi: &[Value]| {
-                    let g = bump_shadowing(b, &n, &mapped_n, wi);
-                    let one = b.f(1.0);
-                    b.select(shadowed, g, one)
-                };
-                if im.name == "sample" {
-                    return self.weigh_sample(b, &inner, shadowing);
-                }
-                let g = shadowing(self, b, &args[0]);
-                b.scale(&inner, g)
+                self.shadowed(b, inner, im, args, shadowed, ctx, &mapped)
             }
             TreeNode::Scale => {
                 let Some(m) = child(1) else { return missing(self, b) };
@@ -540,6 +531,42 @@ impl<'p> Lowerer<'p> {
             })
             .collect();
         self.with_overrides(b, ctx, vec![("N", new_n)])
+    }
+}
+
+impl<'p> Lowerer<'p> {
+    /// `inner`, the result of method `im` of a child that sees the normal of
+    /// `perturbed` instead of `ctx`'s, weighed where `shadowed` by the
+    /// bump-terminator shadowing of the light's direction
+    /// ([`bump_shadowing`]), as Mitsuba 3's `bumpmap` and `normalmap` do:
+    /// `reflection` and `refraction` by their `wi`, `sample` by the `wi` it
+    /// draws; every other method as it is.
+    #[allow(clippy::too_many_arguments)]
+    fn shadowed(
+        &mut self,
+        b: &mut Builder,
+        inner: Vec<Value>,
+        im: &InterfaceMethod,
+        args: &[Vec<Value>],
+        shadowed: Value,
+        ctx: &Ctx,
+        perturbed: &Ctx,
+    ) -> Vec<Value> {
+        if !matches!(im.name, "reflection" | "refraction" | "sample") {
+            return inner;
+        }
+        let n = self.shading_global(b, ctx, "N");
+        let perturbed_n = self.shading_global(b, perturbed, "N");
+        let shadowing = |_: &mut Self, b: &mut Builder, wi: &[Value]| {
+            let g = bump_shadowing(b, &n, &perturbed_n, wi);
+            let one = b.f(1.0);
+            b.select(shadowed, g, one)
+        };
+        if im.name == "sample" {
+            return self.weigh_sample(b, &inner, shadowing);
+        }
+        let g = shadowing(self, b, &args[0]);
+        b.scale(&inner, g)
     }
 }
 

@@ -1,0 +1,110 @@
+#!/usr/bin/env python3
+"""TSL's bump against Mitsuba 3's `bumpmap`, for compare-peers.sh.
+
+    bump.py TSLC OUT_DIR [SPP]
+
+The scene of normal_map.py (one diffuse square seen straight on, a
+directional light at 45 degrees from the upper left, 256 x 256 pixels, one
+pixel per texel), bumped by examples/textures/tiles_height.png read
+linearly and bilinearly: TSL's `bump(texture_float(...), AMOUNT, lambert)`
+against Mitsuba's `bumpmap` of the same image with `scale` AMOUNT (both
+tilt the normal by the height's gradient in (u, v) times the amount: dp/du
++ amount dh/du N, likewise v, crossed). Mitsuba's texture gets `to_uv` =
+scale(1, -1) to show the picture upright, as in normal_map.py. Cases: two
+amounts, and a flat square (the renderers' baseline). Prints, per case,
+both means, the mean |difference| over the square relative to Mitsuba's
+mean, and the RMSE relative to the mean.
+"""
+import math
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import normal_map  # noqa: E402  (its scene: camera, light, size)
+
+SIZE = normal_map.SIZE
+
+
+def tsl_scene(height, amount):
+    material = "lambert(kd: gray(0.5))"
+    if height:
+        material = f'bump(texture_float("{height}", filter: "bilinear"), {amount}, {material})'
+    return normal_map.tsl_scene(None, "").replace("lambert(kd: gray(0.5))", material)
+
+
+def mitsuba_render(mi, height, amount, spp):
+    bsdf = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.5, 0.5, 0.5]}}
+    if height:
+        bsdf = {
+            "type": "bumpmap",
+            "arbitrary": {
+                "type": "bitmap",
+                "filename": height,
+                "raw": True,
+                "filter_type": "bilinear",
+                "to_uv": mi.ScalarTransform4f().scale([1, -1, 1]),
+            },
+            "scale": amount,
+            "use_shadowing_function": os.environ.get("MI_SHADOWING", "1") == "1",
+            "bsdf": bsdf,
+        }
+    scene = mi.load_dict(
+        {
+            "type": "scene",
+            "integrator": {"type": "path", "max_depth": 2},
+            "sensor": {
+                "type": "perspective",
+                "fov": normal_map.FOV,
+                "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 100], target=[0, 0, 0], up=[0, 1, 0]),
+                "film": {"type": "hdrfilm", "width": SIZE, "height": SIZE, "rfilter": {"type": "box"}},
+                "sampler": {"type": "independent", "sample_count": spp},
+            },
+            "light": {
+                "type": "directional",
+                "direction": list(normal_map.LIGHT),
+                "irradiance": {"type": "rgb", "value": 3.0},
+            },
+            "square": {"type": "rectangle", "bsdf": bsdf},
+        }
+    )
+    return mi.render(scene)
+
+
+def main(argv):
+    if len(argv) < 3:
+        print(__doc__, file=sys.stderr)
+        return 2
+    import drjit as dr
+    import mitsuba as mi
+    import numpy as np
+
+    mi.set_variant("scalar_rgb")
+    dr.set_thread_count(int(os.environ.get("MITSUBA_THREADS", "2")))
+    tslc, out = argv[1], argv[2]
+    spp = int(argv[3]) if len(argv) > 3 else 64
+    os.makedirs(out, exist_ok=True)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    height = os.path.join(root, "examples/textures/tiles_height.png")
+    print(f"bump from a height image on a diffuse square, {SIZE}x{SIZE}, {spp} spp: TSL against Mitsuba 3 bumpmap")
+    print(f"{'case':12} {'tsl mean':>9} {'mitsuba':>9} {'mean |diff|':>12} {'rmse':>8}")
+    for name, image, amount in [("amount 0.02", height, 0.02), ("amount 0.1", height, 0.1), ("flat", None, 0)]:
+        scene = os.path.join(out, f"bump_{amount}.tsl")
+        with open(scene, "w") as f:
+            f.write(tsl_scene(image, amount))
+        path = os.path.join(out, f"bump_{amount}_tsl.exr")
+        subprocess.run([tslc, "render", scene, "-o", path, "--spp", str(spp), "--quiet"], check=True)
+        tsl = np.array(mi.Bitmap(path), dtype=np.float64)[..., :3]
+        ref = np.array(mitsuba_render(mi, image, amount, spp), dtype=np.float64)[..., :3]
+        mi.Bitmap(ref.astype(np.float32)).write(os.path.join(out, f"bump_{amount}_mitsuba.exr"))
+        diff = tsl - ref
+        mean = ref.mean()
+        print(
+            f"{name:12} {tsl.mean():9.5f} {mean:9.5f} {np.abs(diff).mean() / mean:11.2%} "
+            f"{math.sqrt((diff**2).mean()) / mean:8.2%}"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
