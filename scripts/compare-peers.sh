@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|metals|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -42,6 +42,12 @@
 #             there), RMSE of both at 64 spp over four seeds and their ratio
 #             (scripts/peers/materials.py; the reference is kept in
 #             target/peers/materials). Not part of `all` (ten minutes).
+# metals      the stdlib's measured metals (stdlib/metals.tsl: gold, copper,
+#             silver, aluminium; smooth and GGX alpha 0.2) in tslc's rgb,
+#             spectral and spectral64 models and in Mitsuba's scalar_rgb,
+#             per-channel means against Mitsuba's scalar_spectral
+#             (scripts/peers/metals.py; SPP there, default 256). Not part of
+#             `all` (eight minutes).
 #
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
 # Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
@@ -72,8 +78,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | materials | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | materials | metals | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|metals|all]" >&2; exit 2 ;;
 esac
 
 UPDATE_DOCS=${UPDATE_DOCS:-0}
@@ -302,4 +308,9 @@ if [[ $which == materials ]]; then
     [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
     python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
     figures materials python3 scripts/peers/materials.py "$TSLC" "$OUT/materials" "$OUT/sky_mitsuba.exr"
+fi
+if [[ $which == metals ]]; then
+    [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
+    python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
+    figures metals python3 scripts/peers/metals.py "$TSLC" "$OUT/metals" "$OUT/sky_mitsuba.exr"
 fi
