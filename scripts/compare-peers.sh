@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|metals|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -36,6 +36,11 @@
 #             (examples/textures/bricks_normal.png; OpenGL, DirectX, strength
 #             0.5, and no map): means, mean |difference| and RMSE relative to
 #             Mitsuba's mean (scripts/peers/normal_map.py). Not part of `all`.
+# bump        bump from a height image against Mitsuba 3's bumpmap on the
+#             same square (examples/textures/tiles_height.png; amounts 0.02
+#             and 0.1, and no bump): means, mean |difference| and RMSE
+#             relative to Mitsuba's mean (scripts/peers/bump.py). Not part of
+#             `all`.
 # materials   each stdlib physically based material on one sphere under the
 #             sky against its Mitsuba 3 plugin: per-channel means at 1024 spp
 #             against a 2048-spp Mitsuba reference (REF_SPP and HIGH_SPP
@@ -78,8 +83,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | materials | metals | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|materials|metals|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | bump | materials | metals | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|all]" >&2; exit 2 ;;
 esac
 
 UPDATE_DOCS=${UPDATE_DOCS:-0}
@@ -303,6 +308,9 @@ if [[ $which == spectral ]]; then
 fi
 if [[ $which == normal_map ]]; then
     figures normal_map python3 scripts/peers/normal_map.py "$TSLC" "$OUT/normal_map" 64
+fi
+if [[ $which == bump ]]; then
+    figures bump python3 scripts/peers/bump.py "$TSLC" "$OUT/bump" 64
 fi
 if [[ $which == materials ]]; then
     [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky

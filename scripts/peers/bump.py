@@ -14,6 +14,12 @@ scale(1, -1) to show the picture upright, as in normal_map.py. Cases: two
 amounts, and a flat square (the renderers' baseline). Prints, per case,
 both means, the mean |difference| over the square relative to Mitsuba's
 mean, and the RMSE relative to the mean.
+
+Both weigh the light by the bump-terminator shadowing (Conty Estevez et
+al.; TSL's `shadowing: true`, Mitsuba's `use_shadowing_function`, both the
+default). What remains is the gradient: TSL's forward differences of the
+bilinear lookup against Mitsuba's own, about 1% mean |difference| at
+amount 0.1, none in the mean.
 """
 import math
 import os
@@ -46,7 +52,6 @@ def mitsuba_render(mi, height, amount, spp):
                 "to_uv": mi.ScalarTransform4f().scale([1, -1, 1]),
             },
             "scale": amount,
-            "use_shadowing_function": os.environ.get("MI_SHADOWING", "1") == "1",
             "bsdf": bsdf,
         }
     scene = mi.load_dict(
