@@ -2,7 +2,7 @@
 # Renders the benchmark scenes with tslc and with the established renderers,
 # then prints image differences and whole-process times.
 #
-#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|all]
+#   scripts/compare-peers.sh [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|speed|all]
 #
 # cornell     tslc and Mitsuba 3 at 64 spp against a REF_SPP Mitsuba reference:
 #             RMSE and mean, whole image and per object; whole-process times.
@@ -54,8 +54,17 @@
 #             (scripts/peers/metals.py; SPP there, default 256). Not part of
 #             `all` (eight minutes).
 #
+# speed       issue 33's race: the Cornell box at 512x512, 256 spp, whole
+#             processes on THREADS threads, tslc against Mitsuba 3's
+#             scalar_rgb and its vectorised llvm_ad_rgb (which JIT-compiles
+#             the path tracer into 8-wide kernels), SPEED_RUNS alternating
+#             runs each (default 3), medians and ratios; SPEED_RES and
+#             SPEED_SPP change the size and samples. Not part of `all`.
+#
 # Needs: POV-Ray 3.7 (`apt-get install povray`) for whitted and procedural,
-# Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs.
+# Mitsuba 3 (`pip install mitsuba numpy`) for the others and for reading EXRs;
+# its llvm variants need a shared libLLVM 17 or newer, which the speed case
+# installs (Debian's libllvm19, when run as root) and points DRJIT_LIBLLVM_PATH at.
 # SCENES points at the scene folder (default ../shared/scenes); REF_SPP sets
 # the Mitsuba references' samples per pixel (default 4096; each is rendered
 # once and kept in target/peers/, delete it to render again); HIGH_SPP the
@@ -83,8 +92,8 @@ OUT=target/peers
 mkdir -p "$OUT"
 which=${1:-all}
 case $which in
-    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | bump | materials | metals | all) ;;
-    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|all]" >&2; exit 2 ;;
+    cornell | whitted | procedural | glossy | envlight | spectral | normal_map | bump | materials | metals | speed | all) ;;
+    *) echo "usage: $0 [cornell|whitted|procedural|glossy|envlight|spectral|normal_map|bump|materials|metals|speed|all]" >&2; exit 2 ;;
 esac
 
 UPDATE_DOCS=${UPDATE_DOCS:-0}
@@ -321,4 +330,47 @@ if [[ $which == metals ]]; then
     [[ -f examples/textures/sky.exr ]] || cargo run --release --quiet --example make_sky
     python3 scripts/peers/envmap_for_mitsuba.py examples/textures/sky.exr "$OUT/sky_mitsuba.exr"
     figures metals python3 scripts/peers/metals.py "$TSLC" "$OUT/metals" "$OUT/sky_mitsuba.exr"
+fi
+
+# A libLLVM for Mitsuba's llvm variants (Dr.Jit loads it at run time): the
+# newest installed that is 17 or later; as root, Debian's libllvm19 when
+# there is none.
+llvm_library() {
+    local lib
+    lib=$(ls /usr/lib/*/libLLVM-{21,20,19,18,17}.so /usr/lib/*/libLLVM.so.{21,20,19,18,17}* 2>/dev/null | head -1 || true)
+    if [[ -z $lib && $(id -u) == 0 ]] && apt-cache show libllvm19 >/dev/null 2>&1; then
+        apt-get install -y --no-install-recommends libllvm19 >/dev/null
+        lib=$(ls /usr/lib/*/libLLVM-19.so /usr/lib/*/libLLVM.so.19* 2>/dev/null | head -1 || true)
+    fi
+    [[ -n $lib ]] || { echo "error: Mitsuba's llvm_ad_rgb needs libLLVM >= 17 (apt-get install libllvm19)" >&2; return 1; }
+    echo "$lib"
+}
+
+speed() {
+    local res=${SPEED_RES:-512} spp=${SPEED_SPP:-256} runs=${SPEED_RUNS:-3} k t
+    local -a tsl=() scalar=() llvm=()
+    DRJIT_LIBLLVM_PATH=$(llvm_library)
+    export DRJIT_LIBLLVM_PATH
+    echo "== cornell ${res}x${res}, $spp spp, $THREADS threads: whole-process seconds, $runs alternating runs each"
+    for ((k = 0; k < runs; k++)); do
+        t=$(run_timed "$TSLC" render examples/cornell.tsl -o "$OUT/speed_tsl.exr" --res "${res}x${res}" \
+            --spp "$spp" --seed 1 --threads "$THREADS")
+        tsl+=("${t%% *}")
+        t=$(MITSUBA_VARIANT=scalar_rgb run_timed mitsuba_render "$SCENES/cornell/scene.xml" "$OUT/speed_scalar.exr" \
+            "$spp" 1 "res=$res")
+        scalar+=("${t%% *}")
+        t=$(MITSUBA_VARIANT=llvm_ad_rgb run_timed mitsuba_render "$SCENES/cornell/scene.xml" "$OUT/speed_llvm.exr" \
+            "$spp" 1 "res=$res")
+        llvm+=("${t%% *}")
+    done
+    median() { printf '%s\n' "$@" | sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
+    local m_tsl m_scalar m_llvm
+    m_tsl=$(median "${tsl[@]}") m_scalar=$(median "${scalar[@]}") m_llvm=$(median "${llvm[@]}")
+    echo "tslc ${tsl[*]} s (median $m_tsl)"
+    echo "mitsuba scalar_rgb ${scalar[*]} s (median $m_scalar)"
+    echo "mitsuba llvm_ad_rgb ${llvm[*]} s (median $m_llvm)"
+    echo "tslc / scalar_rgb: $(echo "scale=2; $m_tsl / $m_scalar" | bc)x, tslc / llvm_ad_rgb: $(echo "scale=2; $m_tsl / $m_llvm" | bc)x (goal: at most 0.80x)"
+}
+if [[ $which == speed ]]; then
+    figures speed speed
 fi
