@@ -710,13 +710,15 @@ const OPEN_PBR: &str = "
         coat_color: rgb(0.9, 0.8, 0.7));
     material glossy_coat = open_pbr_surface(base_metalness: 1, specular_roughness: 0.6, coat_weight: 0.7, \
         coat_roughness: 0.2, coat_ior: 1.4);
+    material velvet = open_pbr_surface(base_color: rgb(0.3, 0.05, 0.1), fuzz_weight: 1, fuzz_color: rgb(1, 0.6, 0.7), \
+        fuzz_roughness: 0.3, coat_weight: 0.5, coat_roughness: 0.3);
 ";
 
 #[test]
 fn open_pbr_surface_samples_its_pdf() {
     let p = compile(OPEN_PBR);
     let mut seed = 4000;
-    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat"] {
+    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet"] {
         for (t, ph) in VIEWS {
             seed += 1;
             assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
@@ -860,4 +862,17 @@ fn an_open_pbr_coat_over_a_diffuse_base_is_a_layer_of_coat_over_lambert() {
             assert!((x / y - 1.0).abs() < 0.01, "`{a}` at {theta} degrees reflects {x}, `{b}` {y}");
         }
     }
+}
+
+#[test]
+fn open_pbr_fuzz_is_a_sheen_toward_grazing_angles() {
+    // On a black base the fuzz alone reflects: little head-on, more toward
+    // grazing angles, and no more than its albedo lets it.
+    let p = compile("material velvet = open_pbr_surface(base_color: gray(0), specular_weight: 0, fuzz_weight: 1);");
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let m = p.material("velvet").unwrap();
+    let at = |theta: f32| albedo(&m, &surface(), direction(theta, 0.0), &one, 20_000).0;
+    let (head_on, grazing) = (at(0.0), at(80.0));
+    assert!(head_on > 0.0 && grazing > 1.5 * head_on, "fuzz reflects {head_on} head-on, {grazing} at 80 degrees");
+    assert!(grazing < 1.0, "fuzz reflects {grazing} at 80 degrees");
 }
