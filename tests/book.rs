@@ -337,8 +337,9 @@ fn materials_page_is_current() {
              has a default: a bare name is a usable material, and named arguments change what you \
              need:\n\n```tsl\nmaterial plain = lambert;\nmaterial gold = rough_conductor(alpha: 0.05, \
              eta: AU_ETA, k: AU_K);\n```\n\nThe sources are `stdlib/materials.tsl` (the classic models), \
-             `stdlib/physical.tsl` (Mitsuba's physically based ones) and `stdlib/texturing.tsl` (the \
-             texturing techniques); each file opens with notes on its conventions.\n";
+             `stdlib/physical.tsl` (Mitsuba's physically based ones), `stdlib/openpbr.tsl` (OpenPBR \
+             Surface) and `stdlib/texturing.tsl` (the texturing techniques); each file opens with notes \
+             on its conventions.\n";
     let shaders: Vec<_> = program.shaders().into_iter().filter(|s| s.in_prelude()).collect();
     assert!(shaders.len() >= 15, "only {} prelude materials", shaders.len());
     for shader in shaders {

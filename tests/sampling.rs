@@ -697,3 +697,182 @@ fn the_default_albedo_integrates_the_materials_own_sampling() {
         );
     }
 }
+
+/// OpenPBR Surface at parameters covering each of its lobes (metal, the
+/// dielectric's specular over diffuse, anisotropy, a rough and a smooth
+/// coat, F0 scaled by specular_weight).
+const OPEN_PBR: &str = "
+    material plastic_like = open_pbr_surface(base_color: rgb(0.7, 0.2, 0.1));
+    material brushed = open_pbr_surface(base_metalness: 1, base_color: rgb(0.9, 0.6, 0.3), \
+        specular_roughness: 0.4, specular_roughness_anisotropy: 0.7, specular_color: rgb(0.8, 0.9, 1));
+    material half_metal = open_pbr_surface(base_metalness: 0.5, specular_roughness: 0.15, specular_weight: 0.6);
+    material coated = open_pbr_surface(base_color: rgb(0.2, 0.5, 0.8), coat_weight: 1, coat_roughness: 0.2, \
+        coat_color: rgb(0.9, 0.8, 0.7));
+    material glossy_coat = open_pbr_surface(base_metalness: 1, specular_roughness: 0.6, coat_weight: 0.7, \
+        coat_roughness: 0.2, coat_ior: 1.4);
+    material velvet = open_pbr_surface(base_color: rgb(0.3, 0.05, 0.1), fuzz_weight: 1, fuzz_color: rgb(1, 0.6, 0.7), \
+        fuzz_roughness: 0.3, coat_weight: 0.5, coat_roughness: 0.3);
+";
+
+#[test]
+fn open_pbr_surface_samples_its_pdf() {
+    let p = compile(OPEN_PBR);
+    let mut seed = 4000;
+    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet"] {
+        for (t, ph) in VIEWS {
+            seed += 1;
+            assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
+        }
+    }
+}
+
+#[test]
+fn open_pbr_surface_never_reflects_more_than_it_receives() {
+    // A white base, every lobe at full strength: each layer passes on only
+    // what the one above lets through.
+    let mut src = String::new();
+    let mut names = Vec::new();
+    for metalness in [0.0, 0.5, 1.0] {
+        for roughness in [0.0, 0.3, 0.8] {
+            for (coat, coat_roughness) in [(0.0, 0.0), (1.0, 0.0), (1.0, 0.5)] {
+                let name = format!("m{}", names.len());
+                src += &format!(
+                    "material {name} = open_pbr_surface(base_color: gray(1), base_metalness: {metalness}, \
+                         specular_roughness: {roughness}, coat_weight: {coat}, coat_roughness: {coat_roughness}, \
+                         specular_ior: 1.8);\n"
+                );
+                names.push((
+                    name,
+                    format!("metalness {metalness} roughness {roughness} coat {coat} ({coat_roughness})"),
+                ));
+            }
+        }
+    }
+    let p = compile(&src);
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (name, what) in &names {
+        let m = p.material(name).unwrap();
+        for theta in [0.0, 45.0, 80.0] {
+            let (r, _) = albedo(&m, &surface(), direction(theta, 30.0), &one, 20_000);
+            assert!(r <= 1.01, "{what} at {theta} degrees reflects {r}");
+            assert!(r >= 0.5, "{what} at {theta} degrees reflects only {r}");
+        }
+    }
+}
+
+#[test]
+fn open_pbr_surface_keeps_all_the_light_where_nothing_is_lost() {
+    // A white mirror-like metal (F82 with both colors white is 1) and a
+    // white base with no specular reflect everything at every angle.
+    let p = compile(
+        "material white_metal = open_pbr_surface(base_color: gray(1), base_metalness: 1, specular_roughness: 0);
+         material white_diffuse = open_pbr_surface(base_color: gray(1), specular_weight: 0);",
+    );
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (t, ph) in VIEWS {
+        for name in ["white_metal", "white_diffuse"] {
+            let (r, _) = albedo(&p.material(name).unwrap(), &surface(), direction(t, ph), &one, 20_000);
+            assert!((r - 1.0).abs() < 0.005, "`{name}` at {t} degrees reflects {r}, not 1");
+        }
+    }
+}
+
+/// The largest relative difference of `f · cos` between materials `a` and
+/// `b` of `p` over a spread of directions.
+fn largest_difference(p: &Program, a: &str, b: &str) -> f32 {
+    let (ma, mb) = (p.material(a).unwrap(), p.material(b).unwrap());
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let mut worst = 0.0f32;
+    for (to, po) in VIEWS {
+        for ti in [5.0, 30.0, 50.0, 70.0, 85.0] {
+            for pi in [0.0, 100.0, 170.0, 215.0, 300.0] {
+                let (wi, wo) = (direction(ti, pi), direction(to, po));
+                let (fa, fb) = (eval(&ma, &surface(), wi, wo, &one), eval(&mb, &surface(), wi, wo, &one));
+                for (x, y) in fa.lanes().iter().zip(fb.lanes()) {
+                    worst = worst.max((x - y).abs() / x.abs().max(y.abs()).max(1e-3));
+                }
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn open_pbr_surface_limits_are_the_stdlibs_materials() {
+    let p = compile(
+        "material white_metal = open_pbr_surface(base_color: gray(1), base_metalness: 1, specular_roughness: 0.5, \
+             specular_roughness_anisotropy: 0.6);
+         material conductor_none = rough_conductor(alpha_u: 0.32827, alpha_v: 0.13131, distribution: \"ggx\");
+         material base_only = open_pbr_surface(base_color: rgb(0.7, 0.4, 0.2), specular_weight: 0);
+         material lambertian = lambert(kd: rgb(0.7, 0.4, 0.2));",
+    );
+    // The specification's anisotropy: alpha_t = r^2 sqrt(2 / (1 + (1 - a)^2)), alpha_b = (1 - a) alpha_t.
+    let d = largest_difference(&p, "white_metal", "conductor_none");
+    assert!(d < 2e-3, "a white metal differs from rough_conductor reflecting everything by {d}");
+    let d = largest_difference(&p, "base_only", "lambertian");
+    assert!(d < 1e-4, "the base alone differs from lambert by {d}");
+}
+
+#[test]
+fn open_pbr_colored_metals_stay_near_the_complex_fresnel() {
+    // F82-tint Fresnel with a white tint (Schlick's) against a conductor of
+    // the same reflectivity at normal incidence (eta (1 - r) / (1 + r) and
+    // its k, Gulbrandsen's mapping at edge tint 1): the same head-on
+    // (0.676 / 0.678 for this gold-like color), darker toward grazing
+    // angles (0.655 / 0.721 at 60 degrees, 0.650 / 0.731 at 80): the
+    // difference the stdlib's doc states.
+    let r = [0.95f64, 0.64, 0.54];
+    let eta: Vec<f64> = r.iter().map(|r| (1.0 - r) / (1.0 + r)).collect();
+    let k: Vec<f64> =
+        r.iter().zip(&eta).map(|(r, n)| ((r * (n + 1.0).powi(2) - (n - 1.0).powi(2)) / (1.0 - r)).sqrt()).collect();
+    let p = compile(&format!(
+        "material gold_like = open_pbr_surface(base_color: rgb({}, {}, {}), base_metalness: 1, specular_roughness: 0.4);
+         material gold_complex = rough_conductor(alpha: 0.16, distribution: \"ggx\", \
+             eta: rgb({}, {}, {}), k: rgb({}, {}, {}));",
+        r[0], r[1], r[2], eta[0], eta[1], eta[2], k[0], k[1], k[2]
+    ));
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let (a, b) = (p.material("gold_like").unwrap(), p.material("gold_complex").unwrap());
+    for theta in [0.0, 60.0, 80.0] {
+        let (x, _) = albedo(&a, &surface(), direction(theta, 0.0), &one, 20_000);
+        let (y, _) = albedo(&b, &surface(), direction(theta, 0.0), &one, 20_000);
+        let what = format!("at {theta} degrees F82 reflects {x}, the complex index {y}");
+        if theta == 0.0 {
+            assert!((x / y - 1.0).abs() < 0.005, "{what}");
+        } else {
+            assert!(x < y && x / y > 0.85, "{what}");
+        }
+    }
+}
+
+#[test]
+fn an_open_pbr_coat_over_a_diffuse_base_is_a_layer_of_coat_over_lambert() {
+    let p = compile(
+        "material coated = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 1);
+         material layered = layer(coat(int_ior: 1.6, ext_ior: 1), lambert(kd: rgb(0.6, 0.3, 0.2)));
+         material half = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 0.5);
+         material half_layered = mix(0.5, lambert(kd: rgb(0.6, 0.3, 0.2)), \
+             layer(coat(int_ior: 1.6, ext_ior: 1), lambert(kd: rgb(0.6, 0.3, 0.2))));",
+    );
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (a, b) in [("coated", "layered"), ("half", "half_layered")] {
+        for theta in [0.0, 45.0, 75.0] {
+            let (x, _) = albedo(&p.material(a).unwrap(), &surface(), direction(theta, 0.0), &one, 20_000);
+            let (y, _) = albedo(&p.material(b).unwrap(), &surface(), direction(theta, 0.0), &one, 20_000);
+            assert!((x / y - 1.0).abs() < 0.01, "`{a}` at {theta} degrees reflects {x}, `{b}` {y}");
+        }
+    }
+}
+
+#[test]
+fn open_pbr_fuzz_is_a_sheen_toward_grazing_angles() {
+    // On a black base the fuzz alone reflects: little head-on, more toward
+    // grazing angles, and no more than its albedo lets it.
+    let p = compile("material velvet = open_pbr_surface(base_color: gray(0), specular_weight: 0, fuzz_weight: 1);");
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let m = p.material("velvet").unwrap();
+    let at = |theta: f32| albedo(&m, &surface(), direction(theta, 0.0), &one, 20_000).0;
+    let (head_on, grazing) = (at(0.0), at(80.0));
+    assert!(head_on > 0.0 && grazing > 1.5 * head_on, "fuzz reflects {head_on} head-on, {grazing} at 80 degrees");
+    assert!(grazing < 1.0, "fuzz reflects {grazing} at 80 degrees");
+}

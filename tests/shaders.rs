@@ -272,7 +272,7 @@ fn stdlib_header_tables_agree_with_the_declarations() {
     let program = program(HOST, ColorModel::Rgb);
     let shaders = prelude_shaders(&program);
     let mut problems = Vec::new();
-    for file in ["materials", "physical", "texturing"] {
+    for file in ["materials", "physical", "openpbr", "texturing"] {
         let text = std::fs::read_to_string(format!("stdlib/{file}.tsl")).unwrap();
         let header: Vec<&str> = text.lines().map_while(|l| l.strip_prefix("//")).collect();
         let names: Vec<&str> = shaders.iter().map(Shader::name).collect();

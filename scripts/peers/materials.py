@@ -110,6 +110,31 @@ MATERIALS = {
         "rough_dielectric(alpha: 0.3)",
         {"type": "roughdielectric", "alpha": 0.3, "distribution": "beckmann"},
     ),
+    # open_pbr_surface's limiting cases: a white metal (F82 with both colors
+    # white reflects everything, as Mitsuba's "none"), the base alone, and a
+    # coat over the base (albedo scaling by the coat's Fresnel at wo, where
+    # roughplastic integrates the rough interface both ways: not expected
+    # to agree within 1%, the difference is the point of the case).
+    "open_pbr_metal": (
+        "open_pbr_surface(base_color: gray(1), base_metalness: 1, specular_roughness: 0.4472136)",
+        {"type": "roughconductor", "alpha": 0.2, "distribution": "ggx", "material": "none"},
+    ),
+    "open_pbr_base_only": (
+        f"open_pbr_surface(base_color: {rgb(RED)}, specular_weight: 0)",
+        {"type": "diffuse", "reflectance": mi_rgb(RED)},
+    ),
+    "open_pbr_coat_over_base": (
+        f"open_pbr_surface(base_color: {rgb(RED)}, specular_weight: 0, coat_weight: 1, coat_roughness: 0.3162278, "
+        "coat_ior: 1.49)",
+        {
+            "type": "roughplastic",
+            "diffuse_reflectance": mi_rgb(RED),
+            "alpha": 0.1,
+            "distribution": "ggx",
+            "int_ior": 1.49,
+            "ext_ior": 1.0,
+        },
+    ),
 }
 
 
