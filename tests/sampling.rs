@@ -876,3 +876,27 @@ fn open_pbr_fuzz_is_a_sheen_toward_grazing_angles() {
     assert!(head_on > 0.0 && grazing > 1.5 * head_on, "fuzz reflects {head_on} head-on, {grazing} at 80 degrees");
     assert!(grazing < 1.0, "fuzz reflects {grazing} at 80 degrees");
 }
+
+/// A `standard_surface` roughness of 0 is a sharp lobe: the squared
+/// roughness is floored at 1e-4, as every stdlib microfacet alpha is (it
+/// went through `rough_alpha`, whose 0 means "use the fallback", and the
+/// fallback was 1: a fully rough lobe).
+#[test]
+fn a_standard_surface_roughness_of_zero_is_sharp() {
+    let p = compile(
+        "material sharp = standard_surface(base_color: gray(0.9), metalness: 1, specular_roughness: 0);
+        material rough = standard_surface(base_color: gray(0.9), metalness: 1, specular_roughness: 1);
+        material sharp_coat = standard_surface(base_color: black(), coat: 1, coat_roughness: 0, specular: 0);
+        material rough_coat = standard_surface(base_color: black(), coat: 1, coat_roughness: 1, specular: 0);",
+    );
+    let g = surface();
+    let light = p.rgb(1.0, 1.0, 1.0);
+    let wo = direction(30.0, 0.0);
+    // 20 degrees off the mirror direction.
+    let wi = direction(50.0, 180.0);
+    let at = |name: &str| p.material(name).unwrap().reflection(&g, wi, &light, wo).lanes()[0];
+    for (sharp, rough) in [("sharp", "rough"), ("sharp_coat", "rough_coat")] {
+        let (s, r) = (at(sharp), at(rough));
+        assert!(r > 1e-3 && s < 1e-6 * r.max(1.0), "`{sharp}` {s} against `{rough}` {r} off the mirror direction");
+    }
+}
