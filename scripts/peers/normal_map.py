@@ -68,6 +68,11 @@ def mitsuba_render(mi, normal, spp):
             },
             "bsdf": bsdf,
         }
+    return render_square(mi, bsdf, spp)
+
+
+def render_square(mi, bsdf, spp):
+    """Mitsuba's render of the square with `bsdf` (shared with bump.py)."""
     scene = mi.load_dict(
         {
             "type": "scene",
@@ -84,6 +89,24 @@ def mitsuba_render(mi, normal, spp):
         }
     )
     return mi.render(scene)
+
+
+def compare(mi, tslc, scene, mitsuba_image, stem, name, spp):
+    """Renders `scene` with tslc, keeps both images as STEM_tsl.exr and
+    STEM_mitsuba.exr, and prints the case's row (shared with bump.py)."""
+    import numpy as np
+
+    image = f"{stem}_tsl.exr"
+    subprocess.run([tslc, "render", scene, "-o", image, "--spp", str(spp), "--quiet"], check=True)
+    tsl = np.array(mi.Bitmap(image), dtype=np.float64)[..., :3]
+    ref = np.array(mitsuba_image, dtype=np.float64)[..., :3]
+    mi.Bitmap(ref.astype(np.float32)).write(f"{stem}_mitsuba.exr")
+    diff = tsl - ref
+    mean = ref.mean()
+    print(
+        f"{name:12} {tsl.mean():9.5f} {mean:9.5f} {np.abs(diff).mean() / mean:11.2%} "
+        f"{math.sqrt((diff**2).mean()) / mean:8.2%}"
+    )
 
 
 def main(argv):
@@ -117,22 +140,13 @@ def main(argv):
         ("flat", None, "", None),
     ]
     print(f"normal map on a diffuse square, {SIZE}x{SIZE}, {spp} spp: TSL against Mitsuba 3 normalmap")
-    print(f"{'case':10} {'tsl mean':>9} {'mitsuba':>9} {'mean |diff|':>12} {'rmse':>8}")
+    print(f"{'case':12} {'tsl mean':>9} {'mitsuba':>9} {'mean |diff|':>12} {'rmse':>8}")
     for name, tsl_map, extra, mitsuba_map in cases:
         scene = os.path.join(out, f"normal_map_{name}.tsl")
         with open(scene, "w") as f:
             f.write(tsl_scene(tsl_map, extra))
-        image = os.path.join(out, f"normal_map_{name}_tsl.exr")
-        subprocess.run([tslc, "render", scene, "-o", image, "--spp", str(spp), "--quiet"], check=True)
-        tsl = np.array(mi.Bitmap(image), dtype=np.float64)[..., :3]
-        ref = np.array(mitsuba_render(mi, mitsuba_map, spp), dtype=np.float64)[..., :3]
-        mi.Bitmap(ref.astype(np.float32)).write(os.path.join(out, f"normal_map_{name}_mitsuba.exr"))
-        diff = tsl - ref
-        mean = ref.mean()
-        print(
-            f"{name:10} {tsl.mean():9.5f} {mean:9.5f} {np.abs(diff).mean() / mean:11.2%} "
-            f"{math.sqrt((diff**2).mean()) / mean:8.2%}"
-        )
+        ref = mitsuba_render(mi, mitsuba_map, spp)
+        compare(mi, tslc, scene, ref, os.path.join(out, f"normal_map_{name}"), name, spp)
     return 0
 
 
