@@ -206,26 +206,7 @@ impl<'p> Lowerer<'p> {
             let lanes = chosen.lanes();
             return b.select_lanes(dropped, &none, &lanes);
         }
-        let not_delta = b.not(is_delta);
-        let has_pdf = b.flt(zero, chosen.pdf);
-        let smooth = b.and(not_delta, has_pdf);
-        let wi = chosen.wi.clone();
-        let mixed = b.branch(
-            self,
-            smooth,
-            &tys,
-            |b, me| {
-                let f = me.eval_at(b, node, &wi, wo, eta, ctx);
-                let pdf_args = [wi.clone(), wo.clone(), eta.clone()];
-                let pdf = me.mat_method(b, node, Method::Pdf.interface(), &pdf_args, ctx)[0];
-                let weight = f.iter().map(|x| b.safe_div(*x, pdf)).collect();
-                let flag = b.f(0.0);
-                Sample { wi: wi.clone(), weight, pdf, delta: flag }.lanes()
-            },
-            |b, me| me.no_sample(b),
-        );
-        let lanes = chosen.lanes();
-        let result = b.select_lanes(is_delta, &lanes, &mixed);
+        let result = self.weigh_by_node(b, node, chosen, is_delta, args, ctx);
         b.select_lanes(dropped, &none, &result)
     }
 

@@ -493,6 +493,23 @@ impl<'p> Lowerer<'p> {
         if !outermost {
             return chosen.lanes();
         }
+        self.weigh_by_node(b, node, chosen, is_delta, args, ctx)
+    }
+
+    /// What the outermost of nested mixtures (or layers) returns for the
+    /// sample a child drew: a delta lobe's `chosen` as it is; any other
+    /// direction weighed by the whole node's `f · cos / pdf`, so the weight
+    /// agrees with the node's own `pdf` (MIS); nothing when that pdf is 0.
+    pub(super) fn weigh_by_node(
+        &mut self,
+        b: &mut Builder,
+        node: &Mat<'p>,
+        chosen: Sample,
+        is_delta: Value,
+        args: &[Vec<Value>],
+        ctx: &Ctx,
+    ) -> Vec<Value> {
+        let zero = b.f(0.0);
         let not_delta = b.not(is_delta);
         let has_pdf = b.flt(zero, chosen.pdf);
         let smooth = b.and(not_delta, has_pdf);
