@@ -76,16 +76,16 @@ impl Environment {
                 * Mat3A::from_rotation_x(rotate.x.to_radians());
             (r, r.transpose())
         });
-        let (distribution, integral) = match &source {
-            EnvironmentSource::Constant(c) => (None, 4.0 * PI * mean_lane(c)),
+        let (distribution, cell_warp, integral) = match &source {
+            EnvironmentSource::Constant(c) => (None, None, 4.0 * PI * mean_lane(c)),
             EnvironmentSource::Image(map) => {
-                let (distribution, integral) = image_distribution(map);
-                (Some(distribution), integral)
+                // Each texel's mean lane, which both the distribution and
+                // the warp within its cells follow.
+                let (width, height) = (map.width as usize, map.height as usize);
+                let level: Vec<f32> = map.texels.chunks(map.lanes.max(1)).take(width * height).map(mean_lane).collect();
+                let (distribution, integral) = image_distribution(&level, width, height);
+                (Some(distribution), CellWarp::new(level, width, height), integral)
             }
-        };
-        let cell_warp = match &source {
-            EnvironmentSource::Image(map) => CellWarp::new(map),
-            EnvironmentSource::Constant(_) => None,
         };
         Environment { source, distribution, cell_warp, scale, rotation, integral: integral * scale }
     }
@@ -258,9 +258,9 @@ struct CellWarp {
 }
 
 impl CellWarp {
-    fn new(map: &EnvironmentMap) -> Option<CellWarp> {
-        let (width, height) = (map.width as usize, map.height as usize);
-        let level: Vec<f32> = map.texels.chunks(map.lanes.max(1)).take(width * height).map(mean_lane).collect();
+    /// The warp over `level` (each texel's mean lane, row by row), when
+    /// the image is cut into 2 x 2 cells a texel.
+    fn new(level: Vec<f32>, width: usize, height: usize) -> Option<CellWarp> {
         let usable = cells_per_texel(width) == 2 && width > 0 && height > 0 && level.len() == width * height;
         usable.then_some(CellWarp { width, height, level })
     }
@@ -366,7 +366,8 @@ fn cells_per_texel(width: usize) -> usize {
     if width <= 512 { 2 } else { 1 }
 }
 
-/// The sampling distribution of an image and its radiance integral.
+/// The sampling distribution of an image whose texels' mean lanes are
+/// `level` (`w x h`, row by row) and its radiance integral.
 ///
 /// Each texel's footprint in (u, v) is cut into `s x s` cells
 /// ([`cells_per_texel`], 1 or 2); a cell's weight is the mean of the bilinear
@@ -377,9 +378,7 @@ fn cells_per_texel(width: usize) -> usize {
 /// axis (wrapping across, clamped at the poles). Either way a cell has
 /// weight wherever the lookup can be positive in it, which a texel's own
 /// value alone would miss beside a lone bright texel.
-fn image_distribution(map: &EnvironmentMap) -> (Distribution2D, f32) {
-    let (w, h) = (map.width as usize, map.height as usize);
-    let level: Vec<f32> = map.texels.chunks(map.lanes.max(1)).take(w * h).map(mean_lane).collect();
+fn image_distribution(level: &[f32], w: usize, h: usize) -> (Distribution2D, f32) {
     if w == 0 || h == 0 || level.len() < w * h {
         return (Distribution2D::new(&[], 1, 1), 0.0);
     }
