@@ -343,6 +343,17 @@ enum TslStatus tsl_material_batch_emission(const struct TslMaterial *material,
                                            float *out,
                                            struct TslError **error);
 
+// `tsl_material_albedo` at every point: `points * lanes` floats into
+// `out`. Thread-safe.
+enum TslStatus tsl_material_batch_albedo(const struct TslMaterial *material,
+                                         const struct TslBatch *batch,
+                                         const struct TslColumn *wo,
+                                         const struct TslColumn *eta,
+                                         size_t lanes,
+                                         size_t points,
+                                         float *out,
+                                         struct TslError **error);
+
 // `tsl_material_sample` at every point, from columns `uc`, `u1`, `u2`:
 // `wi` receives `points * 3` floats, `weight` `points * lanes`, `pdf`
 // `points` and `delta` `points` bools. Thread-safe.
@@ -730,6 +741,17 @@ enum TslStatus tsl_material_emission(const struct TslMaterial *material,
                                      size_t lanes,
                                      float *out,
                                      struct TslError **error);
+
+// The fraction of light from `wo` the surface reflects (its directional
+// albedo; what a `layer` above it would not let through), into `out`
+// (`lanes` floats). Thread-safe.
+enum TslStatus tsl_material_albedo(const struct TslMaterial *material,
+                                   const struct TslGlobals *globals,
+                                   const float *wo,
+                                   const float *eta,
+                                   size_t lanes,
+                                   float *out,
+                                   struct TslError **error);
 
 // Draws an incident direction from the uniform numbers `uc` (which lobe)
 // and `(u1, u2)` (where in it) into `*out`, its weight (`f * cos / pdf`)

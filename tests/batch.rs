@@ -180,6 +180,7 @@ fn assert_surface_batch_matches(m: &Material, globals: &Globals, rng: &mut Rng, 
     let absorption = s.absorption(&light_columns, Column::floats(&dist)).unwrap();
     let (rdir, tdir, normal) = (s.reflection_dir().unwrap(), s.refraction_dir().unwrap(), s.normal().unwrap());
     let (opaque, pdf) = (s.opaque().unwrap(), s.pdf(Column::vectors(&wi)).unwrap());
+    let albedo = s.albedo().unwrap();
 
     let mut record = SurfaceRecord::new();
     let color = |i: usize, xs: &[f32]| tsl::Color::from_lanes(model, &xs[i * lanes..(i + 1) * lanes]);
@@ -214,6 +215,7 @@ fn assert_surface_batch_matches(m: &Material, globals: &Globals, rng: &mut Rng, 
         assert_eq!(ior.get(i), one.refraction_index().lanes(), "{at}: refraction_index");
         assert_eq!(emission.get(i), one.emission().lanes(), "{at}: emission");
         assert_eq!(diffuse.get(i), one.diffuse().lanes(), "{at}: diffuse");
+        assert_eq!(albedo.get(i), one.albedo().lanes(), "{at}: albedo");
         assert_eq!(ambient.get(i), one.ambient(&light_i).lanes(), "{at}: ambient");
         assert_eq!(absorption.get(i), one.absorption(&light_i, dist[i]).lanes(), "{at}: absorption");
         assert_eq!((rdir[i], tdir[i], normal[i]), (one.reflection_dir(), one.refraction_dir(), one.normal()), "{at}");

@@ -177,6 +177,9 @@ fn expected(host: Host) -> String {
         out += &floats(" value", e.value.lanes());
         out += &floats("  pdf", &[e.pdf]);
     }
+    if host == Host::C {
+        out += &floats("gold0 albedo", golds[0].at(&g, wo, &eta, &mut record).albedo().lanes());
+    }
 
     const POINTS: usize = 8;
     let pl: Vec<[f32; 3]> = (0..POINTS).map(|i| [0.05 * i as f32, 0.0, 0.02 * i as f32]).collect();
@@ -202,6 +205,13 @@ fn expected(host: Host) -> String {
             out += &floats(" wi", &samples.wi[i]);
             out += &floats("  weight", samples.weight.get(i));
             out += &floats("  pdf", &[samples.pdf[i]]);
+        }
+        let albedo = wood
+            .at_batch(&points, Column::uniform_vector(wo), &eta_columns)
+            .and_then(|mut s| s.albedo())
+            .expect("a batch");
+        for i in 0..POINTS {
+            out += &floats(&format!("batch wood albedo {i}"), albedo.get(i));
         }
     }
     out + "done\n"

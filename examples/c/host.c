@@ -131,6 +131,9 @@ int main(void) {
         print_floats(" value", out, lanes);
         print_floats("  pdf", &pdf, 1);
     }
+    /* The fraction of light from wo the rough gold reflects. */
+    CHECK(tsl_material_albedo(gold_rough, &g, wo, eta, lanes, out, &error));
+    print_floats("gold0 albedo", out, lanes);
 
     /* A batch: Pl point by point (an array of xyz triples, read by stride),
        wo and eta the same at every point, u1 and u2 as plain arrays. */
@@ -172,6 +175,11 @@ int main(void) {
         print_floats(" wi", wis[i], 3);
         print_floats("  weight", values + i * lanes, lanes);
         print_floats("  pdf", &pdfs[i], 1);
+    }
+    CHECK(tsl_material_batch_albedo(wood, batch, wo_columns, eta_columns, lanes, POINTS, values, &error));
+    for (int i = 0; i < POINTS; i++) {
+        printf("batch wood albedo %d", i);
+        print_floats("", values + i * lanes, lanes);
     }
     free(values);
 

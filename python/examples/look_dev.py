@@ -64,6 +64,7 @@ assert program.compiled_functions == compiled, "binding compiles nothing"
 rng = np.random.default_rng(0)
 samples = metal.sample(view, rng.random(20000), rng.random((20000, 2)))
 print("albedo of the metal at normal incidence:", samples.weight.mean(axis=0).round(3))
+print("and as the material's own albedo(wo):", metal.albedo(view)[0].round(3))
 
 # %% A whole scene, as `tslc render` renders it.
 image = tsl.render(REPO / "examples" / "cornell.tsl", spp=4, res=(SIZE, SIZE * 3 // 4))

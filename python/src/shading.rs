@@ -1,5 +1,5 @@
 //! `tsl.Material` and `tsl.Instance`: a material's surface calls over numpy
-//! arrays of points (`reflection`, `sample`, `pdf`, `emission`), one batch
+//! arrays of points (`reflection`, `sample`, `pdf`, `emission`, `albedo`), one batch
 //! per chunk of points across cores with the GIL released. An instance is
 //! a material whose parameters are set at run time (`set` binds the new
 //! values; nothing is compiled again).
@@ -33,6 +33,7 @@ enum Call {
     Pdf,
     EvalPdf,
     Emission,
+    Albedo,
 }
 
 /// The arrays of a call, held for its length.
@@ -84,7 +85,7 @@ impl Material {
                 let eta_columns = vec![eta_lane.column(range); lanes];
                 let wo = match call {
                     Call::Reflection | Call::Pdf | Call::EvalPdf => &own[1],
-                    Call::Sample | Call::Emission => &own[0],
+                    Call::Sample | Call::Emission | Call::Albedo => &own[0],
                 };
                 let mut surface: SurfaceBatch = material.at_batch(&batch, triple(&wo.inputs, range), &eta_columns)?;
                 Ok(match call {
@@ -93,6 +94,7 @@ impl Material {
                         vec![colors::to_rgb(model, lanes, &c.values)]
                     }
                     Call::Emission => vec![colors::to_rgb(model, lanes, &surface.emission()?.values)],
+                    Call::Albedo => vec![colors::to_rgb(model, lanes, &surface.albedo()?.values)],
                     Call::Pdf => vec![surface.pdf(triple(&own[0].inputs, range))?],
                     Call::EvalPdf => {
                         let e = surface.eval_pdf(triple(&own[0].inputs, range))?;
@@ -271,6 +273,23 @@ impl Material {
         let own = [("wo", Kind::Floats(3), wo)];
         let args = Self::hold_args(py, &own, None, eta, globals)?;
         let (mut out, n) = Self::run(slf, Call::Emission, args)?;
+        matrix(py, out.swap_remove(0), n, 3)
+    }
+
+    /// The fraction of light from `wo` reflected at every point (the
+    /// directional albedo: what a `layer` above would not let through):
+    /// `(N, 3)` float32 linear RGB. Arguments as `emission`.
+    #[pyo3(signature = (wo, *, eta=None, **globals))]
+    fn albedo<'py>(
+        slf: &Bound<'py, Self>,
+        py: Python<'py>,
+        wo: &Bound<'py, PyAny>,
+        eta: Option<&Bound<'py, PyAny>>,
+        globals: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let own = [("wo", Kind::Floats(3), wo)];
+        let args = Self::hold_args(py, &own, None, eta, globals)?;
+        let (mut out, n) = Self::run(slf, Call::Albedo, args)?;
         matrix(py, out.swap_remove(0), n, 3)
     }
 

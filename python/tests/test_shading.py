@@ -80,6 +80,22 @@ def test_emission(program):
     assert np.all(program.material("m").emission(wo) == 0)
 
 
+def test_albedo_is_what_the_material_reflects():
+    # Lambert reflects kd from every direction.
+    m = tsl.compile(source=GRAY).material("m")
+    np.testing.assert_allclose(m.albedo(directions(50)), np.tile(KD, (50, 1)), rtol=1e-6)
+    # A rough metal reflects the mean of its sample weights: against 20000
+    # samples toward one direction.
+    metal = tsl.compile(source="material m = rough_conductor(alpha: 0.4);\n").material("m")
+    n = 20000
+    rng = np.random.default_rng(4)
+    wo = np.tile(np.array([[0.6, 0.0, 0.8]], dtype=np.float32), (n, 1))
+    s = metal.sample(wo, rng.random(n, dtype=np.float32), rng.random((n, 2), dtype=np.float32))
+    albedo = metal.albedo(wo[:1])[0]
+    assert np.all(albedo > 0.5) and np.all(albedo <= 1)
+    np.testing.assert_allclose(albedo, s.weight.mean(axis=0), rtol=0.02)
+
+
 def test_globals_by_name_shade_a_texture_tree():
     program = tsl.compile(source="material stripes = lambert(kd: gray(u));\nmaterial side = lambert(kd: gray(P[0]));\n")
     up = np.array([0.0, 0.0, 1.0])

@@ -197,6 +197,8 @@ class Material:
         """`reflection` of white light and `pdf` in one call: ((N, 3) RGB, (N,))."""
     def emission(self, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array) -> _F32:
         """(N, 3) light emitted toward `wo`."""
+    def albedo(self, wo: _Array, *, eta: Optional[_Array] = None, **globals: _Array) -> _F32:
+        """(N, 3) fraction of light from `wo` reflected (the directional albedo)."""
 
 @final
 class Instance(Material):

@@ -244,6 +244,14 @@ impl<'a> SurfaceBatch<'a> {
         Ok(self.colors(&out))
     }
 
+    /// [`Surface::albedo`] at every point: the fraction of light from `wo`
+    /// each point reflects.
+    pub fn albedo(&mut self) -> Result<ColorBatch, Error> {
+        let wo = self.wo;
+        let out = self.method(Method::Albedo, &[], &wo, self.lanes())?;
+        Ok(self.colors(&out))
+    }
+
     /// [`Surface::ambient`] at every point.
     pub fn ambient(&mut self, light: &[Column<'_>]) -> Result<ColorBatch, Error> {
         self.check_lanes("light", light)?;

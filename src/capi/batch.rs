@@ -214,6 +214,24 @@ pub unsafe extern "C" fn tsl_material_batch_emission(
     })
 }
 
+/// `tsl_material_albedo` at every point: `points * lanes` floats into
+/// `out`. Thread-safe.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tsl_material_batch_albedo(
+    material: *const TslMaterial,
+    batch: *const TslBatch,
+    wo: *const TslColumn,
+    eta: *const TslColumn,
+    lanes: usize,
+    points: usize,
+    out: *mut f32,
+    error: *mut *mut TslError,
+) -> TslStatus {
+    guard(error, || {
+        with_surfaces(material, batch, wo, eta, lanes, points, |s, _| put_floats(out, &s.albedo()?.values, "out"))
+    })
+}
+
 /// `tsl_material_sample` at every point, from columns `uc`, `u1`, `u2`:
 /// `wi` receives `points * 3` floats, `weight` `points * lanes`, `pdf`
 /// `points` and `delta` `points` bools. Thread-safe.

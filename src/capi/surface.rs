@@ -234,6 +234,26 @@ pub unsafe extern "C" fn tsl_material_emission(
     })
 }
 
+/// The fraction of light from `wo` the surface reflects (its directional
+/// albedo; what a `layer` above it would not let through), into `out`
+/// (`lanes` floats). Thread-safe.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn tsl_material_albedo(
+    material: *const TslMaterial,
+    globals: *const TslGlobals,
+    wo: *const f32,
+    eta: *const f32,
+    lanes: usize,
+    out: *mut f32,
+    error: *mut *mut TslError,
+) -> TslStatus {
+    guard(error, || {
+        let h = hit(material, globals, wo, eta, lanes)?;
+        let c = h.with(|s| s.albedo());
+        h.put_color(out, &c)
+    })
+}
+
 /// Draws an incident direction from the uniform numbers `uc` (which lobe)
 /// and `(u1, u2)` (where in it) into `*out`, its weight (`f * cos / pdf`)
 /// into `weight` (`lanes` floats). Thread-safe.
