@@ -132,6 +132,28 @@ fn transmitting_materials_keep_their_energy_in_a_white_furnace() {
     }
 }
 
+/// OpenPBR Surface's translucent base is a rough dielectric: in a white
+/// furnace a fully translucent sphere renders as `rough_dielectric` of the
+/// same alpha (roughness squared) at a shallow depth, and nearly vanishes
+/// at a deep one; a partly translucent, coated one never creates energy.
+#[test]
+fn open_pbr_transmission_keeps_its_energy_in_a_white_furnace() {
+    let open_pbr = |r: f32| format!("open_pbr_surface(transmission_weight: 1, specular_roughness: {r})");
+    let rough =
+        |alpha: f32| format!("rough_dielectric(int_ior: 1.5, ext_ior: 1, alpha: {alpha}, distribution: \"ggx\")");
+    for depth in [3, 8] {
+        let (a, b) = (sphere_in_white_furnace(&open_pbr(0.3), depth), sphere_in_white_furnace(&rough(0.09), depth));
+        assert!((a - b).abs() <= 0.03 * b, "depth {depth}: open_pbr_surface {a} vs rough_dielectric {b}");
+    }
+    let deep = sphere_in_white_furnace(&open_pbr(0.1), 64);
+    assert!((0.95..=1.02).contains(&deep), "a translucent open_pbr_surface at depth 64: {deep}");
+    let partly = "open_pbr_surface(transmission_weight: 0.6, base_color: gray(1), coat_weight: 1, coat_roughness: 0.2)";
+    let m = sphere_in_white_furnace(partly, 64);
+    // From inside, light meeting the opaque part of the surface (0.4 of
+    // it) is absorbed: 0.75 at this depth.
+    assert!((0.6..=1.02).contains(&m), "a partly translucent coated open_pbr_surface at depth 64: {m}");
+}
+
 /// Russian roulette weighs a path by its throughput times the squared
 /// indices it crossed (Mitsuba's and pbrt's rule): a rough dielectric's
 /// transmission divides radiance by eta² (smooth `glass`'s does not),

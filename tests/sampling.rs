@@ -845,12 +845,15 @@ fn open_pbr_colored_metals_stay_near_the_complex_fresnel() {
     }
 }
 
+/// With coat_darkening 0 the coat is plain albedo scaling: a `layer` of `coat`.
 #[test]
 fn an_open_pbr_coat_over_a_diffuse_base_is_a_layer_of_coat_over_lambert() {
     let p = compile(
-        "material coated = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 1);
+        "material coated = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 1, \
+             coat_darkening: 0);
          material layered = layer(coat(int_ior: 1.6, ext_ior: 1), lambert(kd: rgb(0.6, 0.3, 0.2)));
-         material half = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 0.5);
+         material half = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.2), specular_weight: 0, coat_weight: 0.5, \
+             coat_darkening: 0);
          material half_layered = mix(0.5, lambert(kd: rgb(0.6, 0.3, 0.2)), \
              layer(coat(int_ior: 1.6, ext_ior: 1), lambert(kd: rgb(0.6, 0.3, 0.2))));",
     );
@@ -875,6 +878,126 @@ fn open_pbr_fuzz_is_a_sheen_toward_grazing_angles() {
     let (head_on, grazing) = (at(0.0), at(80.0));
     assert!(head_on > 0.0 && grazing > 1.5 * head_on, "fuzz reflects {head_on} head-on, {grazing} at 80 degrees");
     assert!(grazing < 1.0, "fuzz reflects {grazing} at 80 degrees");
+}
+
+/// OpenPBR Surface with a translucent base: fully (rough glass), partly
+/// under a tinted rough coat and a fuzz, and half metal.
+const OPEN_PBR_TRANSLUCENT: &str = "
+    material glassy = open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5);
+    material frosted_coated = open_pbr_surface(transmission_weight: 0.6, transmission_color: rgb(0.9, 0.5, 0.3), \
+        base_color: rgb(0.2, 0.5, 0.8), specular_roughness: 0.4, specular_roughness_anisotropy: 0.5, \
+        coat_weight: 1, coat_roughness: 0.3, coat_color: rgb(0.9, 0.9, 0.8), fuzz_weight: 0.5);
+    material half_metal_glass = open_pbr_surface(transmission_weight: 1, base_metalness: 0.5, \
+        specular_roughness: 0.4, specular_weight: 0.7);
+";
+
+#[test]
+fn open_pbr_transmission_samples_its_pdf() {
+    let p = compile(OPEN_PBR_TRANSLUCENT);
+    let mut seed = 4100;
+    for name in ["glassy", "frosted_coated", "half_metal_glass"] {
+        // From outside (index 1.5 beyond the surface) and from inside.
+        for eta in [1.5, 1.0 / 1.5] {
+            for (t, ph) in VIEWS {
+                seed += 1;
+                assert_sampling(&p, name, &facing(eta), direction(t, ph), eta, seed);
+            }
+        }
+    }
+}
+
+#[test]
+fn open_pbr_transmission_never_creates_energy() {
+    let p = compile(OPEN_PBR_TRANSLUCENT);
+    for (t, ph) in VIEWS {
+        let wo = direction(t, ph);
+        for eta in [1.5f32, 1.0 / 1.5] {
+            let eta_c = p.rgb(eta, eta, eta);
+            for name in ["glassy", "frosted_coated", "half_metal_glass"] {
+                let (r, tr) = albedo(&p.material(name).unwrap(), &facing(eta), wo, &eta_c, 20_000);
+                assert!(r + tr <= 1.01, "`{name}` (eta {eta}) at {t} degrees: {r} + {tr} > 1");
+            }
+            // Rough glass keeps most of it: single scattering loses more
+            // toward grazing angles (0.78 at 75 degrees from inside), as
+            // rough_dielectric's does.
+            let (r, tr) = albedo(&p.material("glassy").unwrap(), &facing(eta), wo, &eta_c, 20_000);
+            assert!(r + tr >= 0.7, "`glassy` (eta {eta}) at {t} degrees keeps only {r} + {tr}");
+        }
+    }
+}
+
+/// A fully translucent open_pbr_surface is rough_dielectric (GGX, alpha the
+/// roughness squared): the same reflection, refraction and pdf from both
+/// sides, noise-free through the Material API.
+#[test]
+fn open_pbr_transmission_is_rough_dielectric() {
+    let p = compile(
+        "material translucent = open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5, \
+             specular_roughness_anisotropy: 0.6);
+         material dielectric = rough_dielectric(int_ior: 1.5, ext_ior: 1, alpha_u: 0.32827, alpha_v: 0.13131, \
+             distribution: \"ggx\");",
+    );
+    let (a, b) = (p.material("translucent").unwrap(), p.material("dielectric").unwrap());
+    let mut worst = 0.0f32;
+    for eta in [1.5f32, 1.0 / 1.5] {
+        let (g, eta_c) = (facing(eta), p.rgb(eta, eta, eta));
+        assert_eq!(a.refraction_index(&g).lanes(), b.refraction_index(&g).lanes());
+        for (to, po) in VIEWS {
+            let wo = direction(to, po);
+            for ti in [5.0, 30.0, 50.0, 70.0, 85.0, 95.0, 120.0, 150.0, 175.0] {
+                for pi in [0.0, 100.0, 170.0, 215.0, 300.0] {
+                    let wi = direction(ti, pi);
+                    let (fa, fb) = (eval(&a, &g, wi, wo, &eta_c), eval(&b, &g, wi, wo, &eta_c));
+                    let (pa, pb) = (a.pdf(&g, wi, wo, &eta_c), b.pdf(&g, wi, wo, &eta_c));
+                    for (x, y) in fa.lanes().iter().zip(fb.lanes()).chain([(&pa, &pb)]) {
+                        worst = worst.max((x - y).abs() / x.abs().max(y.abs()).max(1e-3));
+                    }
+                }
+            }
+        }
+    }
+    assert!(worst < 2e-3, "a translucent open_pbr_surface differs from rough_dielectric by {worst}");
+}
+
+/// The coat darkens a diffuse base as Mitsuba's roughplastic with
+/// `nonlinear` (the coat's rough transmittance both ways, the light it
+/// reflects back inside reflected again by the base): the same albedo per
+/// channel at every angle (a red base: 0.487 / 0.180 / 0.127 head-on,
+/// where coat_darkening 0's albedo scaling gives 0.711 / 0.327 / 0.231),
+/// and no darkening for a white base beyond the coat's transmission.
+#[test]
+fn an_open_pbr_coat_darkens_its_base_as_rough_plastic_nonlinear() {
+    let p = compile(
+        "material coated = open_pbr_surface(base_color: rgb(0.7, 0.3, 0.2), specular_weight: 0, coat_weight: 1, \
+             coat_roughness: 0.3162278, coat_ior: 1.49);
+         material plastic = rough_plastic(diffuse_reflectance: rgb(0.7, 0.3, 0.2), alpha: 0.1, distribution: \"ggx\", \
+             int_ior: 1.49, ext_ior: 1, nonlinear: true);
+         material undarkened = open_pbr_surface(base_color: rgb(0.7, 0.3, 0.2), specular_weight: 0, coat_weight: 1, \
+             coat_roughness: 0.3162278, coat_ior: 1.49, coat_darkening: 0);",
+    );
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let channels = |name: &str, theta: f32| {
+        let m = p.material(name).unwrap();
+        let (mut sum, mut rng, n) = ([0.0f64; 3], Rng(7), 50_000);
+        for _ in 0..n {
+            let (uc, u) = (rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+            let s = m.sample(&surface(), direction(theta, 0.0), &one, uc, u);
+            for (a, w) in sum.iter_mut().zip(s.weight.lanes()) {
+                *a += f64::from(*w) / f64::from(n);
+            }
+        }
+        sum
+    };
+    for theta in [0.0, 45.0, 80.0] {
+        let (a, b, c) = (channels("coated", theta), channels("plastic", theta), channels("undarkened", theta));
+        for k in 0..3 {
+            assert!(
+                (a[k] / b[k] - 1.0).abs() < 0.005,
+                "at {theta} degrees channel {k}: coated {a:?}, rough_plastic {b:?}"
+            );
+            assert!(a[k] < 0.9 * c[k], "at {theta} degrees channel {k}: darkened {a:?}, undarkened {c:?}");
+        }
+    }
 }
 
 /// A `standard_surface` roughness of 0 is a sharp lobe: the squared

@@ -116,12 +116,16 @@ MATERIALS = {
     ),
     # open_pbr_surface's limiting cases: a white metal (F82 with both colors
     # white reflects everything, as Mitsuba's "none"), the base alone, and a
-    # coat over the base (albedo scaling by the coat's Fresnel at wo, where
-    # roughplastic integrates the rough interface both ways: not expected
-    # to agree within 1%, the difference is the point of the case).
+    # coat over the base (coat_darkening 1, the default: the light bouncing
+    # inside the coat darkens the base, as roughplastic's `nonlinear`).
     "open_pbr_metal": (
         "open_pbr_surface(base_color: gray(1), base_metalness: 1, specular_roughness: 0.4472136)",
         {"type": "roughconductor", "alpha": 0.2, "distribution": "ggx", "material": "none"},
+    ),
+    # The translucent base alone: roughdielectric (alpha = roughness^2).
+    "open_pbr_dielectric": (
+        "open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5477226)",
+        {"type": "roughdielectric", "alpha": 0.3, "distribution": "ggx", "int_ior": 1.5, "ext_ior": 1.0},
     ),
     "open_pbr_base_only": (
         f"open_pbr_surface(base_color: {rgb(RED)}, specular_weight: 0)",
@@ -137,6 +141,7 @@ MATERIALS = {
             "distribution": "ggx",
             "int_ior": 1.49,
             "ext_ior": 1.0,
+            "nonlinear": True,
         },
     ),
 }
