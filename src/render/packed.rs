@@ -115,6 +115,9 @@ pub struct Group {
     pub objects: [u32; LANES],
 }
 
+/// Shapes (with their objects) of one [`group_key`].
+type Bucket<'a> = ((u8, bool), Vec<(u32, &'a Shape)>);
+
 /// The group a shape belongs in: its kind and whether it is transformed;
 /// `None` for kinds tested one by one.
 fn group_key(shape: &Shape) -> Option<(u8, bool)> {
@@ -130,7 +133,7 @@ fn group_key(shape: &Shape) -> Option<(u8, bool)> {
 /// Packs the shapes that groups can test; returns the groups and the
 /// shapes left (their objects) in their order.
 pub fn pack<'a>(shapes: impl IntoIterator<Item = (u32, &'a Shape)>) -> (Vec<Group>, Vec<u32>) {
-    let mut buckets: Vec<((u8, bool), Vec<(u32, &Shape)>)> = Vec::new();
+    let mut buckets: Vec<Bucket> = Vec::new();
     let mut rest = Vec::new();
     for (object, shape) in shapes {
         let Some(key) = group_key(shape) else {
