@@ -52,7 +52,7 @@ fn random_shape(rng: &mut Rng) -> Shape {
 fn random_ray(rng: &mut Rng, shapes: &[Shape]) -> Ray {
     let spread = if rng.next() < 0.3 { 2.0 } else { 16.0 };
     let origin = rng.vec(spread);
-    let dir = match rng.pick(4) {
+    let dir = match rng.pick(5) {
         0 => [Vec3::X, Vec3::NEG_Y, Vec3::Z, Vec3::new(1.0, 1.0, 0.0)][rng.pick(4)],
         1 => {
             // Through a corner of some shape's bounds.
@@ -67,6 +67,20 @@ fn random_ray(rng: &mut Rng, shapes: &[Shape]) -> Ray {
             }
             _ => rng.vec(2.0),
         },
+        3 => {
+            // Parallel to a face and starting in its plane: the slabs'
+            // 0 * inf, a NaN that the scalar test's f32::max passes over.
+            let (lo, hi) = shapes[rng.pick(shapes.len())].bounds().unwrap();
+            let axis = rng.pick(3);
+            let mut origin = origin;
+            origin[axis] = if rng.next() < 0.5 { lo[axis] } else { hi[axis] };
+            if let ShapeKind::Box { min, max } = *shapes[rng.pick(shapes.len())].kind() {
+                origin[axis] = if rng.next() < 0.5 { min[axis] } else { max[axis] };
+            }
+            let mut dir = rng.vec(2.0);
+            dir[axis] = 0.0;
+            return Ray::new(origin, dir);
+        }
         _ => rng.vec(2.0),
     };
     Ray::new(origin, dir)
