@@ -109,7 +109,7 @@ pub struct Group {
     /// Into each shape's frame, for transformed shapes (all of the group's
     /// or none).
     to_object: Option<Affine3x4>,
-    /// The lanes that hold a shape (the rest repeat the first).
+    /// The lanes that hold a shape (the rest repeat the last).
     live: BVec4A,
     /// The object of each lane.
     pub objects: [u32; LANES],
@@ -130,8 +130,8 @@ fn group_key(shape: &Shape) -> Option<(u8, bool)> {
     Some((kind, shape.to_object().is_some()))
 }
 
-/// Packs the shapes that groups can test; returns the groups and the
-/// shapes left (their objects) in their order.
+/// Packs the shapes that groups can test, two or more to a group; returns
+/// the groups and the shapes left (their objects).
 pub fn pack<'a>(shapes: impl IntoIterator<Item = (u32, &'a Shape)>) -> (Vec<Group>, Vec<u32>) {
     let mut buckets: Vec<Bucket> = Vec::new();
     let mut rest = Vec::new();
@@ -145,7 +145,15 @@ pub fn pack<'a>(shapes: impl IntoIterator<Item = (u32, &'a Shape)>) -> (Vec<Grou
             None => buckets.push((key, vec![(object, shape)])),
         }
     }
-    let groups = buckets.iter().flat_map(|(_, b)| b.chunks(LANES)).map(Group::new).collect();
+    let mut groups = Vec::new();
+    for chunk in buckets.iter().flat_map(|(_, b)| b.chunks(LANES)) {
+        // A shape alone is tested alone: its specialised scalar test, with
+        // its early outs and culling box, beats four lanes that have none.
+        match chunk {
+            [(object, _)] => rest.push(*object),
+            _ => groups.push(Group::new(chunk)),
+        }
+    }
     (groups, rest)
 }
 
@@ -209,14 +217,18 @@ impl Group {
                 // `plane_t`, then the parallelogram's coordinates.
                 let denom = n.dot(d);
                 let t = n.dot(corner.sub(o)) / denom;
+                // Most rays meet no quad's plane within the bounds.
+                let planes = denom.cmpne(Vec4::ZERO) & t.is_finite_mask() & ok(t) & self.live;
+                if !planes.any() {
+                    return (t, planes);
+                }
                 let w = o.at(t, d).sub(*corner);
                 let s = w.cross(*edge2).dot(*n) * *inv_n2;
                 let q = edge1.cross(w).dot(*n) * *inv_n2;
                 let inside = |x: Vec4| x.cmpge(Vec4::ZERO) & x.cmple(Vec4::ONE);
-                let hit = denom.cmpne(Vec4::ZERO) & t.is_finite_mask() & ok(t) & inside(s) & inside(q);
-                (t, hit)
+                (t, planes & inside(s) & inside(q))
             }
-            Lanes::Sphere { center, radius } => sphere(o, d, *center, *radius, ok),
+            Lanes::Sphere { center, radius } => sphere(o, d, *center, *radius, self.live, ok),
             Lanes::Box { min, max } => {
                 // `slabs`: SSE's min and max as glam's, and `f32::max`'s
                 // way with NaN across the axes.
@@ -240,13 +252,24 @@ impl Group {
 
 /// `sphere_roots` and `nearer` of the shape module, lane by lane.
 #[inline(always)]
-fn sphere(o: Vec3x4, d: Vec3x4, center: Vec3x4, radius: Vec4, ok: impl Fn(Vec4) -> BVec4A) -> (Vec4, BVec4A) {
+fn sphere(
+    o: Vec3x4,
+    d: Vec3x4,
+    center: Vec3x4,
+    radius: Vec4,
+    live: BVec4A,
+    ok: impl Fn(Vec4) -> BVec4A,
+) -> (Vec4, BVec4A) {
     let f = o.sub(center);
     let a = d.dot(d);
     let r2 = radius * radius;
     let cross = f.cross(d);
     // Negated comparisons, as the scalar test's early outs: NaN passes.
-    let near_line = !cross.dot(cross).cmpgt(r2 * a * Vec4::splat(1.0 + 1e-3));
+    let near_line = !cross.dot(cross).cmpgt(r2 * a * Vec4::splat(1.0 + 1e-3)) & a.cmpne(Vec4::ZERO) & live;
+    // Most rays pass far from every sphere: no division, no root.
+    if !near_line.any() {
+        return (a, near_line);
+    }
     let b = -f.dot(d);
     let ba = b / a;
     let l = f.at(ba, d);
@@ -259,7 +282,7 @@ fn sphere(o: Vec3x4, d: Vec3x4, center: Vec3x4, radius: Vec4, ok: impl Fn(Vec4) 
     let swap = t0.cmple(t1);
     let (near, far) = (Vec4::select(swap, t0, t1), Vec4::select(swap, t1, t0));
     let (near_ok, far_ok) = (ok(near), ok(far));
-    let roots = a.cmpne(Vec4::ZERO) & near_line & !disc.cmplt(Vec4::ZERO);
+    let roots = near_line & !disc.cmplt(Vec4::ZERO);
     (Vec4::select(near_ok, near, far), roots & (near_ok | far_ok))
 }
 
