@@ -5,8 +5,10 @@
 
 use super::accel::Bvh;
 use super::mesh::Mesh;
+use super::packed::{self, Group};
 use super::shape::{Cull, Shape, SurfaceHit, Tester};
 use super::{Ray, Vec3};
+use glam::Vec4;
 
 /// A growable array kept in blocks of [`Blocks::BLOCK`] elements (72 KB of
 /// shapes), below the size from which the allocator maps an allocation on
@@ -89,9 +91,19 @@ pub struct Geometry {
     unbounded: Vec<u32>,
     bvh: Bvh,
     /// With few primitives, testing them all beats traversing a tree:
-    /// then this holds every primitive, bounded ones first, then the
-    /// unbounded shapes.
-    linear: Option<Vec<Linear>>,
+    /// then this holds every primitive, in groups tested together and
+    /// one by one.
+    small: Option<Small>,
+}
+
+/// Every primitive of a small scene: quads, spheres and boxes in
+/// [`Group`]s of [`packed::LANES`], the rest one by one (bounded ones first,
+/// then the unbounded shapes).
+struct Small {
+    groups: Vec<Group>,
+    rest: Vec<Linear>,
+    /// How many of `rest` are bounded.
+    rest_bounded: usize,
 }
 
 /// A primitive of the linear list, a shape with a copy of itself: testing
@@ -106,7 +118,8 @@ struct Linear {
     cull: Option<Cull>,
 }
 
-/// At most this many primitives are tested one by one, without the BVH.
+/// At most this many tests of bounded primitives (a [`Group`] of shapes
+/// tested together counts one) are made for a ray without the BVH.
 const LINEAR_MAX: usize = 4;
 
 impl Geometry {
@@ -128,19 +141,7 @@ impl Geometry {
                 ObjectGeometry::Mesh(m) => prims.extend((0..m.triangles.len() as u32).map(|tri| Prim { object, tri })),
             }
         }
-        let linear = (prims.len() <= LINEAR_MAX).then(|| {
-            let all = prims.iter().copied().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 }));
-            all.map(|prim| {
-                let shape = match &objects[prim.object as usize] {
-                    ObjectGeometry::Shape(s) => Some(s.clone()),
-                    ObjectGeometry::Mesh(_) => None,
-                };
-                let cull = shape.as_ref().and_then(Shape::cull);
-                let test = shape.as_ref().map_or(Shape::intersect as Tester, Shape::tester);
-                Linear { prim, shape, test, cull }
-            })
-            .collect()
-        });
+        let small = Self::small(&objects, &prims, &unbounded);
         // The bounds go straight into the BVH builder, not through a list
         // of their own (24 bytes a primitive at the peak of a large scene).
         let bounds = prims.iter().map(|p| match &objects[p.object as usize] {
@@ -148,8 +149,44 @@ impl Geometry {
             ObjectGeometry::Shape(s) => s.bounds().unwrap_or((Vec3::NAN, Vec3::NAN)),
             ObjectGeometry::Mesh(m) => m.bounds(p.tri),
         });
-        let bvh = if linear.is_some() { Bvh::build([]) } else { Bvh::build(bounds) };
-        Geometry { objects, prims, unbounded, bvh, linear }
+        let bvh = if small.is_some() { Bvh::build([]) } else { Bvh::build(bounds) };
+        Geometry { objects, prims, unbounded, bvh, small }
+    }
+
+    /// The scene's primitives as a [`Small`] list, when they need at most
+    /// [`LINEAR_MAX`] tests.
+    fn small(objects: &Blocks<ObjectGeometry>, prims: &[Prim], unbounded: &[u32]) -> Option<Small> {
+        if prims.len() > LINEAR_MAX * packed::LANES {
+            return None;
+        }
+        let shape = |object: u32| match &objects[object as usize] {
+            ObjectGeometry::Shape(s) => Some(s),
+            ObjectGeometry::Mesh(_) => None,
+        };
+        let (groups, loose) = packed::pack(prims.iter().filter_map(|p| Some((p.object, shape(p.object)?))));
+        let triangles = prims.iter().filter(|p| shape(p.object).is_none());
+        let bounded: Vec<Prim> =
+            loose.iter().map(|&object| Prim { object, tri: 0 }).chain(triangles.copied()).collect();
+        if groups.len() + bounded.len() > LINEAR_MAX {
+            return None;
+        }
+        let rest_bounded = bounded.len();
+        let all = bounded.into_iter().chain(unbounded.iter().map(|&object| Prim { object, tri: 0 }));
+        let rest = all
+            .map(|prim| {
+                let shape = shape(prim.object).cloned();
+                let cull = shape.as_ref().and_then(Shape::cull);
+                let test = shape.as_ref().map_or(Shape::intersect as Tester, Shape::tester);
+                Linear { prim, shape, test, cull }
+            })
+            .collect();
+        Some(Small { groups, rest, rest_bounded })
+    }
+
+    /// Whether rays test every primitive, without the BVH (a scene with
+    /// few primitives, see [`LINEAR_MAX`]).
+    pub fn tests_every_primitive(&self) -> bool {
+        self.small.is_some()
     }
 
     /// Primitives in the BVH (shapes and triangles).
@@ -182,11 +219,22 @@ impl Geometry {
     // (returned through memory, reading it back stalls).
     #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let Some(prims) = &self.linear else { return self.intersect_bvh(ray, t_min, t_max) };
+        let Some(small) = &self.small else { return self.intersect_bvh(ray, t_min, t_max) };
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
+        for group in &small.groups {
+            let (t, hit) = group.hits(ray, t_min, t_max);
+            if hit.any() {
+                // The nearest lane, the first of equals (as one by one).
+                let t = Vec4::select(hit, t, Vec4::INFINITY);
+                let nearest = t.min_element();
+                let lane = t.cmpeq(Vec4::splat(nearest)).bitmask().trailing_zeros() as usize;
+                best = Some(Hit { object: group.objects[lane], tri: 0, t: nearest });
+                t_max = nearest;
+            }
+        }
         let inv_dir = ray.dir.recip();
-        for l in prims {
+        for l in &small.rest {
             if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max) {
                 best = Some(Hit { object: l.prim.object, tri: l.prim.tri, t });
                 t_max = t;
@@ -217,18 +265,34 @@ impl Geometry {
     /// `blocks` decides for each surface found (cutouts let rays through);
     /// it is called for surfaces in no particular order.
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32, mut blocks: impl FnMut(Hit) -> bool) -> bool {
-        if let Some(prims) = &self.linear {
+        if let Some(small) = &self.small {
             // Unbounded shapes first, as with the BVH below.
-            let (bounded, unbounded) = prims.split_at(self.prims.len());
+            let (bounded, unbounded) = small.rest.split_at(small.rest_bounded);
             let inv_dir = ray.dir.recip();
-            // Two plain loops: a chain of iterators costs more than the tests.
-            for part in [unbounded, bounded] {
-                for l in part {
-                    if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max)
-                        && blocks(Hit { object: l.prim.object, tri: l.prim.tri, t })
-                    {
+            // Plain loops: a chain of iterators costs more than the tests.
+            for l in unbounded {
+                if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max)
+                    && blocks(Hit { object: l.prim.object, tri: l.prim.tri, t })
+                {
+                    return true;
+                }
+            }
+            for group in &small.groups {
+                let (t, hit) = group.hits(ray, t_min, t_max);
+                let mut lanes = hit.bitmask();
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    if blocks(Hit { object: group.objects[lane], tri: 0, t: t[lane] }) {
                         return true;
                     }
+                }
+            }
+            for l in bounded {
+                if let Some(t) = self.test_linear(l, ray, inv_dir, t_min, t_max)
+                    && blocks(Hit { object: l.prim.object, tri: l.prim.tri, t })
+                {
+                    return true;
                 }
             }
             return false;

@@ -27,6 +27,7 @@ pub mod heightfield;
 pub mod integrator;
 pub mod light;
 pub mod mesh;
+pub mod packed;
 pub mod sampling;
 pub mod scene;
 pub mod shape;

@@ -182,6 +182,17 @@ impl Shape {
         &self.kind
     }
 
+    /// The map into the shape's frame, `None` when the shape is not
+    /// transformed (as its own intersection test decides).
+    pub fn to_object(&self) -> Option<&Mat4> {
+        self.placement.as_ref().filter(|_| !self.identity).map(|p| &p.to_object)
+    }
+
+    /// For quads: `edge1 x edge2` and one over its squared length.
+    pub fn quad_normal(&self) -> (Vec3, f32) {
+        (self.quad_n, self.quad_inv_n2)
+    }
+
     pub fn to_world(&self) -> Mat4 {
         *self.world()
     }
