@@ -312,6 +312,9 @@ fn bench_batch(rgb: &Program) {
         println!("{name} reflection, a surface per point: {a:.1} ns/point");
         println!("{name} reflection, one batch: {b:.1} ns/point");
         println!("{name} batch/per-point: {:.2} x", b / a);
+        // The figure: how many times faster the batched JIT
+        // (four lanes a vector) shades a point than the scalar JIT.
+        println!("{name} batched/scalar: {:.2} x", a / b);
     }
 }
 

@@ -10,6 +10,8 @@
 //! templates, `?:`). Every program must compile in the RGB and a spectral
 //! color model, and every entry point must give the same words on both back
 //! ends at a set of random (and a few extreme) shading points and arguments.
+//! Every entry point's batch form (the JIT's four-lane vector code) must
+//! give, point by point, what the interpreter gives at that point.
 //! Each helper also has a wrapper calling it with constant arguments, which
 //! lowering specialises: the wrapper must give what the helper computes
 //! from the same values at run time.
@@ -24,7 +26,7 @@ mod generator;
 use generator::{Source, program};
 use proptest::prelude::*;
 use proptest::test_runner::Config;
-use tsl::{Backend, ColorModel, Compiler, Program, ShadingGlobals};
+use tsl::{Backend, ColorModel, Column, Compiler, Layout, Program, ShadingBatch, ShadingGlobals};
 
 // ---------------------------------------------------------------- running both back ends
 
@@ -49,10 +51,16 @@ fn own(name: &str) -> bool {
 
 /// Compares both back ends on every entry of the program; returns how many
 /// entries were compared.
-fn compare(program: &Program, seed: u64) -> Result<usize, String> {
+/// Batches are compared for one entry point in this many (each compiles
+/// vector code of its own: all of them would take minutes).
+const BATCH_STRIDE: usize = 32;
+
+/// Compares both back ends on every entry point, and the batch form of
+/// entries `batch_offset`, `batch_offset + BATCH_STRIDE`, ...
+fn compare(program: &Program, seed: u64, batch_offset: usize) -> Result<usize, String> {
     let mut rng = Rng(seed);
     let mut checked = 0;
-    for entry in program.functions().iter().filter(|e| own(e.name())) {
+    for (k, entry) in program.functions().iter().filter(|e| own(e.name())).enumerate() {
         let f = program.function(entry.name()).ok_or(format!("entry `{}` is not compiled", entry.name()))?;
         let results = f.result_types();
         let mut out_jit = vec![0u32; results.len()];
@@ -76,9 +84,55 @@ fn compare(program: &Program, seed: u64) -> Result<usize, String> {
                 }
             }
         }
+        if k % BATCH_STRIDE == batch_offset % BATCH_STRIDE {
+            compare_batch(program, &f, entry, &mut rng)?;
+        }
         checked += 1;
     }
     Ok(checked)
+}
+
+/// The JIT's batch entry (four points a vector) against the interpreter
+/// point by point, every global and argument varying from point to point.
+fn compare_batch(program: &Program, f: &tsl::Function, entry: &tsl::Function, rng: &mut Rng) -> Result<(), String> {
+    let points: Vec<ShadingGlobals> = (0..POINTS).map(|i| globals(rng, i)).collect();
+    let args: Vec<Vec<u32>> = (0..POINTS).map(|_| args(rng, entry.params(), program.color_model())).collect();
+    // Word `w` of every point, for each globals word and argument word.
+    let by_word = |words: &dyn Fn(usize) -> Vec<u32>, count: usize| -> Vec<Vec<u32>> {
+        (0..count).map(|w| (0..POINTS).map(|i| words(i)[w]).collect()).collect()
+    };
+    let global_words = by_word(&|i| points[i].words().to_vec(), tsl::globals::GLOBAL_WORDS as usize);
+    let arg_words = by_word(&|i| args[i].clone(), f.arg_words());
+    let mut batch = ShadingBatch::with_base(POINTS, points[0]);
+    for (name, _, _) in tsl::check::GLOBALS {
+        let (first, ty) = tsl::globals::word_of(name).expect("a global's words");
+        let n = if ty.is_triple() { 3 } else { 1 };
+        let columns: Vec<Column> = (0..n).map(|k| Column::words(&global_words[first as usize + k])).collect();
+        batch.set(name, &columns).map_err(|e| e.to_string())?;
+    }
+    let columns: Vec<Column> = arg_words.iter().map(|w| Column::words(w)).collect();
+    let results = f.result_types();
+    let mut out = vec![0u32; POINTS * results.len()];
+    f.call_batch(Backend::Jit, &batch, &columns, &mut out, Layout::WordMajor).map_err(|e| e.to_string())?;
+    let mut want = vec![0u32; results.len()];
+    for (i, a) in args.iter().enumerate() {
+        let g = batch.point(i);
+        f.call_words(Backend::Interpreter, &g, a, &mut want)?;
+        for (k, ty) in results.iter().enumerate() {
+            let got = out[k * POINTS + i];
+            if !close(got, want[k], *ty) {
+                return Err(format!(
+                    "{} ({}) word {k} ({ty:?}) at point {i}: jit batch {got:#x} ({:?}) vs interpreter {:#x} ({:?})\nglobals {g:?}\nargs {a:?}",
+                    entry.name(),
+                    program.color_model().name(),
+                    f32::from_bits(got),
+                    want[k],
+                    f32::from_bits(want[k]),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The helpers that have constant-argument wrappers.
@@ -126,14 +180,16 @@ fn compare_folded(program: &Program) -> Result<(), String> {
 const MODELS: [ColorModel; 2] = [ColorModel::Rgb, ColorModel::Spectral { samples: 16 }];
 
 fn check_program(src: &Source) -> Result<(), TestCaseError> {
-    for model in MODELS {
+    for (m, model) in MODELS.into_iter().enumerate() {
         let program = Compiler::new()
             .color_model(model)
             .eager(true)
             .source("random.tsl", &src.0)
             .compile()
             .map_err(|e| TestCaseError::fail(format!("{} does not compile:\n{e}", model.name())))?;
-        let n = compare(&program, 0x9E37_79B9_7F4A_7C15).map_err(TestCaseError::fail)?;
+        // Which entries' batches are compared varies with the program.
+        let batch_offset = src.0.len() + m * BATCH_STRIDE / 2;
+        let n = compare(&program, 0x9E37_79B9_7F4A_7C15, batch_offset).map_err(TestCaseError::fail)?;
         // 6 helpers (g_arr takes an array, so it is no entry), their 6
         // wrappers, and every interface method of m0, m1, tree0, tree1.
         prop_assert_eq!(n, 2 * 6 + 4 * tsl::check::INTERFACE.len());

@@ -374,6 +374,11 @@ impl Function {
             });
             read.sort_unstable();
             let shape = BatchShape { globals_read: &read, arg_words: f.params.len(), result_words: f.results.len() };
+            // Four points at a time where the machine's vectors allow
+            // (bit for bit what the point entry computes), else one.
+            if let Ok(code) = crate::jit::compile_batch_simd(f, &shape) {
+                return Ok(code);
+            }
             // SAFETY: `self.native` is this IR function's code, which
             // reads only the globals words found above and its own argument
             // words, and writes its result words; the batch code is kept in

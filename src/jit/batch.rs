@@ -66,6 +66,11 @@ impl Drop for BatchCode {
 }
 
 impl BatchCode {
+    /// Code compiled in `module` whose entry is `entry`.
+    pub(super) fn new(module: JITModule, entry: BatchFn) -> Self {
+        BatchCode { module: Some(module), entry }
+    }
+
     pub fn entry(&self) -> BatchFn {
         self.entry
     }

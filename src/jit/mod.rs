@@ -14,8 +14,10 @@
 //! the front end.
 
 mod batch;
+mod simd;
 
 pub use batch::{BatchCode, BatchShape, ColumnPtr, compile_batch};
+pub use simd::compile_batch_simd;
 
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
