@@ -712,13 +712,15 @@ const OPEN_PBR: &str = "
         coat_roughness: 0.2, coat_ior: 1.4);
     material velvet = open_pbr_surface(base_color: rgb(0.3, 0.05, 0.1), fuzz_weight: 1, fuzz_color: rgb(1, 0.6, 0.7), \
         fuzz_roughness: 0.3, coat_weight: 0.5, coat_roughness: 0.3);
+    material iridescent = open_pbr_surface(base_color: rgb(0.1, 0.1, 0.2), base_metalness: 0.4, \
+        specular_roughness: 0.3, thin_film_weight: 0.8, thin_film_thickness: 0.4);
 ";
 
 #[test]
 fn open_pbr_surface_samples_its_pdf() {
     let p = compile(OPEN_PBR);
     let mut seed = 4000;
-    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet"] {
+    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet", "iridescent"] {
         for (t, ph) in VIEWS {
             seed += 1;
             assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
@@ -889,13 +891,15 @@ const OPEN_PBR_TRANSLUCENT: &str = "
         coat_weight: 1, coat_roughness: 0.3, coat_color: rgb(0.9, 0.9, 0.8), fuzz_weight: 0.5);
     material half_metal_glass = open_pbr_surface(transmission_weight: 1, base_metalness: 0.5, \
         specular_roughness: 0.4, specular_weight: 0.7);
+    material iridescent_glass = open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5, \
+        thin_film_weight: 1, thin_film_thickness: 0.3, thin_film_ior: 1.8);
 ";
 
 #[test]
 fn open_pbr_transmission_samples_its_pdf() {
     let p = compile(OPEN_PBR_TRANSLUCENT);
     let mut seed = 4100;
-    for name in ["glassy", "frosted_coated", "half_metal_glass"] {
+    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
         // From outside (index 1.5 beyond the surface) and from inside.
         for eta in [1.5, 1.0 / 1.5] {
             for (t, ph) in VIEWS {
@@ -913,7 +917,7 @@ fn open_pbr_transmission_never_creates_energy() {
         let wo = direction(t, ph);
         for eta in [1.5f32, 1.0 / 1.5] {
             let eta_c = p.rgb(eta, eta, eta);
-            for name in ["glassy", "frosted_coated", "half_metal_glass"] {
+            for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
                 let (r, tr) = albedo(&p.material(name).unwrap(), &facing(eta), wo, &eta_c, 20_000);
                 assert!(r + tr <= 1.01, "`{name}` (eta {eta}) at {t} degrees: {r} + {tr} > 1");
             }

@@ -1,0 +1,269 @@
+//! open_pbr_surface's thin film and geometry opacity (stdlib/openpbr.tsl):
+//! Airy's reflectance against its closed form, the film-less limits and
+//! energy (its sampling is in tests/sampling.rs); opacity as a mix with a
+//! hole, at the surface and in renders.
+
+mod common;
+
+use common::Rng;
+use tsl::render::{self, Overrides, RenderOptions};
+use tsl::{Color, ColorModel, Compiler, Material, Program, ShadingGlobals};
+
+fn compile(src: &str) -> Program {
+    Compiler::new().source("open_pbr.tsl", src).compile().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A flat surface point with normal +z and tangents along x and y.
+fn surface() -> ShadingGlobals {
+    ShadingGlobals {
+        p: [0.1, 0.2, 0.0],
+        pl: [0.1, 0.2, 0.0],
+        n: [0.0, 0.0, 1.0],
+        ng: [0.0, 0.0, 1.0],
+        dpdu: [1.0, 0.0, 0.0],
+        dpdv: [0.0, 1.0, 0.0],
+        t: 1.0,
+        ..ShadingGlobals::default()
+    }
+}
+
+fn direction(theta: f32, phi: f32) -> [f32; 3] {
+    let (t, p) = (theta.to_radians(), phi.to_radians());
+    [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+}
+
+/// The stdlib's film reflectance and the film-less Fresnel term, as the
+/// reflection of probe materials (gray, so every lane holds the value).
+const PROBES: &str = "
+    material airy(float cos_i = 1, float film = 1.4, float thickness = 0, float lambda = 550, float base = 1.5) {
+        color reflection(vector wi, color light, vector wo) {
+            return gray(thin_film_reflectance(cos_i, film, thickness, lambda, vec2(base, 0)));
+        }
+    }
+    material fresnel(float cos_i = 1, float base = 1.5) {
+        color reflection(vector wi, color light, vector wo) {
+            return gray(fresnel_dielectric(cos_i, base));
+        }
+    }
+";
+
+/// The reflection of each probe instance in `srcs` (all compiled at once).
+fn probes(srcs: &[String]) -> Vec<f32> {
+    let mut src = PROBES.to_string();
+    for (i, s) in srcs.iter().enumerate() {
+        src += &format!("material probe{i} = {s};\n");
+    }
+    let q = compile(&src);
+    let one = q.rgb(1.0, 1.0, 1.0);
+    (0..srcs.len())
+        .map(|i| {
+            let m = q.material(&format!("probe{i}")).unwrap();
+            m.reflection(&surface(), [0.0, 0.0, 1.0], &one, [0.0, 0.0, 1.0]).lanes()[0]
+        })
+        .collect()
+}
+
+/// Airy's sum at normal incidence for a film of index `film` and
+/// `thickness` micrometres over a dielectric of index `base`, from air:
+/// |(r12 + r23 e^(i phi)) / (1 + r12 r23 e^(i phi))|^2, phi the round trip's
+/// phase 4 pi film d / lambda.
+fn airy_at_normal(film: f64, thickness: f64, lambda: f64, base: f64) -> f64 {
+    let r12 = (1.0 - film) / (1.0 + film);
+    let r23 = (film - base) / (film + base);
+    let phi = 4.0 * std::f64::consts::PI * film * thickness * 1000.0 / lambda;
+    let (c, s) = (phi.cos(), phi.sin());
+    let (nr, ni) = (r12 + r23 * c, r23 * s);
+    let (dr, di) = (1.0 + r12 * r23 * c, r12 * r23 * s);
+    (nr * nr + ni * ni) / (dr * dr + di * di)
+}
+
+#[test]
+fn the_film_reflects_as_airys_closed_form_at_normal_incidence() {
+    let mut cases = Vec::new();
+    for (film, base) in [(1.4, 1.5), (1.8, 1.5), (1.33, 1.0)] {
+        for thickness in [0.0, 0.1, 0.25, 0.31, 0.5, 1.0] {
+            for lambda in [450.0, 550.0, 650.0] {
+                cases.push((film, thickness, lambda, base));
+            }
+        }
+    }
+    let srcs: Vec<String> = cases
+        .iter()
+        .map(|(film, thickness, lambda, base)| {
+            format!("airy(film: {film}, thickness: {thickness}, lambda: {lambda}, base: {base})")
+        })
+        .collect();
+    for (&(film, thickness, lambda, base), got) in cases.iter().zip(probes(&srcs)) {
+        let want = airy_at_normal(film, thickness, lambda, base);
+        assert!(
+            (f64::from(got) - want).abs() < 1e-4,
+            "film {film} of {thickness} um over {base} at {lambda} nm: {got}, Airy {want}"
+        );
+    }
+}
+
+#[test]
+fn a_film_of_thickness_zero_reflects_as_the_bare_interface_at_every_angle() {
+    let mut cases = Vec::new();
+    let mut srcs = Vec::new();
+    for cos_i in [1.0, 0.8, 0.5, 0.2, 0.05] {
+        for base in [1.2, 1.5, 2.4] {
+            cases.push((cos_i, base));
+            srcs.push(format!("airy(cos_i: {cos_i}, film: 1.7, thickness: 0, base: {base})"));
+            srcs.push(format!("fresnel(cos_i: {cos_i}, base: {base})"));
+        }
+    }
+    let got = probes(&srcs);
+    for ((cos_i, base), pair) in cases.iter().zip(got.chunks(2)) {
+        let (film, bare) = (pair[0], pair[1]);
+        assert!((film - bare).abs() < 1e-5, "cos {cos_i}, index {base}: film {film}, bare {bare}");
+    }
+}
+
+/// The largest difference of `f cos` between two materials over a spread
+/// of directions (reflection only).
+fn largest_difference(p: &Program, a: &str, b: &str) -> f32 {
+    let (ma, mb) = (p.material(a).unwrap(), p.material(b).unwrap());
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let mut worst = 0.0f32;
+    for to in [0.0, 30.0, 60.0, 80.0] {
+        for ti in [5.0, 30.0, 50.0, 70.0, 85.0] {
+            for pi in [0.0, 100.0, 215.0] {
+                let (wi, wo) = (direction(ti, pi), direction(to, 20.0));
+                let fa = ma.reflection(&surface(), wi, &one, wo);
+                let fb = mb.reflection(&surface(), wi, &one, wo);
+                for (x, y) in fa.lanes().iter().zip(fb.lanes()) {
+                    worst = worst.max((x - y).abs());
+                }
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_film_of_weight_or_thickness_zero_is_the_film_less_material() {
+    let base = "base_color: rgb(0.7, 0.4, 0.2), base_metalness: 0.5, specular_roughness: 0.3, \
+                coat_weight: 0.5, specular_color: rgb(0.9, 0.8, 1)";
+    let p = compile(&format!(
+        "material bare = open_pbr_surface({base});
+         material no_weight = open_pbr_surface({base}, thin_film_weight: 0, thin_film_thickness: 0.3);
+         material no_thickness = open_pbr_surface({base}, thin_film_weight: 1, thin_film_thickness: 0);
+         material filmed = open_pbr_surface({base}, thin_film_weight: 1, thin_film_thickness: 0.3);"
+    ));
+    assert_eq!(largest_difference(&p, "bare", "no_weight"), 0.0);
+    assert_eq!(largest_difference(&p, "bare", "no_thickness"), 0.0);
+    let film = largest_difference(&p, "bare", "filmed");
+    assert!(film > 0.01, "a film of 0.3 um changes the reflection by only {film}");
+}
+
+/// `∫ f cos dωi` toward `wo` per lane, the largest lane (importance
+/// sampling with the material's own pdf; transmitted light counted as
+/// energy, times e²).
+fn largest_lane_albedo(m: &Material, wo: [f32; 3], eta: &Color, n: usize) -> f64 {
+    let mut rng = Rng(7);
+    let e = f64::from(eta.brightness());
+    let mut sums = vec![0.0f64; eta.lanes().len()];
+    for _ in 0..n {
+        let s = m.sample(&surface(), wo, eta, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+        let scale = if s.wi[2] > 0.0 { 1.0 } else { e * e };
+        for (sum, w) in sums.iter_mut().zip(s.weight.lanes()) {
+            *sum += f64::from(*w) * scale;
+        }
+    }
+    sums.into_iter().fold(0.0, f64::max) / n as f64
+}
+
+#[test]
+fn a_filmed_open_pbr_surface_never_reflects_more_than_it_receives() {
+    let mut src = String::new();
+    let mut names = Vec::new();
+    for (kind, what) in [
+        ("base_metalness: 0", "dielectric"),
+        ("base_metalness: 1", "metal"),
+        ("transmission_weight: 1", "glass"),
+        ("coat_weight: 1, coat_roughness: 0.2", "coated"),
+    ] {
+        for roughness in [0.0, 0.5] {
+            for thickness in [0.15, 0.6] {
+                let name = format!("m{}", names.len());
+                src += &format!(
+                    "material {name} = open_pbr_surface(base_color: gray(1), {kind}, specular_roughness: {roughness}, \
+                         specular_ior: 1.6, thin_film_weight: 1, thin_film_thickness: {thickness}, thin_film_ior: 1.9);\n"
+                );
+                names.push((name, format!("{what} roughness {roughness} film {thickness} um")));
+            }
+        }
+    }
+    let p = compile(&src);
+    let eta = p.rgb(1.6, 1.6, 1.6);
+    for (name, what) in &names {
+        let m = p.material(name).unwrap();
+        for theta in [0.0, 45.0, 80.0] {
+            let r = largest_lane_albedo(&m, direction(theta, 30.0), &eta, 8_000);
+            assert!(r <= 1.01, "{what} at {theta} degrees reflects {r}");
+        }
+    }
+}
+
+#[test]
+fn geometry_opacity_scales_the_surface_and_is_the_slab_itself_at_one() {
+    let base = "base_color: rgb(0.7, 0.3, 0.2), coat_weight: 0.6, fuzz_weight: 0.3, thin_film_weight: 0.5";
+    let p = compile(&format!(
+        "material slab = open_pbr_slab({base});
+         material full = open_pbr_surface({base});
+         material half = open_pbr_surface({base}, geometry_opacity: 0.5);"
+    ));
+    assert_eq!(largest_difference(&p, "slab", "full"), 0.0);
+    let (full, half) = (p.material("full").unwrap(), p.material("half").unwrap());
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for (ti, to) in [(10.0, 20.0), (40.0, 60.0), (75.0, 5.0)] {
+        let (wi, wo) = (direction(ti, 180.0), direction(to, 10.0));
+        let f = full.reflection(&surface(), wi, &one, wo);
+        let h = half.reflection(&surface(), wi, &one, wo);
+        for (a, b) in f.lanes().iter().zip(h.lanes()) {
+            assert!((0.5 * a - b).abs() <= 1e-6 * a.abs().max(1.0), "opacity 0.5 reflects {b}, full {a}");
+        }
+        assert!(f.brightness() > 0.01, "nothing to halve at {ti}/{to}");
+    }
+}
+
+/// The mean of a 12 x 12, 48 spp render of a unit sphere of `material`
+/// filling the view, against `background`.
+fn sphere_on(material: &str, background: &str, depth: u32) -> [f64; 3] {
+    let src = format!(
+        "scene {{
+            background {background};
+            camera {{ from (0, 0, 4); to (0, 0, 0); fov 18; }}
+            render {{ width 12; height 12; spp 48; integrator \"path\"; }}
+            object sphere {{ center (0, 0, 0); radius 1; material {material}; }}
+        }}"
+    );
+    let program = Compiler::new().color_model(ColorModel::Rgb).source("open_pbr.tsl", &src).compile().unwrap();
+    let scene = render::Scene::build(&program, &Overrides { max_depth: Some(depth), ..Default::default() }).unwrap();
+    let image = render::render(&scene, &RenderOptions::default()).unwrap().0;
+    let mut sum = [0.0f64; 3];
+    for p in &image.color {
+        for (s, c) in sum.iter_mut().zip(p) {
+            *s += f64::from(*c);
+        }
+    }
+    sum.map(|s| s / image.color.len() as f64)
+}
+
+#[test]
+fn geometry_opacity_zero_lets_every_ray_through() {
+    for material in [
+        "open_pbr_surface(base_color: rgb(0.9, 0.1, 0.1), geometry_opacity: 0)",
+        "open_pbr_surface(transmission_weight: 1, geometry_opacity: 0)",
+    ] {
+        let seen = sphere_on(material, "rgb(0.2, 0.5, 0.9)", 8);
+        for (s, want) in seen.iter().zip([0.2, 0.5, 0.9]) {
+            assert!((s - want).abs() < 1e-4, "{material}: {seen:?}, not the background");
+        }
+    }
+    // Half present over a translucent base: rays through a hole still enter
+    // the base's medium (documented), about 1% over one in a white furnace.
+    let half = sphere_on("open_pbr_surface(transmission_weight: 1, geometry_opacity: 0.5)", "gray(1)", 8);
+    assert!(half.iter().all(|c| (0.95..=1.02).contains(c)), "a half-present glass sphere: {half:?}");
+}
