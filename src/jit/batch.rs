@@ -21,7 +21,7 @@ use cranelift_codegen::ir::{
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
-use cranelift_module::{Linkage, Module};
+use cranelift_module::{FuncId, Linkage, Module};
 
 /// Where one word of every point lives: point `i`'s word is the `u32` at
 /// `base + i * stride` bytes. Laid out as the generated code reads it.
@@ -66,9 +66,22 @@ impl Drop for BatchCode {
 }
 
 impl BatchCode {
-    /// Code compiled in `module` whose entry is `entry`.
-    pub(super) fn new(module: JITModule, entry: BatchFn) -> Self {
-        BatchCode { module: Some(module), entry }
+    /// Defines the batch entry `id` of `module` from `ctx` (a function of
+    /// [`BatchFn`]'s signature) and finalizes the module; `what` names the
+    /// entry in errors.
+    pub(super) fn define(
+        mut module: JITModule,
+        id: FuncId,
+        ctx: &mut Context,
+        what: &str,
+    ) -> Result<BatchCode, String> {
+        module.define_function(id, ctx).map_err(|e| format!("cannot compile {what}: {e:?}"))?;
+        module.finalize_definitions().map_err(|e| e.to_string())?;
+        let code = module.get_finalized_function(id);
+        // SAFETY: the caller defined it with the platform C ABI taking five
+        // pointer-sized values and returning nothing: exactly `BatchFn`.
+        let entry = unsafe { std::mem::transmute::<*const u8, BatchFn>(code) };
+        Ok(BatchCode { module: Some(module), entry })
     }
 
     pub fn entry(&self) -> BatchFn {
@@ -170,11 +183,5 @@ pub unsafe fn compile_batch(point: EntryFn, shape: &BatchShape) -> Result<BatchC
     b.seal_all_blocks();
     b.finalize(module.target_config());
 
-    module.define_function(id, &mut ctx).map_err(|e| format!("cannot compile a batch entry: {e:?}"))?;
-    module.finalize_definitions().map_err(|e| e.to_string())?;
-    let code = module.get_finalized_function(id);
-    // SAFETY: defined with `sig`, the platform C ABI taking five
-    // pointer-sized values and returning nothing: exactly `BatchFn`.
-    let entry = unsafe { std::mem::transmute::<*const u8, BatchFn>(code) };
-    Ok(BatchCode { module: Some(module), entry })
+    BatchCode::define(module, id, &mut ctx, "a batch entry")
 }

@@ -673,7 +673,7 @@ impl<'a, 'b> Gen<'a, 'b> {
             BinOp::IAdd => ins.iadd(x, y),
             BinOp::ISub => ins.isub(x, y),
             BinOp::IMul => ins.imul(x, y),
-            BinOp::IDiv | BinOp::IRem => self.safe_div(op, x, y),
+            BinOp::IDiv | BinOp::IRem => safe_div(self.b, op, x, y),
             BinOp::IAnd => ins.band(x, y),
             BinOp::FLt => ins.fcmp(FloatCC::LessThan, x, y),
             BinOp::FLe => ins.fcmp(FloatCC::LessThanOrEqual, x, y),
@@ -685,23 +685,19 @@ impl<'a, 'b> Gen<'a, 'b> {
             BinOp::Or => ins.bor(x, y),
         }
     }
+}
 
-    /// Integer division without traps, as `ir::semantics::int_div` and
-    /// `int_rem`: a zero divisor gives 0, and `MIN / -1` wraps.
-    fn safe_div(&mut self, op: BinOp, x: ClValue, y: ClValue) -> ClValue {
-        let ins = self.b.ins();
-        let zero = ins.iconst(types::I32, 0);
-        let one = self.b.ins().iconst(types::I32, 1);
-        let is_zero = self.b.ins().icmp_imm_s(IntCC::Equal, y, 0);
-        let is_minus_one = self.b.ins().icmp_imm_s(IntCC::Equal, y, -1);
-        let special = self.b.ins().bor(is_zero, is_minus_one);
-        let divisor = self.b.ins().select(special, one, y);
-        let (plain, by_minus_one) = if op == BinOp::IDiv {
-            (self.b.ins().sdiv(x, divisor), self.b.ins().ineg(x))
-        } else {
-            (self.b.ins().srem(x, divisor), zero)
-        };
-        let r = self.b.ins().select(is_minus_one, by_minus_one, plain);
-        self.b.ins().select(is_zero, zero, r)
-    }
+/// Integer division without traps, as `ir::semantics::int_div` and
+/// `int_rem`: a zero divisor gives 0, and `MIN / -1` wraps.
+fn safe_div(b: &mut FunctionBuilder, op: BinOp, x: ClValue, y: ClValue) -> ClValue {
+    let zero = b.ins().iconst(types::I32, 0);
+    let one = b.ins().iconst(types::I32, 1);
+    let is_zero = b.ins().icmp_imm_s(IntCC::Equal, y, 0);
+    let is_minus_one = b.ins().icmp_imm_s(IntCC::Equal, y, -1);
+    let special = b.ins().bor(is_zero, is_minus_one);
+    let divisor = b.ins().select(special, one, y);
+    let (plain, by_minus_one) =
+        if op == BinOp::IDiv { (b.ins().sdiv(x, divisor), b.ins().ineg(x)) } else { (b.ins().srem(x, divisor), zero) };
+    let r = b.ins().select(is_minus_one, by_minus_one, plain);
+    b.ins().select(is_zero, zero, r)
 }

@@ -20,8 +20,8 @@
 //! a batch repeats its last point in the unused lanes; they compute that
 //! point again and write the same bits.
 
-use super::batch::{BatchCode, BatchFn, BatchShape, ColumnPtr};
-use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa};
+use super::batch::{BatchCode, BatchShape, ColumnPtr};
+use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa, safe_div};
 use crate::globals::GLOBAL_WORDS;
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
@@ -162,13 +162,7 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     b.seal_all_blocks();
     b.finalize(module.target_config());
 
-    module.define_function(id, &mut ctx).map_err(|e| format!("cannot compile a vector batch entry: {e:?}"))?;
-    module.finalize_definitions().map_err(|e| e.to_string())?;
-    let code = module.get_finalized_function(id);
-    // SAFETY: defined with `sig`, the platform C ABI taking five
-    // pointer-sized values and returning nothing: exactly `BatchFn`.
-    let entry = unsafe { std::mem::transmute::<*const u8, BatchFn>(code) };
-    Ok(BatchCode::new(module, entry))
+    BatchCode::define(module, id, &mut ctx, "a vector batch entry")
 }
 
 /// The stack records of one group of points: word `k` of lane `l` at word
@@ -710,21 +704,6 @@ impl<'a, 'b> Wide<'a, 'b> {
             BinOp::IEq | BinOp::BEq => self.b.ins().icmp(IntCC::Equal, x, y),
         }
     }
-}
-
-/// Integer division of one lane without traps, as `ir::semantics::int_div`
-/// and `int_rem`: a zero divisor gives 0, and `MIN / -1` wraps.
-fn safe_div(b: &mut FunctionBuilder, op: BinOp, x: Value, y: Value) -> Value {
-    let zero = b.ins().iconst(types::I32, 0);
-    let one = b.ins().iconst(types::I32, 1);
-    let is_zero = b.ins().icmp_imm_s(IntCC::Equal, y, 0);
-    let is_minus_one = b.ins().icmp_imm_s(IntCC::Equal, y, -1);
-    let special = b.ins().bor(is_zero, is_minus_one);
-    let divisor = b.ins().select(special, one, y);
-    let (plain, by_minus_one) =
-        if op == BinOp::IDiv { (b.ins().sdiv(x, divisor), b.ins().ineg(x)) } else { (b.ins().srem(x, divisor), zero) };
-    let r = b.ins().select(is_minus_one, by_minus_one, plain);
-    b.ins().select(is_zero, zero, r)
 }
 
 /// Whether `body` can send lanes to a label outside it (so lanes that
