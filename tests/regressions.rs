@@ -227,3 +227,34 @@ fn material_array_parameters() {
         }
     }
 }
+
+/// A mix whose weight is read at run time (a bound instance's parameter)
+/// left out its first child's `opaque` only when that child needed code:
+/// `mix(w, hole, lambert)` at w = 1 said "not opaque", because `hole`'s
+/// constant false was taken for the child left out. Bound and specialised
+/// instances must agree at every weight.
+#[test]
+fn a_mix_at_a_run_time_weight_of_one_is_as_opaque_as_its_second_child() {
+    let p = compile(
+        "material cut(float w = 1) = mix(w, hole, lambert);\n\
+         material picked(float w = 0) = blend(w, [hole, lambert]);\n",
+    );
+    for (name, weights) in [("cut", [0.0, 0.5, 1.0]), ("picked", [0.0, 0.5, 1.0])] {
+        for w in weights {
+            let mut instance = p.shader(name).unwrap().instance();
+            instance.set("w", w).unwrap();
+            let (bound, specialised) = (instance.bind().unwrap(), instance.specialise().unwrap());
+            let method = tsl::check::Method::from_name("opaque").unwrap();
+            for backend in [Backend::Jit, Backend::Interpreter] {
+                let opaque = |m: &tsl::Material| {
+                    let mut out = [0u32; 1];
+                    m.method(method).unwrap().call_words(backend, &ShadingGlobals::default(), &[], &mut out).unwrap();
+                    out[0] != 0
+                };
+                let want = w == 1.0;
+                assert_eq!(opaque(&bound), want, "{name} bound at w = {w} ({backend:?})");
+                assert_eq!(opaque(&specialised), want, "{name} specialised at w = {w} ({backend:?})");
+            }
+        }
+    }
+}

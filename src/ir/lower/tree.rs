@@ -268,10 +268,14 @@ impl<'p> Lowerer<'p> {
         let need_a = b.not(is_one);
         let need_c = b.not(is_zero);
         if im.ret == Ty::Bool {
+            // A child left out counts as true. Said explicitly: `guarded`
+            // may return a child's value unguarded when it needs no code
+            // (a constant), so its `otherwise` only skips work.
             let yes = b.b(true);
             let oa = b.guarded(self, need_a, vec![yes], |b, me| me.mat_method(b, a, im, args, ctx));
             let oc = b.guarded(self, need_c, vec![yes], |b, me| me.mat_method(b, c, im, args, ctx));
-            return vec![b.and(oa[0], oc[0])];
+            let (oa, oc) = (b.bin(BinOp::Or, is_one, oa[0]), b.bin(BinOp::Or, is_zero, oc[0]));
+            return vec![b.and(oa, oc)];
         }
         let n = self.lanes_of(&im.ret);
         let zeros = b.zeros(n);
@@ -318,7 +322,10 @@ impl<'p> Lowerer<'p> {
                 let yes = b.b(true);
                 let item = &items[group[0]];
                 let o = b.guarded(self, used, vec![yes], |b, me| me.mat_method(b, item, im, args, ctx));
-                acc = b.and(acc, o[0]);
+                // Unused children count as true (see `mix_children`).
+                let unused = b.not(used);
+                let o = b.bin(BinOp::Or, unused, o[0]);
+                acc = b.and(acc, o);
             }
             return vec![acc];
         }
