@@ -16,8 +16,9 @@
 use super::{EntryFn, native_isa};
 use crate::globals::GLOBAL_WORDS;
 use cranelift_codegen::Context;
+use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::{
-    AbiParam, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, UserFuncName, Value, types,
+    AbiParam, Block, InstBuilder, MemFlagsData, StackSlotData, StackSlotKind, Type, UserFuncName, Value, types,
 };
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
@@ -129,39 +130,15 @@ pub unsafe fn compile_batch(point: EntryFn, shape: &BatchShape) -> Result<BatchC
     );
     let point_sig = b.import_signature(point_sig);
 
-    let entry = b.create_block();
-    let header = b.create_block();
-    let body = b.create_block();
-    let exit = b.create_block();
-    b.append_block_params_for_function_params(entry);
-    b.append_block_param(header, ptr);
-    b.switch_to_block(entry);
-    let [globals, args, out, instance, points] = b.block_params(entry).try_into().expect("five parameters");
-    let zero = b.ins().iconst(ptr, 0);
-    b.ins().jump(header, &[zero.into()]);
-
-    b.switch_to_block(header);
-    let i = b.block_params(header)[0];
-    let done = b.ins().icmp(cranelift_codegen::ir::condcodes::IntCC::UnsignedGreaterThanOrEqual, i, points);
-    b.ins().brif(done, exit, &[], body, &[]);
-
-    b.switch_to_block(body);
-    let table = MemFlagsData::trusted().with_readonly();
-    // The address of point `i`'s word in column `k` of `table_base`.
-    let word_address = |b: &mut FunctionBuilder, table_base: Value, k: usize| {
-        let at = (k * std::mem::size_of::<ColumnPtr>()) as i32;
-        let base = b.ins().load(ptr, table, table_base, at);
-        let stride = b.ins().load(ptr, table, table_base, at + std::mem::size_of::<*const u32>() as i32);
-        let offset = b.ins().imul(i, stride);
-        b.ins().iadd(base, offset)
-    };
+    let l = PointLoop::begin(&mut b, ptr);
+    let i = l.i;
     for &w in shape.globals_read {
-        let from = word_address(&mut b, globals, w as usize);
+        let from = column_word(&mut b, ptr, l.globals, w as usize, i);
         let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
         b.ins().stack_store(ptr, x, globals_slot, 4 * w as i32);
     }
     for k in 0..shape.arg_words {
-        let from = word_address(&mut b, args, k);
+        let from = column_word(&mut b, ptr, l.args, k, i);
         let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
         b.ins().stack_store(ptr, x, args_slot, 4 * k as i32);
     }
@@ -169,19 +146,68 @@ pub unsafe fn compile_batch(point: EntryFn, shape: &BatchShape) -> Result<BatchC
     let args_record = b.ins().stack_addr(ptr, args_slot, 0);
     let out_record = b.ins().stack_addr(ptr, out_slot, 0);
     let callee = b.ins().iconst(ptr, point as usize as i64);
-    b.ins().call_indirect(point_sig, callee, &[globals_record, args_record, out_record, instance]);
+    b.ins().call_indirect(point_sig, callee, &[globals_record, args_record, out_record, l.instance]);
     for k in 0..shape.result_words {
         let x = b.ins().stack_load(ptr, types::I32, out_slot, 4 * k as i32);
-        let to = word_address(&mut b, out, k);
+        let to = column_word(&mut b, ptr, l.out, k, i);
         b.ins().store(MemFlagsData::trusted(), x, to, 0);
     }
-    let next = b.ins().iadd_imm_u(i, 1);
-    b.ins().jump(header, &[next.into()]);
-
-    b.switch_to_block(exit);
-    b.ins().return_(&[]);
-    b.seal_all_blocks();
+    l.end(&mut b, 1);
     b.finalize(module.target_config());
 
     BatchCode::define(module, id, &mut ctx, "a batch entry")
+}
+
+/// The loop of a batch entry over its points, some at a time: the
+/// entry's parameters and the first point of this iteration, `i`.
+pub(super) struct PointLoop {
+    pub globals: Value,
+    pub args: Value,
+    pub out: Value,
+    pub instance: Value,
+    pub points: Value,
+    pub i: Value,
+    header: Block,
+    exit: Block,
+}
+
+impl PointLoop {
+    /// Emits the entry and the loop's test (`i < points`); leaves `b` in
+    /// the loop's body.
+    pub(super) fn begin(b: &mut FunctionBuilder, ptr: Type) -> PointLoop {
+        let (entry, header, body, exit) = (b.create_block(), b.create_block(), b.create_block(), b.create_block());
+        b.append_block_params_for_function_params(entry);
+        b.append_block_param(header, ptr);
+        b.switch_to_block(entry);
+        let [globals, args, out, instance, points] = b.block_params(entry).try_into().expect("five parameters");
+        let zero = b.ins().iconst(ptr, 0);
+        b.ins().jump(header, &[zero.into()]);
+        b.switch_to_block(header);
+        let i = b.block_params(header)[0];
+        let done = b.ins().icmp(IntCC::UnsignedGreaterThanOrEqual, i, points);
+        b.ins().brif(done, exit, &[], body, &[]);
+        b.switch_to_block(body);
+        PointLoop { globals, args, out, instance, points, i, header, exit }
+    }
+
+    /// Ends the body (`i += step`, back to the test) and returns at the
+    /// exit; every block is sealed.
+    pub(super) fn end(self, b: &mut FunctionBuilder, step: i64) {
+        let next = b.ins().iadd_imm_u(self.i, step);
+        b.ins().jump(self.header, &[next.into()]);
+        b.switch_to_block(self.exit);
+        b.ins().return_(&[]);
+        b.seal_all_blocks();
+    }
+}
+
+/// The address of `point`'s word in column `k` of the column table
+/// `columns` (a [`ColumnPtr`] per word).
+pub(super) fn column_word(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize, point: Value) -> Value {
+    let table = MemFlagsData::trusted().with_readonly();
+    let at = (k * std::mem::size_of::<ColumnPtr>()) as i32;
+    let base = b.ins().load(ptr, table, columns, at);
+    let stride = b.ins().load(ptr, table, columns, at + std::mem::size_of::<*const u32>() as i32);
+    let offset = b.ins().imul(point, stride);
+    b.ins().iadd(base, offset)
 }

@@ -20,7 +20,7 @@
 //! a batch repeats its last point in the unused lanes; they compute that
 //! point again and write the same bits.
 
-use super::batch::{BatchCode, BatchShape, ColumnPtr};
+use super::batch::{BatchCode, BatchShape, PointLoop, column_word};
 use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa, safe_div};
 use crate::globals::GLOBAL_WORDS;
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
@@ -93,20 +93,8 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     };
     let arrays: Vec<StackSlot> = f.arrays.iter().map(|(_, len)| slot(&mut b, *len.max(&1) as usize * LANES)).collect();
 
-    let (entry, header, body, exit) = (b.create_block(), b.create_block(), b.create_block(), b.create_block());
-    b.append_block_params_for_function_params(entry);
-    b.append_block_param(header, ptr);
-    b.switch_to_block(entry);
-    let [globals, args, out, instance, points] = b.block_params(entry).try_into().expect("five parameters");
-    let zero = b.ins().iconst(ptr, 0);
-    b.ins().jump(header, &[zero.into()]);
-
-    b.switch_to_block(header);
-    let i = b.block_params(header)[0];
-    let done = b.ins().icmp(IntCC::UnsignedGreaterThanOrEqual, i, points);
-    b.ins().brif(done, exit, &[], body, &[]);
-
-    b.switch_to_block(body);
+    let lp = PointLoop::begin(&mut b, ptr);
+    let (i, points) = (lp.i, lp.points);
     // Lane `l` shades point min(i + l, points - 1).
     let last = b.ins().iadd_imm_s(points, -1);
     let point: Vec<Value> = (0..LANES)
@@ -115,22 +103,14 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
             b.ins().umin(p, last)
         })
         .collect();
-    let table = MemFlagsData::trusted().with_readonly();
-    let word_address = |b: &mut FunctionBuilder, columns: Value, k: usize, point: Value| {
-        let at = (k * std::mem::size_of::<ColumnPtr>()) as i32;
-        let base = b.ins().load(ptr, table, columns, at);
-        let stride = b.ins().load(ptr, table, columns, at + std::mem::size_of::<*const u32>() as i32);
-        let offset = b.ins().imul(point, stride);
-        b.ins().iadd(base, offset)
-    };
     // Gather: word k of lane l at (k * LANES + l) words into its record.
     for (columns, record, words) in [
-        (globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
-        (args, records.args, (0..shape.arg_words).collect()),
+        (lp.globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
+        (lp.args, records.args, (0..shape.arg_words).collect()),
     ] {
         for k in words {
             for (l, &p) in point.iter().enumerate() {
-                let from = word_address(&mut b, columns, k, p);
+                let from = column_word(&mut b, ptr, columns, k, p);
                 let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
                 b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
             }
@@ -142,7 +122,7 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
         b.ins().stack_store(ptr, zeros, records.out, (16 * k) as i32);
     }
 
-    let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, instance);
+    let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, lp.instance);
     g.body(&f.body);
 
     // Scatter: lanes in order, so a repeated last point is written last
@@ -150,16 +130,11 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     for k in 0..shape.result_words {
         for (l, &p) in point.iter().enumerate() {
             let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
-            let to = word_address(&mut b, out, k, p);
+            let to = column_word(&mut b, ptr, lp.out, k, p);
             b.ins().store(MemFlagsData::trusted(), x, to, 0);
         }
     }
-    let next = b.ins().iadd_imm_u(i, LANES as i64);
-    b.ins().jump(header, &[next.into()]);
-
-    b.switch_to_block(exit);
-    b.ins().return_(&[]);
-    b.seal_all_blocks();
+    lp.end(&mut b, LANES as i64);
     b.finalize(module.target_config());
 
     BatchCode::define(module, id, &mut ctx, "a vector batch entry")
