@@ -25,6 +25,12 @@ if [ -z "${OTHER_BIN:-}" ]; then
         mkdir -p "$root/target/compare"
         git -C "$root" worktree add --detach -f "$other" "$rev" >/dev/null
     fi
+    # Inside this checkout, cargo would take the other revision for a member
+    # of this workspace (whose root member "." covers every folder below it,
+    # so `exclude` cannot help): a workspace table of its own keeps it apart.
+    if ! grep -q '^\[workspace\]' "$other/Cargo.toml"; then
+        printf '\n[workspace]\n' >> "$other/Cargo.toml"
+    fi
     (cd "$other" && cargo build --release --quiet)
 fi
 (cd "$root" && cargo build --release --quiet)
