@@ -1,7 +1,8 @@
-//! open_pbr_surface's thin film and geometry opacity (stdlib/openpbr.tsl):
-//! Airy's reflectance against its closed form, the film-less limits and
-//! energy (its sampling is in tests/sampling.rs); opacity as a mix with a
-//! hole, at the surface and in renders.
+//! open_pbr_surface's thin film, geometry opacity and coat anisotropy
+//! (stdlib/openpbr.tsl): Airy's reflectance against its closed form, the
+//! film-less limits and energy (its sampling is in tests/sampling.rs);
+//! opacity as a mix with a hole, at the surface and in renders; the
+//! anisotropic coat against rough_dielectric.
 
 mod common;
 
@@ -318,5 +319,91 @@ fn a_rough_white_diffuse_base_keeps_its_energy_and_scatters_back() {
     let red = albedo_on_grid(&p.material("red").unwrap(), &one, direction(30.0, 0.0), 64);
     for (x, c) in red.iter().zip([0.8, 0.3, 0.1]) {
         assert!(*x <= c + 1e-3 && *x > 0.8 * c, "red base reflects {x} of {c}");
+    }
+}
+
+/// The largest relative difference of the reflection of `a` and `b` over a
+/// spread of directions above the surface.
+fn largest_relative_difference(p: &Program, a: &str, b: &str) -> f32 {
+    let (ma, mb) = (p.material(a).unwrap(), p.material(b).unwrap());
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let mut worst = 0.0f32;
+    for (to, po) in [(0.0, 0.0), (40.0, 30.0), (75.0, 200.0)] {
+        for ti in [5.0, 30.0, 50.0, 70.0, 85.0] {
+            for pi in [0.0, 100.0, 170.0, 215.0, 300.0] {
+                let (wi, wo) = (direction(ti, pi), direction(to, po));
+                let fa = ma.reflection(&surface(), wi, &one, wo);
+                let fb = mb.reflection(&surface(), wi, &one, wo);
+                for (x, y) in fa.lanes().iter().zip(fb.lanes()) {
+                    worst = worst.max((x - y).abs() / x.abs().max(y.abs()).max(1e-3));
+                }
+            }
+        }
+    }
+    worst
+}
+
+/// On a black base without specular the coat reflects alone: the
+/// reflection of rough_dielectric of the coat's index and the
+/// specification's alphas (isotropic at anisotropy 0, stretched along dPdu
+/// as the specular lobe is otherwise).
+#[test]
+fn coat_roughness_anisotropy_stretches_the_coat_lobe_along_dpdu() {
+    let coat = |anisotropy: f32| {
+        format!(
+            "open_pbr_surface(base_color: gray(0), specular_weight: 0, coat_weight: 1, coat_roughness: 0.5, \
+                 coat_roughness_anisotropy: {anisotropy}, coat_darkening: 0)"
+        )
+    };
+    let p = compile(&format!(
+        "material iso = {};
+         material aniso = {};
+         material iso_dielectric = rough_dielectric(int_ior: 1.6, ext_ior: 1, alpha: 0.25, distribution: \"ggx\");
+         material aniso_dielectric = rough_dielectric(int_ior: 1.6, ext_ior: 1, alpha_u: 0.32827, alpha_v: 0.13131, \
+             distribution: \"ggx\");",
+        coat(0.0),
+        coat(0.6)
+    ));
+    let d = largest_relative_difference(&p, "iso", "iso_dielectric");
+    assert!(d < 2e-3, "an isotropic coat differs from rough_dielectric by {d}");
+    let d = largest_relative_difference(&p, "aniso", "aniso_dielectric");
+    assert!(d < 2e-3, "an anisotropic coat differs from rough_dielectric by {d}");
+    // The highlight's shape: light 20 degrees off the mirror direction
+    // along dPdu (x) or across it (y). Isotropic: the same; anisotropic:
+    // wider along x, where the lobe's alpha is larger.
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let wo = [0.0, 0.0, 1.0];
+    let off = |m: &str, along_x: bool| {
+        let wi = if along_x { direction(20.0, 0.0) } else { direction(20.0, 90.0) };
+        p.material(m).unwrap().reflection(&surface(), wi, &one, wo).lanes()[0]
+    };
+    let (x, y) = (off("iso", true), off("iso", false));
+    assert!((x - y).abs() <= 1e-6 * x, "isotropic coat: {x} along x, {y} along y");
+    let (x, y) = (off("aniso", true), off("aniso", false));
+    assert!(x > 2.0 * y, "anisotropic coat: {x} along x, {y} along y");
+}
+
+#[test]
+fn an_anisotropic_coat_never_reflects_more_than_it_receives() {
+    let mut src = String::new();
+    let mut names = Vec::new();
+    for (base, what) in [("base_metalness: 1", "metal"), ("specular_weight: 1", "dielectric")] {
+        for anisotropy in [0.5, 1.0] {
+            let name = format!("m{}", names.len());
+            src += &format!(
+                "material {name} = open_pbr_surface(base_color: gray(1), {base}, coat_weight: 1, coat_roughness: 0.4, \
+                     coat_roughness_anisotropy: {anisotropy}, specular_roughness: 0.2);\n"
+            );
+            names.push((name, format!("{what} under a coat of anisotropy {anisotropy}")));
+        }
+    }
+    let p = compile(&src);
+    let eta = p.rgb(1.0, 1.0, 1.0);
+    for (name, what) in &names {
+        let m = p.material(name).unwrap();
+        for (theta, phi) in [(0.0, 0.0), (45.0, 0.0), (45.0, 90.0), (80.0, 30.0)] {
+            let r = largest_lane_albedo(&m, direction(theta, phi), &eta, 8_000);
+            assert!(r <= 1.01 && r > 0.5, "{what} at {theta}/{phi} degrees reflects {r}");
+        }
     }
 }

@@ -714,13 +714,17 @@ const OPEN_PBR: &str = "
         fuzz_roughness: 0.3, coat_weight: 0.5, coat_roughness: 0.3);
     material iridescent = open_pbr_surface(base_color: rgb(0.1, 0.1, 0.2), base_metalness: 0.4, \
         specular_roughness: 0.3, thin_film_weight: 0.8, thin_film_thickness: 0.4);
+    material brushed_coat = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.1), coat_weight: 0.8, coat_roughness: 0.4, \
+        coat_roughness_anisotropy: 0.8, specular_roughness: 0.5);
 ";
 
 #[test]
 fn open_pbr_surface_samples_its_pdf() {
     let p = compile(OPEN_PBR);
     let mut seed = 4000;
-    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet", "iridescent"] {
+    for name in
+        ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet", "iridescent", "brushed_coat"]
+    {
         for (t, ph) in VIEWS {
             seed += 1;
             assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
