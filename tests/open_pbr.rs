@@ -407,3 +407,70 @@ fn an_anisotropic_coat_never_reflects_more_than_it_receives() {
         }
     }
 }
+
+/// transmission_depth makes transmission_color the volume's: the light
+/// left after a distance d inside is pow(color, d / depth) (glass's
+/// `transmittance` per unit distance color^(1 / depth)); the interface
+/// itself no longer tints.
+#[test]
+fn transmission_depth_absorbs_inside_as_beers_law() {
+    let p = compile(
+        "material deep = open_pbr_surface(transmission_weight: 1, transmission_color: rgb(0.3, 0.6, 0.9), \
+             transmission_depth: 2);
+         material clear = open_pbr_surface(transmission_weight: 1);
+         material surface_tint = open_pbr_surface(transmission_weight: 1, transmission_color: rgb(0.3, 0.6, 0.9));",
+    );
+    let (deep, clear, tinted) =
+        (p.material("deep").unwrap(), p.material("clear").unwrap(), p.material("surface_tint").unwrap());
+    let light = p.rgb(1.0, 0.5, 2.0);
+    for d in [0.0f32, 0.7, 2.0, 5.0] {
+        let got = deep.absorption(&surface(), &light, d);
+        for ((g, l), c) in got.lanes().iter().zip(light.lanes()).zip([0.3f32, 0.6, 0.9]) {
+            let want = l * c.powf(d / 2.0);
+            assert!((g - want).abs() <= 1e-5 * want.max(1e-3), "after {d}: {got:?}, want {want} in a lane");
+        }
+        assert_eq!(clear.absorption(&surface(), &light, d).lanes(), light.lanes());
+        assert_eq!(tinted.absorption(&surface(), &light, d).lanes(), light.lanes());
+    }
+    // The refraction is the clear base's (the color left to the volume),
+    // where depth 0 tints it.
+    let eta = p.rgb(1.5, 1.5, 1.5);
+    let (wi, wo) = (direction(160.0, 10.0), direction(30.0, 200.0));
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let (a, b) = (deep.refraction(&surface(), wi, &one, &eta, wo), clear.refraction(&surface(), wi, &one, &eta, wo));
+    assert!(b.lanes()[0] > 0.0);
+    assert_eq!(a.lanes(), b.lanes());
+    let t = tinted.refraction(&surface(), wi, &one, &eta, wo);
+    assert!((t.lanes()[0] - 0.3 * b.lanes()[0]).abs() <= 1e-5, "{t:?} vs {b:?}");
+}
+
+/// In a render the renderer enters a translucent open_pbr_surface as a
+/// medium and applies its absorption along each segment inside: a smooth
+/// sphere renders as glass of the equivalent per-unit transmittance, at two
+/// depths; a rough one absorbs about as much.
+#[test]
+fn a_deep_translucent_sphere_renders_as_absorbing_glass() {
+    let color = [0.3f64, 0.6, 0.9];
+    let open_pbr = |roughness: f64, depth: f64| {
+        format!(
+            "open_pbr_surface(transmission_weight: 1, specular_roughness: {roughness}, \
+                 transmission_color: rgb(0.3, 0.6, 0.9), transmission_depth: {depth})"
+        )
+    };
+    let mut seen = Vec::new();
+    for depth in [0.5, 2.0] {
+        let t = color.map(|c| c.powf(1.0 / depth));
+        let glass = format!("glass(ior: gray(1.5), transmittance: rgb({}, {}, {}))", t[0], t[1], t[2]);
+        let (a, b) = (sphere_on(&open_pbr(0.0, depth), "gray(1)", 8), sphere_on(&glass, "gray(1)", 8));
+        for k in 0..3 {
+            assert!((a[k] - b[k]).abs() <= 0.01 * b[k] + 0.001, "depth {depth}: open_pbr {a:?}, glass {b:?}");
+        }
+        seen.push(a);
+    }
+    // Deeper color, less absorbed: red 0.3 over 0.5 leaves far less than over 2.
+    assert!(seen[0][0] < 0.6 * seen[1][0], "depth 0.5 {:?}, depth 2 {:?}", seen[0], seen[1]);
+    let rough = sphere_on(&open_pbr(0.3, 2.0), "gray(1)", 8);
+    for k in 0..3 {
+        assert!((rough[k] - seen[1][k]).abs() <= 0.06 * seen[1][k], "rough {rough:?}, smooth {:?}", seen[1]);
+    }
+}

@@ -897,13 +897,15 @@ const OPEN_PBR_TRANSLUCENT: &str = "
         specular_roughness: 0.4, specular_weight: 0.7);
     material iridescent_glass = open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5, \
         thin_film_weight: 1, thin_film_thickness: 0.3, thin_film_ior: 1.8);
+    material deep_glass = open_pbr_surface(transmission_weight: 0.8, transmission_color: rgb(0.2, 0.5, 0.9), \
+        transmission_depth: 0.5, specular_roughness: 0.5, base_color: rgb(0.5, 0.4, 0.3));
 ";
 
 #[test]
 fn open_pbr_transmission_samples_its_pdf() {
     let p = compile(OPEN_PBR_TRANSLUCENT);
     let mut seed = 4100;
-    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
+    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass"] {
         // From outside (index 1.5 beyond the surface) and from inside.
         for eta in [1.5, 1.0 / 1.5] {
             for (t, ph) in VIEWS {
@@ -921,7 +923,7 @@ fn open_pbr_transmission_never_creates_energy() {
         let wo = direction(t, ph);
         for eta in [1.5f32, 1.0 / 1.5] {
             let eta_c = p.rgb(eta, eta, eta);
-            for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
+            for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass"] {
                 let (r, tr) = albedo(&p.material(name).unwrap(), &facing(eta), wo, &eta_c, 20_000);
                 assert!(r + tr <= 1.01, "`{name}` (eta {eta}) at {t} degrees: {r} + {tr} > 1");
             }
