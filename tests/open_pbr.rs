@@ -474,3 +474,74 @@ fn a_deep_translucent_sphere_renders_as_absorbing_glass() {
         assert!((rough[k] - seen[1][k]).abs() <= 0.06 * seen[1][k], "rough {rough:?}, smooth {:?}", seen[1]);
     }
 }
+
+/// A thin wall (geometry_thin_walled): a smooth one passes light straight
+/// through from either side, bounds no medium (index 1, no absorption), and
+/// a clear one loses nothing at roughness 0 (its two interfaces reflect
+/// 2F / (1 + F), transmit the rest); rough or coated it never creates
+/// energy.
+#[test]
+fn a_thin_wall_transmits_unbent_and_bounds_no_medium() {
+    let wall = |extra: &str| format!("open_pbr_surface(transmission_weight: 1, geometry_thin_walled: true{extra})");
+    let p = compile(&format!(
+        "material smooth = {};
+         material rough = {};
+         material coated = {};
+         material tinted = {};",
+        wall(", specular_roughness: 0"),
+        wall(", specular_roughness: 0.4, specular_roughness_anisotropy: 0.5"),
+        wall(", specular_roughness: 0.2, coat_weight: 1, coat_roughness: 0.3, fuzz_weight: 0.5"),
+        wall(", specular_roughness: 0, transmission_color: rgb(0.2, 0.5, 0.9), transmission_depth: 1"),
+    ));
+    let one = p.rgb(1.0, 1.0, 1.0);
+    let smooth = p.material("smooth").unwrap();
+    assert_eq!(smooth.refraction_index(&surface()).lanes(), one.lanes());
+    assert_eq!(smooth.absorption(&surface(), &p.rgb(0.5, 0.5, 0.5), 3.0).lanes(), [0.5; 3]);
+    let tinted = p.material("tinted").unwrap();
+    assert_eq!(tinted.absorption(&surface(), &p.rgb(0.5, 0.5, 0.5), 3.0).lanes(), [0.5; 3]);
+    let mut rng = Rng(11);
+    for wo in [direction(0.0, 0.0), direction(35.0, 60.0), direction(70.0, 200.0), direction(140.0, 30.0)] {
+        let mut through = 0;
+        for _ in 0..200 {
+            let s =
+                smooth.sample(&surface(), wo, &one, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+            if s.wi[2] * wo[2] < 0.0 {
+                through += 1;
+                let straight = -(s.wi[0] * wo[0] + s.wi[1] * wo[1] + s.wi[2] * wo[2]);
+                assert!(straight > 0.9999, "wo {wo:?}: transmitted along {:?}", s.wi);
+            }
+        }
+        assert!(through > 100, "wo {wo:?}: only {through} of 200 samples pass the wall");
+    }
+    for theta in [0.0, 40.0, 75.0, 120.0, 170.0] {
+        let wo = direction(theta, 30.0);
+        let r = largest_lane_albedo(&smooth, wo, &one, 4_000);
+        assert!((r - 1.0).abs() < 0.01, "a clear smooth wall at {theta} degrees keeps {r}");
+        for name in ["rough", "coated", "tinted"] {
+            let r = largest_lane_albedo(&p.material(name).unwrap(), wo, &one, 8_000);
+            assert!(r <= 1.01, "`{name}` at {theta} degrees gives back {r}");
+        }
+    }
+    // A tinted wall: the light through it is tinted once per crossing of
+    // the wall (transmission_color at normal incidence, less the
+    // reflections), red least.
+    let s = tinted.sample(&surface(), [0.0, 0.0, 1.0], &one, 0.99, [0.3, 0.3]);
+    assert!(s.wi[2] < 0.0, "{s:?}");
+    let w = s.weight.lanes();
+    assert!(w[0] < w[1] && w[1] < w[2] && w[0] < 0.25, "{w:?}");
+}
+
+/// In a white furnace a clear thin-walled sphere, smooth or rough, gives
+/// back all the light at depth enough (no medium, nothing absorbed).
+#[test]
+fn a_thin_walled_sphere_keeps_its_energy_in_a_white_furnace() {
+    for roughness in [0.0, 0.3] {
+        let m = format!(
+            "open_pbr_surface(transmission_weight: 1, geometry_thin_walled: true, specular_roughness: {roughness})"
+        );
+        let seen = sphere_on(&m, "gray(1)", 32);
+        for c in seen {
+            assert!((0.97..=1.01).contains(&c), "a thin-walled sphere of roughness {roughness}: {seen:?}");
+        }
+    }
+}

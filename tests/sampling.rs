@@ -899,13 +899,18 @@ const OPEN_PBR_TRANSLUCENT: &str = "
         thin_film_weight: 1, thin_film_thickness: 0.3, thin_film_ior: 1.8);
     material deep_glass = open_pbr_surface(transmission_weight: 0.8, transmission_color: rgb(0.2, 0.5, 0.9), \
         transmission_depth: 0.5, specular_roughness: 0.5, base_color: rgb(0.5, 0.4, 0.3));
+    material thin_glass = open_pbr_surface(transmission_weight: 0.7, geometry_thin_walled: true, \
+        specular_roughness: 0.5, transmission_color: rgb(0.8, 0.6, 0.4), coat_weight: 0.5, coat_roughness: 0.3, \
+        base_color: rgb(0.5, 0.4, 0.3));
 ";
 
 #[test]
 fn open_pbr_transmission_samples_its_pdf() {
     let p = compile(OPEN_PBR_TRANSLUCENT);
     let mut seed = 4100;
-    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass"] {
+    // A thin wall ignores the index beyond it (it bends nothing): from the
+    // back at 1 / 1.5 it is seen from its other side.
+    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass", "thin_glass"] {
         // From outside (index 1.5 beyond the surface) and from inside.
         for eta in [1.5, 1.0 / 1.5] {
             for (t, ph) in VIEWS {
