@@ -545,3 +545,47 @@ fn a_thin_walled_sphere_keeps_its_energy_in_a_white_furnace() {
         }
     }
 }
+
+/// The subsurface as the dielectric base's diffuse lobe (no volume):
+/// weight 0 is the base alone whatever its color; weight 1 is the base
+/// with base_color the subsurface's; on a thin wall half its light goes
+/// through to the other side (a white one keeps it all).
+#[test]
+fn the_subsurface_is_a_diffuse_lobe_and_a_thin_walls_translucency() {
+    let rest = "coat_weight: 0.6, coat_roughness: 0.3, base_diffuse_roughness: 0.5, specular_roughness: 0.4";
+    let p = compile(&format!(
+        "material bare = open_pbr_surface(base_color: rgb(0.7, 0.3, 0.2), {rest});
+         material none = open_pbr_surface(base_color: rgb(0.7, 0.3, 0.2), subsurface_weight: 0, \
+             subsurface_color: rgb(0.1, 0.9, 0.5), subsurface_radius: 3, {rest});
+         material full = open_pbr_surface(base_color: gray(0.2), subsurface_weight: 1, \
+             subsurface_color: rgb(0.1, 0.9, 0.5), {rest});
+         material as_base = open_pbr_surface(base_color: rgb(0.1, 0.9, 0.5), {rest});
+         material leaf = open_pbr_surface(base_color: gray(0.5), subsurface_weight: 1, subsurface_color: gray(1), \
+             specular_weight: 0, geometry_thin_walled: true);
+         material solid_leaf = open_pbr_surface(base_color: gray(0.5), subsurface_weight: 1, subsurface_color: gray(1), \
+             specular_weight: 0);"
+    ));
+    assert_eq!(largest_difference(&p, "bare", "none"), 0.0);
+    let d = largest_relative_difference(&p, "full", "as_base");
+    assert!(d < 1e-5, "subsurface_weight 1 differs from the base of its color by {d}");
+    assert!(largest_difference(&p, "bare", "full") > 0.01);
+    let (leaf, solid) = (p.material("leaf").unwrap(), p.material("solid_leaf").unwrap());
+    assert!(!leaf.opaque(&surface()) && solid.opaque(&surface()));
+    let one = p.rgb(1.0, 1.0, 1.0);
+    for wo in [direction(0.0, 0.0), direction(60.0, 30.0), direction(130.0, 200.0)] {
+        let mut rng = Rng(5);
+        let (mut reflected, mut through, n) = (0.0f64, 0.0f64, 20_000);
+        for _ in 0..n {
+            let s = leaf.sample(&surface(), wo, &one, rng.range(0.0, 1.0), [rng.range(0.0, 1.0), rng.range(0.0, 1.0)]);
+            let w = f64::from(s.weight.lanes()[0]) / f64::from(n);
+            if s.wi[2] * wo[2] > 0.0 { reflected += w } else { through += w }
+        }
+        assert!((reflected - 0.5).abs() < 0.01 && (through - 0.5).abs() < 0.01, "wo {wo:?}: {reflected} + {through}");
+    }
+    // Through the Material API: the light through is the cosine lobe, half
+    // of the white subsurface's.
+    let (wi, wo) = (direction(150.0, 10.0), direction(20.0, 80.0));
+    let f = leaf.refraction(&surface(), wi, &one, &one, wo).lanes()[0];
+    let want = 0.5 * (150.0f32.to_radians().cos()).abs() / std::f32::consts::PI;
+    assert!((f - want).abs() < 1e-5, "{f} vs {want}");
+}

@@ -902,6 +902,9 @@ const OPEN_PBR_TRANSLUCENT: &str = "
     material thin_glass = open_pbr_surface(transmission_weight: 0.7, geometry_thin_walled: true, \
         specular_roughness: 0.5, transmission_color: rgb(0.8, 0.6, 0.4), coat_weight: 0.5, coat_roughness: 0.3, \
         base_color: rgb(0.5, 0.4, 0.3));
+    material thin_leaf = open_pbr_surface(transmission_weight: 0.3, geometry_thin_walled: true, \
+        specular_roughness: 0.5, subsurface_weight: 0.7, subsurface_color: rgb(0.3, 0.8, 0.2), base_color: gray(0.4), \
+        fuzz_weight: 0.3);
 ";
 
 #[test]
@@ -910,7 +913,9 @@ fn open_pbr_transmission_samples_its_pdf() {
     let mut seed = 4100;
     // A thin wall ignores the index beyond it (it bends nothing): from the
     // back at 1 / 1.5 it is seen from its other side.
-    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass", "thin_glass"] {
+    for name in
+        ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass", "thin_glass", "thin_leaf"]
+    {
         // From outside (index 1.5 beyond the surface) and from inside.
         for eta in [1.5, 1.0 / 1.5] {
             for (t, ph) in VIEWS {
