@@ -589,3 +589,49 @@ fn the_subsurface_is_a_diffuse_lobe_and_a_thin_walls_translucency() {
     let want = 0.5 * (150.0f32.to_radians().cos()).abs() / std::f32::consts::PI;
     assert!((f - want).abs() < 1e-5, "{f} vs {want}");
 }
+
+/// transmission_dispersion_scale makes the index a Cauchy fit n(l) = a +
+/// b / l^2 through specular_ior at 587.6 nm with the Abbe number
+/// transmission_dispersion_abbe_number / scale: (n_d - 1) / (n_F - n_C).
+/// Scale 0 (the default) is the constant index; a thin wall stays at 1.
+#[test]
+fn transmission_dispersion_follows_the_abbe_number() {
+    let model = ColorModel::Spectral { samples: 40 };
+    let p = Compiler::new()
+        .color_model(model)
+        .source(
+            "open_pbr.tsl",
+            "material plain = open_pbr_surface(transmission_weight: 1, specular_ior: 1.6);
+             material flint = open_pbr_surface(transmission_weight: 1, specular_ior: 1.6, \
+                 transmission_dispersion_scale: 1, transmission_dispersion_abbe_number: 30);
+             material doubled = open_pbr_surface(transmission_weight: 1, specular_ior: 1.6, \
+                 transmission_dispersion_scale: 2, transmission_dispersion_abbe_number: 30);
+             material thin = open_pbr_surface(transmission_weight: 1, specular_ior: 1.6, \
+                 transmission_dispersion_scale: 1, geometry_thin_walled: true);",
+        )
+        .compile()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let lanes = |name: &str| p.material(name).unwrap().refraction_index(&surface()).lanes().to_vec();
+    assert!(lanes("plain").iter().all(|n| *n == 1.6));
+    assert!(lanes("thin").iter().all(|n| *n == 1.0));
+    let wavelengths = model.wavelengths();
+    // The fit's index at a wavelength by the lanes (linear between bin centres).
+    let at = |n: &[f32], l: f32| {
+        let k = wavelengths.iter().position(|w| *w > l).unwrap();
+        let t = (l - wavelengths[k - 1]) / (wavelengths[k] - wavelengths[k - 1]);
+        f64::from(n[k - 1] + t * (n[k] - n[k - 1]))
+    };
+    for (name, abbe) in [("flint", 30.0), ("doubled", 15.0)] {
+        let n = lanes(name);
+        assert!(n.windows(2).all(|w| w[1] < w[0]), "{name}: the index falls with wavelength: {n:?}");
+        let (nd, nf, nc) = (at(&n, 587.6), at(&n, 486.1), at(&n, 656.3));
+        assert!((nd - 1.6).abs() < 1e-3, "{name}: n_d {nd}");
+        let v = (nd - 1.0) / (nf - nc);
+        assert!((v / abbe - 1.0).abs() < 0.02, "{name}: Abbe number {v}, want {abbe}");
+    }
+    // Rendered in RGB (an index per channel), a dispersive rough glass
+    // sphere still all but vanishes in a white furnace.
+    let m = "open_pbr_surface(transmission_weight: 1, specular_roughness: 0.1, transmission_dispersion_scale: 1)";
+    let seen = sphere_on(m, "gray(1)", 64);
+    assert!(seen.iter().all(|c| (0.95..=1.02).contains(c)), "a dispersive sphere in a white furnace: {seen:?}");
+}
