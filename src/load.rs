@@ -23,6 +23,7 @@ pub const PRELUDE: &[(&str, &str)] = &[
     ("stdlib/materials.tsl", include_str!("../stdlib/materials.tsl")),
     ("stdlib/physical.tsl", include_str!("../stdlib/physical.tsl")),
     ("stdlib/openpbr.tsl", include_str!("../stdlib/openpbr.tsl")),
+    ("stdlib/openpbr_layers.tsl", include_str!("../stdlib/openpbr_layers.tsl")),
     ("stdlib/generators.tsl", include_str!("../stdlib/generators.tsl")),
     ("stdlib/texturing.tsl", include_str!("../stdlib/texturing.tsl")),
 ];

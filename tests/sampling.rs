@@ -714,13 +714,17 @@ const OPEN_PBR: &str = "
         fuzz_roughness: 0.3, coat_weight: 0.5, coat_roughness: 0.3);
     material iridescent = open_pbr_surface(base_color: rgb(0.1, 0.1, 0.2), base_metalness: 0.4, \
         specular_roughness: 0.3, thin_film_weight: 0.8, thin_film_thickness: 0.4);
+    material brushed_coat = open_pbr_surface(base_color: rgb(0.6, 0.3, 0.1), coat_weight: 0.8, coat_roughness: 0.4, \
+        coat_roughness_anisotropy: 0.8, specular_roughness: 0.5);
 ";
 
 #[test]
 fn open_pbr_surface_samples_its_pdf() {
     let p = compile(OPEN_PBR);
     let mut seed = 4000;
-    for name in ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet", "iridescent"] {
+    for name in
+        ["plastic_like", "brushed", "half_metal", "coated", "glossy_coat", "velvet", "iridescent", "brushed_coat"]
+    {
         for (t, ph) in VIEWS {
             seed += 1;
             assert_sampling(&p, name, &surface(), direction(t, ph), 1.0, seed);
@@ -893,13 +897,25 @@ const OPEN_PBR_TRANSLUCENT: &str = "
         specular_roughness: 0.4, specular_weight: 0.7);
     material iridescent_glass = open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5, \
         thin_film_weight: 1, thin_film_thickness: 0.3, thin_film_ior: 1.8);
+    material deep_glass = open_pbr_surface(transmission_weight: 0.8, transmission_color: rgb(0.2, 0.5, 0.9), \
+        transmission_depth: 0.5, specular_roughness: 0.5, base_color: rgb(0.5, 0.4, 0.3));
+    material thin_glass = open_pbr_surface(transmission_weight: 0.7, geometry_thin_walled: true, \
+        specular_roughness: 0.5, transmission_color: rgb(0.8, 0.6, 0.4), coat_weight: 0.5, coat_roughness: 0.3, \
+        base_color: rgb(0.5, 0.4, 0.3));
+    material thin_leaf = open_pbr_surface(transmission_weight: 0.3, geometry_thin_walled: true, \
+        specular_roughness: 0.5, subsurface_weight: 0.7, subsurface_color: rgb(0.3, 0.8, 0.2), base_color: gray(0.4), \
+        fuzz_weight: 0.3);
 ";
 
 #[test]
 fn open_pbr_transmission_samples_its_pdf() {
     let p = compile(OPEN_PBR_TRANSLUCENT);
     let mut seed = 4100;
-    for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
+    // A thin wall ignores the index beyond it (it bends nothing): from the
+    // back at 1 / 1.5 it is seen from its other side.
+    for name in
+        ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass", "thin_glass", "thin_leaf"]
+    {
         // From outside (index 1.5 beyond the surface) and from inside.
         for eta in [1.5, 1.0 / 1.5] {
             for (t, ph) in VIEWS {
@@ -917,7 +933,7 @@ fn open_pbr_transmission_never_creates_energy() {
         let wo = direction(t, ph);
         for eta in [1.5f32, 1.0 / 1.5] {
             let eta_c = p.rgb(eta, eta, eta);
-            for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass"] {
+            for name in ["glassy", "frosted_coated", "half_metal_glass", "iridescent_glass", "deep_glass"] {
                 let (r, tr) = albedo(&p.material(name).unwrap(), &facing(eta), wo, &eta_c, 20_000);
                 assert!(r + tr <= 1.01, "`{name}` (eta {eta}) at {t} degrees: {r} + {tr} > 1");
             }
