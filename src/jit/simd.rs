@@ -129,6 +129,7 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
 
     let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, lp.instance);
     g.byte_shuffles = has_byte_shuffles(&*isa);
+    g.x86_shuffles = g.byte_shuffles && isa.name() == "x64";
     g.body(&f.body);
 
     // Scatter: lanes in order, so a repeated last point is written last
@@ -186,6 +187,8 @@ struct Wide<'a, 'b> {
     /// Whether small tables are looked up by byte shuffles
     /// ([`Wide::shuffled_table`]) rather than gathered.
     byte_shuffles: bool,
+    /// Whether those shuffles are x86's `pshufb` (SSSE3).
+    x86_shuffles: bool,
 }
 
 /// Whether a byte shuffle is one instruction on `isa`: x86-64 without
@@ -232,6 +235,7 @@ impl<'a, 'b> Wide<'a, 'b> {
             arrays,
             instance,
             byte_shuffles: false,
+            x86_shuffles: false,
         };
         let max = g.splat_i(MAX_CALL_ITERATIONS);
         g.b.def_var(budget, max);
@@ -573,7 +577,14 @@ impl<'a, 'b> Wide<'a, 'b> {
             let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
             let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
             let plane = self.b.ins().vconst(types::I8X16, constant);
-            let bytes = self.b.ins().swizzle(plane, selectors);
+            // `x86_pshufb` zeroes where a selector's top bit is set, as
+            // ours are; `swizzle` adds a saturating add to give any index
+            // above 15 that meaning (x86-64's lowering of it).
+            let bytes = if self.x86_shuffles {
+                self.b.ins().x86_pshufb(plane, selectors)
+            } else {
+                self.b.ins().swizzle(plane, selectors)
+            };
             let bytes = self.b.ins().bitcast(types::I32X4, little, bytes);
             words = Some(match words {
                 Some(w) => self.b.ins().bor(w, bytes),
