@@ -132,6 +132,32 @@ fn generator_batches_give_the_bits_of_calls_point_by_point() {
     );
 }
 
+/// Noise in one, two and three dimensions: the four-lane entries look its
+/// gradient tables up by byte shuffles (`jit::simd`), 2D's diagonals with
+/// all four bytes set, and its permutation by loads. At 4096 points every
+/// gradient of every table is reached.
+#[test]
+fn noise_batches_give_the_bits_of_noise_point_by_point() {
+    let src = "float n1() { return noise(P.x); }
+               float n2() { return noise(vec2(P.x, P.y)); }
+               float n3() { return noise(P); }";
+    let program = program(src, ColorModel::Rgb);
+    let mut rng = Rng(0x9015e);
+    let p: Vec<[f32; 3]> = (0..4096).map(|_| [0, 1, 2].map(|_| rng.range(-300.0, 300.0))).collect();
+    let mut batch = ShadingBatch::new(p.len());
+    batch.set_vectors("P", &p).unwrap();
+    for name in ["n1", "n2", "n3"] {
+        let f = program.function(name).unwrap();
+        let mut out = vec![0u32; p.len()];
+        f.call_batch(Backend::Jit, &batch, &[], &mut out, Layout::PointMajor).unwrap();
+        for (i, got) in out.iter().enumerate() {
+            let mut want = [0u32];
+            f.call_words(Backend::Interpreter, &batch.point(i), &[], &mut want).unwrap();
+            assert_eq!(*got, want[0], "{name} at {:?}", p[i]);
+        }
+    }
+}
+
 #[test]
 fn typed_batches_give_the_values_of_typed_calls() {
     let program = program(GENERATORS, ColorModel::Rgb);

@@ -29,9 +29,10 @@ use crate::runtime::natives;
 use cranelift_codegen::Context;
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{
-    AbiParam, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData, StackSlotKind, Type, UserFuncName, Value,
-    types,
+    AbiParam, Endianness, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData, StackSlotKind, Type,
+    UserFuncName, Value, types,
 };
+use cranelift_codegen::isa::TargetIsa;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{Linkage, Module};
@@ -39,6 +40,10 @@ use std::collections::HashMap;
 
 /// Points per iteration of the batch loop.
 pub const LANES: usize = 4;
+
+/// The largest table looked up by byte shuffles rather than loads
+/// ([`Wide::shuffled_table`]): one shuffle covers 16 bytes.
+const SHUFFLED_TABLE_WORDS: usize = 16;
 
 /// Compiles the four-lane batch entry of `f`.
 ///
@@ -123,6 +128,8 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     }
 
     let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, lp.instance);
+    g.byte_shuffles = has_byte_shuffles(&*isa);
+    g.x86_shuffles = g.byte_shuffles && isa.name() == "x64";
     g.body(&f.body);
 
     // Scatter: lanes in order, so a repeated last point is written last
@@ -177,6 +184,17 @@ struct Wide<'a, 'b> {
     records: Records,
     arrays: Vec<StackSlot>,
     instance: Value,
+    /// Whether small tables are looked up by byte shuffles
+    /// ([`Wide::shuffled_table`]) rather than gathered.
+    byte_shuffles: bool,
+    /// Whether those shuffles are x86's `pshufb` (SSSE3).
+    x86_shuffles: bool,
+}
+
+/// Whether a byte shuffle is one instruction on `isa`: x86-64 without
+/// SSSE3 would call a helper that the JIT module does not provide.
+fn has_byte_shuffles(isa: &dyn TargetIsa) -> bool {
+    isa.name() != "x64" || isa.isa_flags().iter().any(|f| f.name == "has_ssse3" && f.as_bool() == Some(true))
 }
 
 /// The vector type of a scalar type (bools are lane masks).
@@ -216,6 +234,8 @@ impl<'a, 'b> Wide<'a, 'b> {
             records,
             arrays,
             instance,
+            byte_shuffles: false,
+            x86_shuffles: false,
         };
         let max = g.splat_i(MAX_CALL_ITERATIONS);
         g.b.def_var(budget, max);
@@ -527,6 +547,55 @@ impl<'a, 'b> Wide<'a, 'b> {
             let w = load(self, l);
             x = self.b.ins().insertlane(x, w, l as u8);
         }
+        self.words_as(ty, x)
+    }
+
+    /// `table[index & (len - 1)]` for a table of at most
+    /// [`SHUFFLED_TABLE_WORDS`] words, in registers: byte `k` of the four
+    /// words is one byte shuffle of the table's bytes `k` (a 16-byte
+    /// constant) by the index, where a gather loads lane by lane. Noise's
+    /// gradient tables (`runtime::GRAD3_WORDS`, ...) are 16 and 8 words
+    /// with two bytes that are not zero.
+    fn shuffled_table(&mut self, table: &[u32], index: Value) -> Value {
+        let mask = self.splat_i(table.len() as i64 - 1);
+        let index = self.b.ins().band(index, mask);
+        let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let mut words: Option<Value> = None;
+        for k in 0..4u32 {
+            let mut plane = [0u8; 16];
+            for (byte, w) in plane.iter_mut().zip(table) {
+                *byte = (w >> (8 * k)) as u8;
+            }
+            if plane == [0; 16] {
+                continue;
+            }
+            // Byte k of each lane is the index into the plane; the other
+            // bytes are out of range (0x80), which shuffles in zeros.
+            let shifted = if k == 0 { index } else { self.b.ins().ishl_imm_u(index, i64::from(8 * k)) };
+            let out_of_range = self.splat_i(i64::from((0x8080_8080u32 & !(0xff << (8 * k))) as i32));
+            let selectors = self.b.ins().bor(shifted, out_of_range);
+            let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
+            let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
+            let plane = self.b.ins().vconst(types::I8X16, constant);
+            // `x86_pshufb` zeroes where a selector's top bit is set, as
+            // ours are; `swizzle` adds a saturating add to give any index
+            // above 15 that meaning (x86-64's lowering of it).
+            let bytes = if self.x86_shuffles {
+                self.b.ins().x86_pshufb(plane, selectors)
+            } else {
+                self.b.ins().swizzle(plane, selectors)
+            };
+            let bytes = self.b.ins().bitcast(types::I32X4, little, bytes);
+            words = Some(match words {
+                Some(w) => self.b.ins().bor(w, bytes),
+                None => bytes,
+            });
+        }
+        words.unwrap_or_else(|| self.splat_i(0))
+    }
+
+    /// Four words as a vector of `ty`.
+    fn words_as(&mut self, ty: Scalar, x: Value) -> Value {
         match ty {
             Scalar::F32 => self.b.ins().bitcast(types::F32X4, MemFlagsData::new(), x),
             Scalar::I32 => x,
@@ -561,6 +630,11 @@ impl<'a, 'b> Wide<'a, 'b> {
                 }
             }
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
+            Op::Table { table, index } if self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS => {
+                let index = self.v(*index);
+                let words = self.shuffled_table(table, index);
+                self.words_as(ty, words)
+            }
             Op::Table { table, index } => {
                 // The index masked in one vector operation, then a load
                 // per lane (an address mode each: base + index * 4).
@@ -698,4 +772,20 @@ fn escapes(body: &[Inst]) -> bool {
         })
     }
     walk(body, &mut Vec::new())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The flag is read by its Cranelift name: a misspelt name would
+    /// quietly gather every table (`tests/batch.rs` checks the bits).
+    #[test]
+    fn small_tables_are_shuffled_where_the_machine_can() {
+        let isa = native_isa(false).unwrap();
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(has_byte_shuffles(&*isa), std::is_x86_feature_detected!("ssse3"));
+        #[cfg(not(target_arch = "x86_64"))]
+        assert!(has_byte_shuffles(&*isa));
+    }
 }
