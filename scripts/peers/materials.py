@@ -35,6 +35,8 @@ over 1-32).
 
 NAME picks materials (default: all). Prints one line per material.
 """
+import hashlib
+import json
 import math
 import os
 import subprocess
@@ -50,7 +52,7 @@ DEPTH = int(os.environ.get("DEPTH", "8"))
 SEEDS = int(os.environ.get("SEEDS", "4"))
 SMOOTH_FACTOR = 8
 # Materials whose delta lobe mirrors the sun (see the module's docs).
-SMOOTH = {"plastic", "plastic_nonlinear", "conductor", "glass"}
+SMOOTH = {"plastic", "plastic_nonlinear", "conductor", "glass", "open_pbr_thin_walled"}
 
 
 def rgb(c):
@@ -126,6 +128,12 @@ MATERIALS = {
     "open_pbr_dielectric": (
         "open_pbr_surface(transmission_weight: 1, specular_roughness: 0.5477226)",
         {"type": "roughdielectric", "alpha": 0.3, "distribution": "ggx", "int_ior": 1.5, "ext_ior": 1.0},
+    ),
+    # A thin wall of the translucent base, smooth: a sheet with both
+    # interfaces' bounces summed, as thindielectric.
+    "open_pbr_thin_walled": (
+        "open_pbr_surface(transmission_weight: 1, specular_roughness: 0, geometry_thin_walled: true)",
+        {"type": "thindielectric", "int_ior": 1.5, "ext_ior": 1.0},
     ),
     "open_pbr_base_only": (
         f"open_pbr_surface(base_color: {rgb(RED)}, specular_weight: 0)",
@@ -228,7 +236,10 @@ def main(argv):
         return np.array(mi.Bitmap(image), dtype=np.float64)[..., :3]
 
     def mitsuba(bsdf, name, spp, seed):
-        image = os.path.join(out, f"{name}_mitsuba{spp}_{seed}.exr")
+        # The cached reference is named by its parameters too: a case whose
+        # Mitsuba side changed renders a new one.
+        key = hashlib.sha1(json.dumps(bsdf, sort_keys=True).encode()).hexdigest()[:10]
+        image = os.path.join(out, f"{name}_mitsuba{spp}_{seed}_{key}.exr")
         if not (spp >= ref_spp and os.path.exists(image)):
             mi.Bitmap(mitsuba_render(mi, bsdf, sky_mitsuba, spp, seed)).write(image)
         return np.array(mi.Bitmap(image), dtype=np.float64)[..., :3]
