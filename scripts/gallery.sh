@@ -30,3 +30,4 @@ render examples/room.tsl room_spectral --color-model spectral
 render examples/texture_tree.tsl texture_tree
 render examples/physical.tsl physical
 render examples/open_pbr.tsl open_pbr
+render examples/prism.tsl prism --color-model hero

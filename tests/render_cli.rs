@@ -339,16 +339,17 @@ fn view_shows_each_layer_of_an_exr() {
 }
 
 /// A Stanford PLY mesh (quads fanned into triangles) renders as the same
-/// mesh in OBJ does: examples/prism.ply against examples/prism.obj.
+/// mesh in OBJ does: examples/prism.ply (the example's) against examples/prism.obj.
 #[test]
 fn ply_meshes_render_as_the_same_obj() {
     let dir = scratch("ply");
     let scene = std::fs::read_to_string("examples/prism.tsl").unwrap();
+    assert!(scene.contains("\"prism.ply\""), "the example names its mesh");
     let mut images = Vec::new();
     for mesh in ["prism.obj", "prism.ply"] {
         std::fs::copy(format!("examples/{mesh}"), dir.join(mesh)).unwrap();
         let path = dir.join(format!("{mesh}.tsl"));
-        std::fs::write(&path, scene.replace("\"prism.obj\"", &format!("\"{mesh}\""))).unwrap();
+        std::fs::write(&path, scene.replace("\"prism.ply\"", &format!("\"{mesh}\""))).unwrap();
         let out = dir.join(format!("{mesh}.exr"));
         let o = tslc(&["render", &s(&path), "-o", &s(&out), "--res", "24x16", "--spp", "2", "--quiet"]);
         assert!(o.status.success(), "{mesh}: {}", stderr(&o));

@@ -278,7 +278,7 @@ fn hero_saturated_spheres_match_the_rgb_render() {
 fn dispersion_spreads_white_into_colours_only_with_hero_sampling() {
     // examples/prism.tsl, small: white lines seen through a flint prism.
     // Colourfulness: the mean of |R - B| / (R + G + B) over lit pixels.
-    let src = std::fs::read_to_string("examples/prism.tsl").unwrap().replace("\"prism.obj\"", "\"examples/prism.obj\"");
+    let src = std::fs::read_to_string("examples/prism.tsl").unwrap().replace("\"prism.ply\"", "\"examples/prism.ply\"");
     let colourful = |model| {
         let image = render_src(&src, model, (48, 32), 16, 1);
         let lit: Vec<f64> = image
