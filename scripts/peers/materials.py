@@ -250,7 +250,7 @@ def main(argv):
     print(f"one sphere under the sky, {SIZE}x{SIZE}, depth 8; over the sphere's {mask.sum()} pixels:")
     print(
         f"mean: tslc {high_spp} spp per channel against Mitsuba {ref_spp} spp, {SMOOTH_FACTOR} times both for "
-        "plastic, conductor and glass (goal: within 1%)"
+        "plastic, conductor, glass and the thin wall (goal: within 1%)"
     )
     print("rmse: tslc and Mitsuba 64 spp against the reference, and tslc/Mitsuba (goal: at most 1.2)")
     print(
