@@ -70,6 +70,9 @@ def test_ctrl_c_cancels_a_render(repo):
     import threading
     import time
 
+    # A shell that starts pytest in the background leaves SIGINT ignored,
+    # and Python then keeps it ignored: install Python's own handler.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     start = time.perf_counter()
     timer.start()
@@ -79,6 +82,7 @@ def test_ctrl_c_cancels_a_render(repo):
             tsl.render(repo / "examples" / "cornell.tsl", spp=256, res=(160, 120))
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert time.perf_counter() - start < 10
 
 
