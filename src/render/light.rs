@@ -29,8 +29,10 @@ pub enum LightKind {
     Spot { at: Vec3, axis: Vec3, intensity: Color, cos_outer: f32, cos_inner: f32 },
     /// Parallel light travelling along `dir` with this irradiance.
     Directional { dir: Vec3, irradiance: Color },
-    /// An emissive object; meshes pick triangles by area.
-    Area { object: u32, sampler: AreaSampler },
+    /// An emissive object; meshes pick triangles by area. `uv`: whether
+    /// its material reads u, v or the tangents, which a sampled point's
+    /// record then holds (see [`super::shape::Shape::surface_at`]).
+    Area { object: u32, sampler: AreaSampler, uv: bool },
     /// The scene's environment, when it is not black.
     Environment(Box<Environment>),
 }
@@ -64,8 +66,8 @@ pub enum LightSample {
 
 impl Light {
     /// An area light for emissive object `object`, when its shape can be
-    /// sampled.
-    pub fn area(geometry: &Geometry, object: u32) -> Option<Light> {
+    /// sampled; `uv` as in [`LightKind::Area`].
+    pub fn area(geometry: &Geometry, object: u32, uv: bool) -> Option<Light> {
         let sampler = match &geometry.objects[object as usize] {
             ObjectGeometry::Shape(s) => match s.kind() {
                 // Planar pieces stay uniform under any affine map.
@@ -89,7 +91,7 @@ impl Light {
                 AreaSampler::Mesh { triangles: Distribution1D::new(&areas)?, area }
             }
         };
-        Some(Light { kind: LightKind::Area { object, sampler } })
+        Some(Light { kind: LightKind::Area { object, sampler, uv } })
     }
 
     /// Samples light arriving at `x`; `u` is a 2D random number, `u3` a
@@ -116,7 +118,7 @@ impl Light {
                 Some(LightSample::Delta { wi: -*dir, distance: f32::INFINITY, scale: 1.0 })
             }
             LightKind::Environment(env) => env.sample(u).map(|(wi, pdf)| LightSample::Environment { wi, pdf }),
-            LightKind::Area { object, sampler } => {
+            LightKind::Area { object, sampler, uv } => {
                 let ObjectGeometry::Shape(shape) = &geometry.objects[*object as usize] else {
                     let ObjectGeometry::Mesh(mesh) = &geometry.objects[*object as usize] else { unreachable!() };
                     let AreaSampler::Mesh { triangles, area } = sampler else { return None };
@@ -132,19 +134,19 @@ impl Light {
                 match sampler {
                     AreaSampler::Planar { area } => {
                         let y = shape.sample_area(u);
-                        let surface = shape.surface(&Ray::new(x, y - x), 1.0);
+                        let surface = shape.surface_at(&Ray::new(x, y - x), 1.0, *uv);
                         surface_sample(x, surface, 1.0 / area, 0)
                     }
                     AreaSampler::Sphere { center, radius } => {
                         if (x - *center).length_squared() <= radius * radius {
                             let y = shape.sample_area(u);
-                            let surface = shape.surface(&Ray::new(x, y - x), 1.0);
+                            let surface = shape.surface_at(&Ray::new(x, y - x), 1.0, *uv);
                             return surface_sample(x, surface, 1.0 / shape.area(), 0);
                         }
                         let (wi, pdf) = sampling::sample_sphere_solid_angle(*center, *radius, x, u)?;
                         let ray = Ray::new(x, wi);
                         let t = shape.intersect(&ray, 0.0, f32::INFINITY)?;
-                        let surface = shape.surface(&ray, t);
+                        let surface = shape.surface_at(&ray, t, *uv);
                         Some(LightSample::Surface { wi, distance: t, pdf, surface, tri: 0 })
                     }
                     AreaSampler::Mesh { .. } => None,
@@ -222,7 +224,7 @@ impl Light {
     /// picks a mesh's triangle), with the triangle; `None` for other
     /// lights. For estimating the light's emission.
     pub fn area_point(&self, geometry: &Geometry, u: [f32; 2], u3: f32) -> Option<(SurfaceHit, u32)> {
-        let LightKind::Area { object, sampler } = &self.kind else { return None };
+        let LightKind::Area { object, sampler, .. } = &self.kind else { return None };
         // Any ray through the point gives its surface record; this one
         // comes from one unit away along y.
         let ray_to = |y: Vec3| Ray::new(y + Vec3::Y, -Vec3::Y);

@@ -516,8 +516,9 @@ impl<'a> Builder<'a> {
             .collect();
         let geometry = Geometry::new(geometry);
         for (k, &surface) in surface_of_object.iter().enumerate() {
-            if objects[surface as usize].emissive()
-                && let Some(light) = Light::area(&geometry, k as u32)
+            let object = &objects[surface as usize];
+            if object.emissive()
+                && let Some(light) = Light::area(&geometry, k as u32, object.material.facts().reads_uv())
             {
                 lights.push(light);
             }

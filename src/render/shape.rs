@@ -70,6 +70,10 @@ pub struct Shape {
     /// For quads: `edge1 x edge2` and one over its squared length.
     quad_n: Vec3,
     quad_inv_n2: f32,
+    /// For quads and boxes: each face's world normal, as `surface_at`'s
+    /// general path computes it (two normalisations, and a matrix when
+    /// placed, for a normal that is the same at every hit of the face).
+    face_normals: Option<Box<[Vec3; 6]>>,
 }
 
 /// A transformed shape's matrices.
@@ -175,7 +179,37 @@ impl Shape {
             }
             _ => false,
         };
-        Ok(Shape { quad_n, quad_inv_n2: 1.0 / quad_n.length_squared(), kind, placement, frame, identity, plain_plane })
+        let mut shape = Shape {
+            quad_n,
+            quad_inv_n2: 1.0 / quad_n.length_squared(),
+            kind,
+            placement,
+            frame,
+            identity,
+            plain_plane,
+            face_normals: None,
+        };
+        shape.face_normals = shape.flat_face_normals().map(Box::new);
+        Ok(shape)
+    }
+
+    /// The world normals of a quad's face (in the first entry) or a box's
+    /// six, each through [`Shape::world_normal`] as a hit computes it.
+    fn flat_face_normals(&self) -> Option<[Vec3; 6]> {
+        match self.kind {
+            ShapeKind::Quad { .. } => Some([self.world_normal(self.quad_n.normalize()); 6]),
+            ShapeKind::Box { .. } => Some(std::array::from_fn(|face| self.world_normal(box_face_normal(face)))),
+            _ => None,
+        }
+    }
+
+    /// The unit world normal of the object-space normal `n`.
+    #[inline(always)]
+    fn world_normal(&self, n: Vec3) -> Vec3 {
+        match &self.placement {
+            Some(p) if !self.identity => (p.normal_matrix * n).normalize_or(Vec3::Y),
+            _ => n.normalize_or(Vec3::Y),
+        }
     }
 
     pub fn kind(&self) -> &ShapeKind {
@@ -408,9 +442,10 @@ impl Shape {
         self.surface_at(ray, t, true)
     }
 
-    /// [`Shape::surface`]; without `uv`, a sphere's `u`, `v` and every
-    /// shape's tangents may be left out (zero): they cost trigonometry and
-    /// divisions that a material reading none of them need not pay.
+    /// [`Shape::surface`]; without `uv`, a sphere's and a quad's `u`, `v`
+    /// and every shape's tangents may be left out (zero): they cost
+    /// trigonometry, divisions and matrices that a material reading none of
+    /// them need not pay.
     pub fn surface_at(&self, ray: &Ray, t: f32, uv: bool) -> SurfaceHit {
         let mut slot = None;
         let r = self.in_frame(ray, &mut slot);
@@ -441,15 +476,16 @@ impl Shape {
                 let (u, v, dpdu, dpdv) = (q.dot(f.s) / tile, q.dot(f.t) / tile, f.s * tile, f.t * tile);
                 if self.plain_plane {
                     // What the general path below gives (`r` is `ray`).
+                    let (dpdu, dpdv) = if uv { (dpdu, dpdv) } else { (Vec3::ZERO, Vec3::ZERO) };
                     return SurfaceHit { t, p, pl: q, ng: normal, n: normal, u, v, dpdu, dpdv, face: 0 };
                 }
                 (q, normal, u, v, dpdu, dpdv, 0)
             }
             ShapeKind::Quad { corner, edge1, edge2 } => {
                 let q = p - corner;
-                let n = self.quad_n;
-                let (s, tt) = quad_coords(q, edge1, edge2, n, self.quad_inv_n2);
-                (q, n.normalize(), s, tt, edge1, edge2, 0)
+                let (s, tt) = if uv { quad_coords(q, edge1, edge2, self.quad_n, self.quad_inv_n2) } else { (0.0, 0.0) };
+                // The normal is `face_normals`'.
+                (q, Vec3::ZERO, s, tt, edge1, edge2, 0)
             }
             ShapeKind::Disk { center, normal, radius } => {
                 let q = p - center;
@@ -488,13 +524,17 @@ impl Shape {
                 }
             }
         };
-        let (ng, mut dpdu, mut dpdv) = match &self.placement {
-            Some(p) if !self.identity => (
-                (p.normal_matrix * n).normalize_or(Vec3::Y),
-                p.to_world.transform_vector3a(dpdu),
-                p.to_world.transform_vector3a(dpdv),
-            ),
-            _ => (n.normalize_or(Vec3::Y), dpdu, dpdv),
+        let ng = match &self.face_normals {
+            Some(normals) => normals[face as usize],
+            None => self.world_normal(n),
+        };
+        // Tangents only when asked for: a placed shape's cost two matrices.
+        let (mut dpdu, mut dpdv) = match &self.placement {
+            Some(p) if uv && !self.identity => {
+                (p.to_world.transform_vector3a(dpdu), p.to_world.transform_vector3a(dpdv))
+            }
+            _ if uv => (dpdu, dpdv),
+            _ => (Vec3::ZERO, Vec3::ZERO),
         };
         // Degenerate parametrisations (sphere poles, disk centres): any
         // tangent frame of the normal, so shaders never see a zero vector.
@@ -689,15 +729,21 @@ fn box_surface(p: Vec3, min: Vec3, max: Vec3) -> (Vec3, Vec3, f32, f32, Vec3, Ve
         }
     }
     let (sx, sy, sz) = (size.x, size.y, size.z);
-    let (n, u, v, dpdu, dpdv) = match face {
-        0 => (Vec3::NEG_X, q.z, q.y, Vec3::new(0.0, 0.0, sz), Vec3::new(0.0, sy, 0.0)),
-        1 => (Vec3::X, 1.0 - q.z, q.y, Vec3::new(0.0, 0.0, -sz), Vec3::new(0.0, sy, 0.0)),
-        2 => (Vec3::NEG_Y, q.x, q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, sz)),
-        3 => (Vec3::Y, q.x, 1.0 - q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, -sz)),
-        4 => (Vec3::NEG_Z, 1.0 - q.x, q.y, Vec3::new(-sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
-        _ => (Vec3::Z, q.x, q.y, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
+    let (u, v, dpdu, dpdv) = match face {
+        0 => (q.z, q.y, Vec3::new(0.0, 0.0, sz), Vec3::new(0.0, sy, 0.0)),
+        1 => (1.0 - q.z, q.y, Vec3::new(0.0, 0.0, -sz), Vec3::new(0.0, sy, 0.0)),
+        2 => (q.x, q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, sz)),
+        3 => (q.x, 1.0 - q.z, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, 0.0, -sz)),
+        4 => (1.0 - q.x, q.y, Vec3::new(-sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
+        _ => (q.x, q.y, Vec3::new(sx, 0.0, 0.0), Vec3::new(0.0, sy, 0.0)),
     };
-    (p, n, u.clamp(0.0, 1.0), v.clamp(0.0, 1.0), dpdu, dpdv, face as i32)
+    (p, box_face_normal(face), u.clamp(0.0, 1.0), v.clamp(0.0, 1.0), dpdu, dpdv, face as i32)
+}
+
+/// The outward normal of a box's face (numbered as in the module
+/// documentation).
+fn box_face_normal(face: usize) -> Vec3 {
+    [Vec3::NEG_X, Vec3::X, Vec3::NEG_Y, Vec3::Y, Vec3::NEG_Z, Vec3::Z][face.min(5)]
 }
 
 #[cfg(test)]

@@ -218,6 +218,71 @@ fn plain_planes_give_the_general_record() {
     assert!(plain >= 9, "{plain} plain planes");
 }
 
+/// Without `uv` a record leaves out only what `surface_at` says it may:
+/// position, normals and face are the full record's bits (a sphere's normal
+/// within an ulp), for every kind
+/// under several transforms; and the normals that quads and boxes keep per
+/// face are those of their world tangents.
+#[test]
+fn records_without_uv_keep_the_geometry() {
+    let mut next = uniform(0x51_7cc1_b727_220a);
+    let transforms = [
+        Mat4::IDENTITY,
+        Mat4::from_rotation_y(-17f32.to_radians()) * Mat4::from_scale(glam::Vec3::new(0.3, 0.61, 0.3)),
+        Mat4::from_translation(glam::Vec3::new(0.5, -0.2, 0.3))
+            * Mat4::from_rotation_y(0.7)
+            * Mat4::from_rotation_x(-0.4)
+            * Mat4::from_scale(glam::Vec3::new(1.5, 0.7, 1.2)),
+    ];
+    let kinds = [
+        ShapeKind::Sphere { center: Vec3::new(0.1, 0.2, -0.3), radius: 0.8 },
+        ShapeKind::Quad { corner: Vec3::new(-1.0, 0.0, -1.0), edge1: Vec3::new(2.0, 0.1, 0.0), edge2: Vec3::Z * 2.0 },
+        ShapeKind::Disk { center: Vec3::ZERO, normal: Vec3::new(0.3, 1.0, 0.2).normalize(), radius: 1.0 },
+        ShapeKind::Box { min: Vec3::new(-2.5, 0.0, -0.5), max: Vec3::new(-0.5, 2.0, 1.5) },
+        ShapeKind::Cylinder { base: Vec3::new(0.0, -0.5, 0.0), axis: Vec3::Y, radius: 0.6, height: 1.2 },
+        ShapeKind::Plane { point: Vec3::ZERO, normal: Vec3::Y, tile: 0.5 },
+    ];
+    let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+    for kind in kinds {
+        for transform in transforms {
+            let s = Shape::new(kind, transform).unwrap();
+            let mut faces = [false; 6];
+            for _ in 0..2000 {
+                let on = s.sample_area([next(), next()]);
+                let o = on + (Vec3::new(next(), next(), next()) - 0.5) * 8.0;
+                let r = Ray::new(o, on - o);
+                let Some(t) = s.intersect(&r, 1e-4, f32::INFINITY) else { continue };
+                let (full, lean) = (s.surface_at(&r, t, true), s.surface_at(&r, t, false));
+                assert_eq!(
+                    (full.t.to_bits(), bits(full.p), bits(full.pl)),
+                    (lean.t.to_bits(), bits(lean.p), bits(lean.pl))
+                );
+                if let ShapeKind::Sphere { .. } = kind {
+                    // Its lean normal normalises the centre offset itself
+                    // rather than divided by the radius: an ulp apart.
+                    assert!(close(full.ng, lean.ng) && full.face == lean.face, "{full:?} {lean:?}");
+                } else {
+                    assert_eq!(
+                        (bits(full.ng), bits(full.n), full.face),
+                        (bits(lean.ng), bits(lean.n), lean.face),
+                        "{kind:?}"
+                    );
+                }
+                if s.face_normals.is_some() {
+                    faces[full.face as usize] = true;
+                    assert!(close(full.ng, full.dpdu.cross(full.dpdv).normalize()), "{kind:?} {full:?}");
+                }
+            }
+            let expected = match kind {
+                ShapeKind::Box { .. } => 6,
+                ShapeKind::Quad { .. } => 1,
+                _ => 0,
+            };
+            assert_eq!(faces.iter().filter(|f| **f).count(), expected, "{kind:?}");
+        }
+    }
+}
+
 #[test]
 fn box_faces_are_numbered_and_facing_out() {
     let s = shape(ShapeKind::Box { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) });
