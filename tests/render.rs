@@ -154,6 +154,32 @@ fn open_pbr_transmission_keeps_its_energy_in_a_white_furnace() {
     assert!((0.6..=1.02).contains(&m), "a partly translucent coated open_pbr_surface at depth 64: {m}");
 }
 
+/// Light through an absorbing glass slab seen head-on keeps its Beer's-law
+/// share: a ray refracted at normal incidence goes on straight, as through
+/// a hole, but it entered the glass all the same (it was once taken for a
+/// straight pass, within 2.4 degrees of the normal, and met no medium). A
+/// slab of thickness 1 and transmittance t = 0.5 against a white
+/// background, reflections and all: F + (1 - F)^2 t / (1 - F t) with
+/// F = 0.04 at index 1.5 (1 without the absorption), for both integrators.
+#[test]
+fn glass_at_normal_incidence_is_entered_as_a_medium() {
+    let src = r#"
+        scene {
+            background gray(1);
+            camera { from (0, 0, 4); to (0, 0, 0); fov 2; }
+            render { width 8; height 8; spp 32; max_depth 16; }
+            object box { min (-5, -5, -0.5); max (5, 5, 0.5); material glass(ior: gray(1.5), transmittance: gray(0.5)); }
+        }
+    "#;
+    let (f, t) = (0.04f64, 0.5f64);
+    let want = f + (1.0 - f).powi(2) * t / (1.0 - f * t);
+    for integrator in [IntegratorKind::Whitted, IntegratorKind::Path] {
+        let image = render_src(src, ColorModel::Rgb, &Overrides { integrator: Some(integrator), ..Default::default() });
+        let got = mean(&image)[1];
+        assert!((got - want).abs() <= 0.02 * want, "{integrator:?}: {got}, want {want}");
+    }
+}
+
 /// Russian roulette weighs a path by its throughput times the squared
 /// indices it crossed (Mitsuba's and pbrt's rule): a rough dielectric's
 /// transmission divides radiance by eta² (smooth `glass`'s does not),

@@ -284,7 +284,8 @@ impl<'s, const N: usize> Tracer<'s, N> {
             }
             let (eta, _) = self.eta(&sh, &NO_MEDIA);
             let dt = object.material.at(sh.g, v3(sh.wo), &eta, &mut self.scratch).refraction_dir();
-            if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE {
+            // Light refracted into glass, even unbent, does not reach the light.
+            if !self.passes_straight(&sh, Vec3::from(dt)) {
                 return true;
             }
             through *= self.refraction(&sh, Vec3::from(dt), &ones, &eta);
@@ -553,8 +554,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
             if let Some(Refraction { dir: dt, weight: w, entering }) = lobes.refract
                 && weight * w.max_lane() >= BAILOUT
             {
-                let straight = dt.dot(-sh.wo) >= DELTA_CONE;
-                let inner = self.crossed(&sh, media, entering, straight);
+                let inner = self.crossed(&sh, media, entering, dt);
                 self.counters.secondary_rays += 1;
                 let r = spawn(sh.surface.p, sh.surface.ng, dt);
                 let next = Depth { depth: depth + 1, weight: weight * w.max_lane(), distance: here, dispersed };
@@ -656,8 +656,7 @@ impl<'s, const N: usize> Tracer<'s, N> {
                 if !sh.object.material.facts().transmits() {
                     break;
                 }
-                let straight = wi.dot(-sh.wo) >= DELTA_CONE;
-                media = self.crossed(&sh, &media, entering, straight);
+                media = self.crossed(&sh, &media, entering, wi);
                 let relative = eta.mean(N);
                 eta_scale *= relative * relative;
             }

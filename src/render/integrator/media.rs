@@ -2,7 +2,8 @@
 //! inside, the globals each was entered at, absorption along a segment,
 //! and the relative index of refraction at a crossing.
 
-use super::{Shading, Tracer, ZERO_GLOBALS};
+use super::{DELTA_CONE, Shading, Tracer, ZERO_GLOBALS};
+use crate::render::Vec3;
 use crate::render::spectrum::Spectrum;
 
 /// A medium the ray is inside: the object entered, and where the globals
@@ -78,12 +79,14 @@ impl<'s, const N: usize> Tracer<'s, N> {
         if entering { (own.safe_div(&other), true) } else { (other.safe_div(&own), false) }
     }
 
-    /// The media after crossing the surface of `sh` (entering pushes it,
-    /// leaving removes it). Straight-through crossings (eta 1, the ray not
-    /// bent: cutouts, thin sheets) are not media.
-    pub(super) fn crossed(&mut self, sh: &Shading, media: &Media, entering: bool, straight: bool) -> Media {
+    /// The media after light left the surface of `sh` along `wi` on its
+    /// other side (entering pushes it, leaving removes it). A pass straight
+    /// through a surface of index 1 (a cutout's hole, a thin sheet) enters
+    /// nothing; glass sends light straight on at normal incidence too, but
+    /// into itself: its index tells them apart.
+    pub(super) fn crossed(&mut self, sh: &Shading, media: &Media, entering: bool, wi: Vec3) -> Media {
         let mut out = *media;
-        if straight {
+        if self.passes_straight(sh, wi) {
             return out;
         }
         if entering {
@@ -106,6 +109,18 @@ impl<'s, const N: usize> Tracer<'s, N> {
             out.len -= 1;
         }
         out
+    }
+
+    /// Whether light leaving `sh` along `wi` on the far side went straight
+    /// through without crossing an interface: unbent (within
+    /// [`DELTA_CONE`]) by a surface whose own index is 1 in every lane.
+    /// The index is read only for unbent light, which is rare but for holes.
+    pub(super) fn passes_straight(&mut self, sh: &Shading, wi: Vec3) -> bool {
+        if wi.dot(-sh.wo) < DELTA_CONE {
+            return false;
+        }
+        let own = refraction_index(sh.object, sh.g, &self.ones, &mut self.scratch);
+        own.0[..self.lanes].iter().all(|e| *e == 1.0)
     }
 
     /// The relative index of refraction at `sh` (reached through `media`)
