@@ -70,10 +70,10 @@ pub struct Shape {
     /// For quads: `edge1 x edge2` and one over its squared length.
     quad_n: Vec3,
     quad_inv_n2: f32,
-    /// For quads and boxes: each face's world normal, as `surface_at`'s
-    /// general path computes it (two normalisations, and a matrix when
-    /// placed, for a normal that is the same at every hit of the face).
-    face_normals: Option<Box<[Vec3; 6]>>,
+    /// An untransformed quad whose unit normal (`frame.n`) comes through
+    /// `surface_at`'s normalisation unchanged (an axis-aligned one's does):
+    /// its hits' normal is `frame.n`, with no normalisation a hit.
+    exact_quad_normal: bool,
 }
 
 /// A transformed shape's matrices.
@@ -83,6 +83,10 @@ struct Placement {
     to_object: Mat4,
     /// Transforms normals: the inverse transpose of the linear part.
     normal_matrix: Mat3,
+    /// For quads and boxes: each face's world normal as `surface_at`'s
+    /// general path computes it (a matrix and a normalisation for a normal
+    /// that is the same at every hit of the face); a quad's is the first.
+    face_normals: Option<Box<[Vec3; 6]>>,
 }
 
 /// A padded world box around a shape whose own test is costly (a transformed
@@ -164,7 +168,12 @@ impl Shape {
         let linear = Mat3::from_mat4(to_world);
         let exactly_identity = to_world.to_cols_array().map(f32::to_bits) == IDENTITY.to_cols_array().map(f32::to_bits);
         let placement = (!exactly_identity).then(|| {
-            Box::new(Placement { to_world, to_object: to_world.inverse(), normal_matrix: linear.inverse().transpose() })
+            Box::new(Placement {
+                to_world,
+                to_object: to_world.inverse(),
+                normal_matrix: linear.inverse().transpose(),
+                face_normals: None,
+            })
         });
         let quad_n = match kind {
             ShapeKind::Quad { edge1, edge2, .. } => edge1.cross(edge2),
@@ -179,6 +188,9 @@ impl Shape {
             }
             _ => false,
         };
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let exact_quad_normal =
+            matches!(kind, ShapeKind::Quad { .. }) && identity && bits(frame.n.normalize_or(Vec3::Y)) == bits(frame.n);
         let mut shape = Shape {
             quad_n,
             quad_inv_n2: 1.0 / quad_n.length_squared(),
@@ -187,19 +199,38 @@ impl Shape {
             frame,
             identity,
             plain_plane,
-            face_normals: None,
+            exact_quad_normal,
         };
-        shape.face_normals = shape.flat_face_normals().map(Box::new);
+        let normals = shape.placed_face_normals();
+        if let Some(p) = shape.placement.as_mut() {
+            p.face_normals = normals.map(Box::new);
+        }
         Ok(shape)
     }
 
-    /// The world normals of a quad's face (in the first entry) or a box's
-    /// six, each through [`Shape::world_normal`] as a hit computes it.
-    fn flat_face_normals(&self) -> Option<[Vec3; 6]> {
+    /// The world normals of a transformed quad's face (in the first entry)
+    /// or a transformed box's six, each through [`Shape::world_normal`] as
+    /// a hit computes it.
+    fn placed_face_normals(&self) -> Option<[Vec3; 6]> {
+        if self.identity {
+            return None;
+        }
         match self.kind {
-            ShapeKind::Quad { .. } => Some([self.world_normal(self.quad_n.normalize()); 6]),
+            ShapeKind::Quad { .. } => Some([self.world_normal(self.frame.n); 6]),
             ShapeKind::Box { .. } => Some(std::array::from_fn(|face| self.world_normal(box_face_normal(face)))),
             _ => None,
+        }
+    }
+
+    /// The world normal of face `face` when it is known without work: an
+    /// untransformed box's (unit axes come through normalisation
+    /// unchanged), an exact quad's, a transformed quad's or box's kept one.
+    #[inline(always)]
+    fn flat_normal(&self, face: i32) -> Option<Vec3> {
+        match self.kind {
+            ShapeKind::Box { .. } if self.identity => Some(box_face_normal(face as usize)),
+            ShapeKind::Quad { .. } if self.exact_quad_normal => Some(self.frame.n),
+            _ => self.placement.as_ref()?.face_normals.as_ref().map(|n| n[face as usize]),
         }
     }
 
@@ -484,8 +515,8 @@ impl Shape {
             ShapeKind::Quad { corner, edge1, edge2 } => {
                 let q = p - corner;
                 let (s, tt) = if uv { quad_coords(q, edge1, edge2, self.quad_n, self.quad_inv_n2) } else { (0.0, 0.0) };
-                // The normal is `face_normals`'.
-                (q, Vec3::ZERO, s, tt, edge1, edge2, 0)
+                // `frame.n` is `edge1 x edge2` normalised.
+                (q, self.frame.n, s, tt, edge1, edge2, 0)
             }
             ShapeKind::Disk { center, normal, radius } => {
                 let q = p - center;
@@ -524,10 +555,7 @@ impl Shape {
                 }
             }
         };
-        let ng = match &self.face_normals {
-            Some(normals) => normals[face as usize],
-            None => self.world_normal(n),
-        };
+        let ng = self.flat_normal(face).unwrap_or_else(|| self.world_normal(n));
         // Tangents only when asked for: a placed shape's cost two matrices.
         let (mut dpdu, mut dpdv) = match &self.placement {
             Some(p) if uv && !self.identity => {
