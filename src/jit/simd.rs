@@ -20,7 +20,7 @@
 //! a batch repeats its last point in the unused lanes; they compute that
 //! point again and write the same bits.
 
-use super::batch::{BatchCode, BatchShape, PointLoop, column_word};
+use super::batch::{BatchCode, BatchShape, PointLoop};
 use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa, safe_div};
 use crate::globals::GLOBAL_WORDS;
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
@@ -99,34 +99,41 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     let arrays: Vec<StackSlot> = f.arrays.iter().map(|(_, len)| slot(&mut b, *len.max(&1) as usize * LANES)).collect();
 
     let lp = PointLoop::begin(&mut b, ptr);
-    let (i, points) = (lp.i, lp.points);
-    // Lane `l` shades point min(i + l, points - 1).
-    let last = b.ins().iadd_imm_s(points, -1);
-    let point: Vec<Value> = (0..LANES)
-        .map(|l| {
-            let p = b.ins().iadd_imm_u(i, l as i64);
-            b.ins().umin(p, last)
-        })
-        .collect();
-    // Gather: word k of lane l at (k * LANES + l) words into its record.
-    for (columns, record, words) in [
-        (lp.globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
-        (lp.args, records.args, (0..shape.arg_words).collect()),
-    ] {
-        for k in words {
-            for (l, &p) in point.iter().enumerate() {
-                let from = column_word(&mut b, ptr, columns, k, p);
-                let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
-                b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
+    // A whole group is the points i..i + LANES; the last group of a batch
+    // that is not a multiple of LANES repeats its last point in the lanes
+    // past the end. Both copy their words in and out apart, around one body.
+    let group = |b: &mut FunctionBuilder| {
+        let end = b.ins().iadd_imm_u(lp.i, LANES as i64);
+        let whole = b.ins().icmp(IntCC::UnsignedLessThanOrEqual, end, lp.points);
+        let (whole_b, part_b, join) = (b.create_block(), b.create_block(), b.create_block());
+        b.ins().brif(whole, whole_b, &[], part_b, &[]);
+        (whole_b, part_b, join)
+    };
+    let last = |b: &mut FunctionBuilder| b.ins().iadd_imm_s(lp.points, -1);
+    let (whole_b, part_b, body) = group(&mut b);
+    for (block, lanes) in [(whole_b, GroupLanes::Whole), (part_b, GroupLanes::UpTo)] {
+        b.switch_to_block(block);
+        let last = last(&mut b);
+        for (columns, record, words) in [
+            (lp.globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
+            (lp.args, records.args, (0..shape.arg_words).collect()),
+        ] {
+            for k in words {
+                let from = lane_words(&mut b, ptr, columns, k, lp.i, lanes, last);
+                for (l, from) in from.into_iter().enumerate() {
+                    let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
+                    b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
+                }
             }
         }
+        b.ins().jump(body, &[]);
     }
+    b.switch_to_block(body);
     let zeros = b.ins().iconst(types::I32, 0);
     let zeros = b.ins().splat(types::I32X4, zeros);
     for k in 0..shape.result_words {
         b.ins().stack_store(ptr, zeros, records.out, (16 * k) as i32);
     }
-
     let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, lp.instance);
     g.byte_shuffles = has_byte_shuffles(&*isa);
     g.x86_shuffles = g.byte_shuffles && isa.name() == "x64";
@@ -134,13 +141,20 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
 
     // Scatter: lanes in order, so a repeated last point is written last
     // by a lane that computed the same bits.
-    for k in 0..shape.result_words {
-        for (l, &p) in point.iter().enumerate() {
-            let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
-            let to = column_word(&mut b, ptr, lp.out, k, p);
-            b.ins().store(MemFlagsData::trusted(), x, to, 0);
+    let (whole_b, part_b, next) = group(&mut b);
+    for (block, lanes) in [(whole_b, GroupLanes::Whole), (part_b, GroupLanes::UpTo)] {
+        b.switch_to_block(block);
+        let last = last(&mut b);
+        for k in 0..shape.result_words {
+            let to = lane_words(&mut b, ptr, lp.out, k, lp.i, lanes, last);
+            for (l, to) in to.into_iter().enumerate() {
+                let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
+                b.ins().store(MemFlagsData::trusted(), x, to, 0);
+            }
         }
+        b.ins().jump(next, &[]);
     }
+    b.switch_to_block(next);
     lp.end(&mut b, LANES as i64);
     b.finalize(module.target_config());
 
@@ -154,6 +168,53 @@ struct Records {
     globals: StackSlot,
     args: StackSlot,
     out: StackSlot,
+}
+
+/// Which points the lanes of a group shade.
+#[derive(Clone, Copy)]
+enum GroupLanes {
+    /// Lane `l` shades point `i + l`, all inside the batch.
+    Whole,
+    /// Lane `l` shades point min(i + l, last): the batch's last group.
+    UpTo,
+}
+
+/// The addresses of column `k`'s words of the group's points, lane by lane,
+/// in the column table `columns` (a [`ColumnPtr`](super::batch::ColumnPtr)
+/// per word). The column's base and stride are read once for the lanes;
+/// a whole group's lanes are a stride apart.
+fn lane_words(
+    b: &mut FunctionBuilder,
+    ptr: Type,
+    columns: Value,
+    k: usize,
+    i: Value,
+    lanes: GroupLanes,
+    last: Value,
+) -> [Value; LANES] {
+    let table = MemFlagsData::trusted().with_readonly();
+    let at = (k * std::mem::size_of::<super::batch::ColumnPtr>()) as i32;
+    let base = b.ins().load(ptr, table, columns, at);
+    let stride = b.ins().load(ptr, table, columns, at + std::mem::size_of::<*const u32>() as i32);
+    match lanes {
+        GroupLanes::Whole => {
+            let offset = b.ins().imul(i, stride);
+            let first = b.ins().iadd(base, offset);
+            std::array::from_fn(|l| {
+                if l == 0 {
+                    return first;
+                }
+                let step = b.ins().imul_imm_s(stride, l as i64);
+                b.ins().iadd(first, step)
+            })
+        }
+        GroupLanes::UpTo => std::array::from_fn(|l| {
+            let p = b.ins().iadd_imm_u(i, l as i64);
+            let p = b.ins().umin(p, last);
+            let offset = b.ins().imul(p, stride);
+            b.ins().iadd(base, offset)
+        }),
+    }
 }
 
 /// The masks of a label: the lanes that left by `break` (and, for a loop,
@@ -594,6 +655,35 @@ impl<'a, 'b> Wide<'a, 'b> {
         words.unwrap_or_else(|| self.splat_i(0))
     }
 
+    /// `table[index & (len - 1)]` for a table of small whole floats
+    /// ([`small_whole_floats`]: `bytes` are its values as bytes): one
+    /// byte shuffle puts each lane's value in its top byte, an arithmetic
+    /// shift extends its sign and a conversion makes it the float, exactly
+    /// (noise's gradients: one shuffle where [`Wide::shuffled_table`] needs
+    /// two, and no merging of bytes).
+    fn shuffled_small_whole_floats(&mut self, bytes: &[u8], index: Value) -> Value {
+        let mask = self.splat_i(bytes.len() as i64 - 1);
+        let index = self.b.ins().band(index, mask);
+        let shifted = self.b.ins().ishl_imm_u(index, 24);
+        // The three low bytes select nothing (0x80 shuffles in a zero).
+        let out_of_range = self.splat_i(0x0080_8080);
+        let selectors = self.b.ins().bor(shifted, out_of_range);
+        let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
+        let mut plane = [0u8; 16];
+        plane[..bytes.len()].copy_from_slice(bytes);
+        let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
+        let plane = self.b.ins().vconst(types::I8X16, constant);
+        let top = if self.x86_shuffles {
+            self.b.ins().x86_pshufb(plane, selectors)
+        } else {
+            self.b.ins().swizzle(plane, selectors)
+        };
+        let top = self.b.ins().bitcast(types::I32X4, little, top);
+        let ints = self.b.ins().sshr_imm_u(top, 24);
+        self.b.ins().fcvt_from_sint(types::F32X4, ints)
+    }
+
     /// Four words as a vector of `ty`.
     fn words_as(&mut self, ty: Scalar, x: Value) -> Value {
         match ty {
@@ -632,18 +722,24 @@ impl<'a, 'b> Wide<'a, 'b> {
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
             Op::Table { table, index } if self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS => {
                 let index = self.v(*index);
+                if ty == Scalar::F32
+                    && let Some(bytes) = small_whole_floats(table)
+                {
+                    return self.shuffled_small_whole_floats(&bytes, index);
+                }
                 let words = self.shuffled_table(table, index);
                 self.words_as(ty, words)
             }
             Op::Table { table, index } => {
-                // The index masked in one vector operation, then a load
-                // per lane (an address mode each: base + index * 4).
-                let mask = self.splat_i(table.len() as i64 - 1);
+                // A load per lane (an address mode each: base + index * 4).
+                // Each lane's index is masked as a 32-bit integer: x86-64
+                // clears the upper half there, so widening it to an address
+                // costs no instruction.
                 let index = self.v(*index);
-                let index = self.b.ins().band(index, mask);
                 let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
                 self.gather(ty, |g, l| {
                     let i = g.b.ins().extractlane(index, l as u8);
+                    let i = g.b.ins().band_imm_u(i, table.len() as i64 - 1);
                     let wide = g.b.ins().uextend(g.ptr, i);
                     let offset = g.b.ins().ishl_imm_u(wide, 2);
                     let addr = g.b.ins().iadd(base, offset);
@@ -755,6 +851,18 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 }
 
+/// The values of a table whose every word is a whole float from -128 to
+/// 127 (`0.0`, not `-0.0`), as bytes; `None` for any other table.
+fn small_whole_floats(table: &[u32]) -> Option<Vec<u8>> {
+    table
+        .iter()
+        .map(|&w| {
+            let k = i8::try_from(f32::from_bits(w) as i32).ok()?;
+            (f32::from(k).to_bits() == w).then_some(k as u8)
+        })
+        .collect()
+}
+
 /// Whether `body` can send lanes to a label outside it (so lanes that
 /// entered may not all come out of its end).
 fn escapes(body: &[Inst]) -> bool {
@@ -777,6 +885,27 @@ fn escapes(body: &[Inst]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Noise's gradient tables are small whole floats (one shuffle a
+    /// lookup); a fraction, a value past a byte, a negative zero or a NaN
+    /// makes a table one that is not.
+    #[test]
+    fn small_whole_floats_are_the_tables_a_byte_holds_exactly() {
+        use crate::runtime::{GRAD1_WORDS, GRAD2_WORDS, GRAD3_WORDS};
+        for table in
+            [&GRAD1_WORDS[..], &GRAD2_WORDS[0], &GRAD2_WORDS[1], &GRAD3_WORDS[0], &GRAD3_WORDS[1], &GRAD3_WORDS[2]]
+        {
+            let bytes = small_whole_floats(table).expect("whole floats");
+            for (b, w) in bytes.iter().zip(table) {
+                assert_eq!(f32::from(*b as i8).to_bits(), *w);
+            }
+        }
+        let words = |xs: &[f32]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        assert_eq!(small_whole_floats(&words(&[-128.0, 127.0, 0.0, -1.0])), Some(vec![0x80, 0x7f, 0, 0xff]));
+        for bad in [0.5, 128.0, -129.0, -0.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(small_whole_floats(&words(&[1.0, bad])), None, "{bad}");
+        }
+    }
 
     /// The flag is read by its Cranelift name: a misspelt name would
     /// quietly gather every table (`tests/batch.rs` checks the bits).
