@@ -48,6 +48,8 @@ pub type BatchFn = unsafe extern "C" fn(
 pub struct BatchCode {
     module: Option<JITModule>,
     entry: BatchFn,
+    /// Data the code reads by address (tables it copied), freed with it.
+    tables: Vec<Box<[u32]>>,
 }
 
 // SAFETY: as for `Jit`: after `finalize_definitions` the code is immutable
@@ -82,7 +84,13 @@ impl BatchCode {
         // SAFETY: the caller defined it with the platform C ABI taking five
         // pointer-sized values and returning nothing: exactly `BatchFn`.
         let entry = unsafe { std::mem::transmute::<*const u8, BatchFn>(code) };
-        Ok(BatchCode { module: Some(module), entry })
+        Ok(BatchCode { module: Some(module), entry, tables: Vec::new() })
+    }
+
+    /// The code, keeping `tables` alive as long as it is: it reads them.
+    pub(super) fn keeping(mut self, tables: Vec<Box<[u32]>>) -> BatchCode {
+        self.tables = tables;
+        self
     }
 
     pub fn entry(&self) -> BatchFn {

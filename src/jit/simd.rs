@@ -138,6 +138,7 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     g.byte_shuffles = has_byte_shuffles(&*isa);
     g.x86_shuffles = g.byte_shuffles && isa.name() == "x64";
     g.body(&f.body);
+    let tables = std::mem::take(&mut g.padded);
 
     // Scatter: lanes in order, so a repeated last point is written last
     // by a lane that computed the same bits.
@@ -158,7 +159,7 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     lp.end(&mut b, LANES as i64);
     b.finalize(module.target_config());
 
-    BatchCode::define(module, id, &mut ctx, "a vector batch entry")
+    Ok(BatchCode::define(module, id, &mut ctx, "a vector batch entry")?.keeping(tables))
 }
 
 /// The stack records of one group of points: word `k` of lane `l` at word
@@ -250,6 +251,15 @@ struct Wide<'a, 'b> {
     byte_shuffles: bool,
     /// Whether those shuffles are x86's `pshufb` (SSSE3).
     x86_shuffles: bool,
+    /// The operation defining each value (to find lookups of adjacent words).
+    defs: HashMap<ir::Value, &'a Op>,
+    /// Lookups gathered together with the lookup of the next word, by the
+    /// value of the first: the second's value ([`Wide::pair_lookups`]).
+    paired: HashMap<ir::Value, ir::Value>,
+    /// Copies of the tables looked up in pairs with their first word again
+    /// at the end, by the address of the table; the code reads them.
+    padded: Vec<Box<[u32]>>,
+    padded_index: HashMap<*const u32, usize>,
 }
 
 /// Whether a byte shuffle is one instruction on `isa`: x86-64 without
@@ -297,7 +307,16 @@ impl<'a, 'b> Wide<'a, 'b> {
             instance,
             byte_shuffles: false,
             x86_shuffles: false,
+            defs: HashMap::new(),
+            paired: HashMap::new(),
+            padded: Vec::new(),
+            padded_index: HashMap::new(),
         };
+        ir::for_each_inst(&func.body, &mut |inst| {
+            if let Inst::Def(v, op) = inst {
+                g.defs.insert(*v, op);
+            }
+        });
         let max = g.splat_i(MAX_CALL_ITERATIONS);
         g.b.def_var(budget, max);
         let all = g.splat_i(-1);
@@ -356,9 +375,133 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 
     fn body(&mut self, body: &[Inst]) {
+        self.pair_lookups(body);
         for inst in body {
             self.inst(inst);
         }
+    }
+
+    /// Whether lookups in `table` are byte shuffles ([`Wide::shuffled_table`]).
+    fn shuffles(&self, table: &[u32]) -> bool {
+        self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS
+    }
+
+    /// Pairs each gathered lookup of `body` (at its top level) with a later
+    /// one of the next word of the same table, when the index's definitions
+    /// show it is the next ([`Wide::is_successor`]): noise's permutation
+    /// is looked up at i and i + 1 on every axis. A pair is gathered
+    /// together, a 64-bit load a lane ([`Wide::paired_gather`]).
+    fn pair_lookups(&mut self, body: &[Inst]) {
+        // How far after a lookup its partner is looked for (noise's are
+        // at most 8 lookups apart).
+        const WINDOW: usize = 16;
+        if !self.byte_shuffles {
+            return;
+        }
+        let lookups: Vec<(ir::Value, &'static [u32], ir::Value)> = body
+            .iter()
+            .filter_map(|inst| match inst {
+                Inst::Def(v, Op::Table { table, index }) if !self.shuffles(table) && table.len() >= 2 => {
+                    Some((*v, *table, *index))
+                }
+                _ => None,
+            })
+            .collect();
+        let mut taken = vec![false; lookups.len()];
+        for i in 0..lookups.len() {
+            let (first, table, index) = lookups[i];
+            if taken[i] {
+                continue;
+            }
+            let partner = (i + 1..lookups.len()).take(WINDOW).find(|&j| {
+                !taken[j] && std::ptr::eq(lookups[j].1, table) && self.is_successor(index, lookups[j].2, table.len(), 4)
+            });
+            if let Some(j) = partner {
+                taken[i] = true;
+                taken[j] = true;
+                self.paired.insert(first, lookups[j].0);
+            }
+        }
+    }
+
+    /// Whether `b` is `a + 1` modulo `len` (a power of two) by the form of
+    /// their definitions, looking `depth` definitions deep: `b = a + 1`,
+    /// `b = x & m` with `x` the successor and `m`'s low bits all ones, or
+    /// `a = p + q` and `b = p + r` with `r` the successor of `q`.
+    fn is_successor(&self, a: ir::Value, b: ir::Value, len: usize, depth: u32) -> bool {
+        if depth == 0 {
+            return false;
+        }
+        let constant = |v: ir::Value| match self.defs.get(&v) {
+            Some(Op::I32(c)) => Some(*c),
+            _ => None,
+        };
+        let keeps_index = |m: ir::Value| constant(m).is_some_and(|c| (c as u32 as usize) & (len - 1) == len - 1);
+        match self.defs.get(&b) {
+            Some(Op::Binary(BinOp::IAnd, x, y)) => {
+                (keeps_index(*y) && self.is_successor(a, *x, len, depth - 1))
+                    || (keeps_index(*x) && self.is_successor(a, *y, len, depth - 1))
+            }
+            Some(Op::Binary(BinOp::IAdd, x, y)) => {
+                if (*x == a && constant(*y) == Some(1)) || (*y == a && constant(*x) == Some(1)) {
+                    return true;
+                }
+                let Some(Op::Binary(BinOp::IAdd, p, q)) = self.defs.get(&a) else { return false };
+                [(p, q), (q, p)].into_iter().any(|(same, before)| {
+                    [(x, y), (y, x)]
+                        .into_iter()
+                        .any(|(shared, after)| same == shared && self.is_successor(*before, *after, len, depth - 1))
+                })
+            }
+            _ => false,
+        }
+    }
+
+    /// The address of `table` with its first word again after its last,
+    /// copied once per table and kept with the code.
+    fn padded_table(&mut self, table: &[u32]) -> i64 {
+        let k = *self.padded_index.entry(table.as_ptr()).or_insert_with(|| {
+            let mut words = table.to_vec();
+            words.push(table[0]);
+            self.padded.push(words.into_boxed_slice());
+            self.padded.len() - 1
+        });
+        self.padded[k].as_ptr() as i64
+    }
+
+    /// `table[index & (len - 1)]` and `table[(index + 1) & (len - 1)]`:
+    /// one 64-bit load a lane from the padded copy of the table, the pairs
+    /// then split into the first words and the second words (two `shufps`),
+    /// where two gathers load and insert a word at a time.
+    fn paired_gather(&mut self, table: &[u32], index: Value) -> [Value; 2] {
+        let base = self.padded_table(table);
+        let base = self.b.ins().iconst(self.ptr, base);
+        let readonly = MemFlagsData::new().with_notrap().with_readonly().with_can_move();
+        let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let halves: [Value; 2] = [0, 1].map(|h| {
+            let mut pairs = None;
+            for l in [2 * h, 2 * h + 1] {
+                let i = self.b.ins().extractlane(index, l as u8);
+                let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
+                let wide = self.b.ins().uextend(self.ptr, i);
+                let offset = self.b.ins().ishl_imm_u(wide, 2);
+                let addr = self.b.ins().iadd(base, offset);
+                let pair = self.b.ins().load(types::I64, readonly, addr, 0);
+                pairs = Some(match pairs {
+                    None => self.b.ins().scalar_to_vector(types::I64X2, pair),
+                    Some(v) => self.b.ins().insertlane(v, pair, 1),
+                });
+            }
+            let pairs = pairs.expect("two lanes");
+            self.b.ins().bitcast(types::I8X16, little, pairs)
+        });
+        // Words 0..8 of the two halves: lane l's pair is words 2l and 2l + 1.
+        [0, 1].map(|second| {
+            let bytes: Vec<u8> = (0..4).flat_map(|l| (0..4).map(move |k| (4 * (2 * l + second) + k) as u8)).collect();
+            let mask = self.b.func.dfg.immediates.push(bytes.into());
+            let words = self.b.ins().shuffle(halves[0], halves[1], mask);
+            self.b.ins().bitcast(types::I32X4, little, words)
+        })
     }
 
     /// The address of word `index` (clamped into the array) of lane `l`'s
@@ -418,6 +561,17 @@ impl<'a, 'b> Wide<'a, 'b> {
     fn inst(&mut self, inst: &Inst) {
         let trusted = MemFlagsData::trusted();
         match inst {
+            // The second of a pair, gathered with the first.
+            Inst::Def(v, _) if self.values[v.0 as usize].is_some() => {}
+            Inst::Def(v, Op::Table { table, index }) if self.paired.contains_key(v) => {
+                let second = self.paired[v];
+                let index = self.v(*index);
+                let [x, y] = self.paired_gather(table, index);
+                for (value, words) in [(*v, x), (second, y)] {
+                    let ty = self.func.value_type(value);
+                    self.values[value.0 as usize] = Some(self.words_as(ty, words));
+                }
+            }
             Inst::Def(v, op) => {
                 let ty = self.func.value_type(*v);
                 let x = self.op(op, ty);
@@ -720,7 +874,7 @@ impl<'a, 'b> Wide<'a, 'b> {
                 }
             }
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
-            Op::Table { table, index } if self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS => {
+            Op::Table { table, index } if self.shuffles(table) => {
                 let index = self.v(*index);
                 if ty == Scalar::F32
                     && let Some(bytes) = small_whole_floats(table)
