@@ -98,7 +98,32 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     };
     let arrays: Vec<StackSlot> = f.arrays.iter().map(|(_, len)| slot(&mut b, *len.max(&1) as usize * LANES)).collect();
 
-    let lp = PointLoop::begin(&mut b, ptr);
+    let inputs = |globals: Value, args: Value| {
+        [
+            (globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
+            (args, records.args, (0..shape.arg_words).collect()),
+        ]
+    };
+    // A column of stride 0 (one value for every point) is copied into its
+    // record once, before the loop, and not again for each group.
+    let lp = PointLoop::begin(&mut b, ptr, |b, [globals, args, _, _, points]| {
+        let any = b.ins().icmp_imm_u(IntCC::NotEqual, points, 0);
+        for (columns, record, words) in inputs(globals, args) {
+            for k in words {
+                let (base, stride) = column(b, ptr, columns, k);
+                let uniform = b.ins().icmp_imm_u(IntCC::Equal, stride, 0);
+                let uniform = b.ins().band(uniform, any);
+                let (copy, next) = (b.create_block(), b.create_block());
+                b.ins().brif(uniform, copy, &[], next, &[]);
+                b.switch_to_block(copy);
+                let x = b.ins().load(types::I32, MemFlagsData::trusted(), base, 0);
+                let x = b.ins().splat(types::I32X4, x);
+                b.ins().stack_store(ptr, x, record, (16 * k) as i32);
+                b.ins().jump(next, &[]);
+                b.switch_to_block(next);
+            }
+        }
+    });
     // A whole group is the points i..i + LANES; the last group of a batch
     // that is not a multiple of LANES repeats its last point in the lanes
     // past the end. Both copy their words in and out apart, around one body.
@@ -114,16 +139,19 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     for (block, lanes) in [(whole_b, GroupLanes::Whole), (part_b, GroupLanes::UpTo)] {
         b.switch_to_block(block);
         let last = last(&mut b);
-        for (columns, record, words) in [
-            (lp.globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
-            (lp.args, records.args, (0..shape.arg_words).collect()),
-        ] {
+        for (columns, record, words) in inputs(lp.globals, lp.args) {
             for k in words {
-                let from = lane_words(&mut b, ptr, columns, k, lp.i, lanes, last);
+                let (base, stride) = column(&mut b, ptr, columns, k);
+                let (read, next) = (b.create_block(), b.create_block());
+                b.ins().brif(stride, read, &[], next, &[]);
+                b.switch_to_block(read);
+                let from = lane_words(&mut b, base, stride, lp.i, lanes, last);
                 for (l, from) in from.into_iter().enumerate() {
                     let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
                     b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
                 }
+                b.ins().jump(next, &[]);
+                b.switch_to_block(next);
             }
         }
         b.ins().jump(body, &[]);
@@ -147,7 +175,8 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
         b.switch_to_block(block);
         let last = last(&mut b);
         for k in 0..shape.result_words {
-            let to = lane_words(&mut b, ptr, lp.out, k, lp.i, lanes, last);
+            let (base, stride) = column(&mut b, ptr, lp.out, k);
+            let to = lane_words(&mut b, base, stride, lp.i, lanes, last);
             for (l, to) in to.into_iter().enumerate() {
                 let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
                 b.ins().store(MemFlagsData::trusted(), x, to, 0);
@@ -180,23 +209,26 @@ enum GroupLanes {
     UpTo,
 }
 
-/// The addresses of column `k`'s words of the group's points, lane by lane,
-/// in the column table `columns` (a [`ColumnPtr`](super::batch::ColumnPtr)
-/// per word). The column's base and stride are read once for the lanes;
-/// a whole group's lanes are a stride apart.
-fn lane_words(
-    b: &mut FunctionBuilder,
-    ptr: Type,
-    columns: Value,
-    k: usize,
-    i: Value,
-    lanes: GroupLanes,
-    last: Value,
-) -> [Value; LANES] {
+/// The base and the stride of column `k` of the column table `columns` (a
+/// [`ColumnPtr`](super::batch::ColumnPtr) per word).
+fn column(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize) -> (Value, Value) {
     let table = MemFlagsData::trusted().with_readonly();
     let at = (k * std::mem::size_of::<super::batch::ColumnPtr>()) as i32;
     let base = b.ins().load(ptr, table, columns, at);
     let stride = b.ins().load(ptr, table, columns, at + std::mem::size_of::<*const u32>() as i32);
+    (base, stride)
+}
+
+/// The addresses of a column's words of the group's points, lane by lane;
+/// a whole group's lanes are a stride apart.
+fn lane_words(
+    b: &mut FunctionBuilder,
+    base: Value,
+    stride: Value,
+    i: Value,
+    lanes: GroupLanes,
+    last: Value,
+) -> [Value; LANES] {
     match lanes {
         GroupLanes::Whole => {
             let offset = b.ins().imul(i, stride);
