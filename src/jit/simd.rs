@@ -29,7 +29,7 @@ use crate::runtime::natives;
 use cranelift_codegen::Context;
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{
-    AbiParam, Endianness, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData, StackSlotKind, Type,
+    AbiParam, Endianness, FuncRef, InstBuilder, MemFlagsData, Opcode, StackSlot, StackSlotData, StackSlotKind, Type,
     UserFuncName, Value, types,
 };
 use cranelift_codegen::isa::TargetIsa;
@@ -384,10 +384,34 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 
     /// `new` in the lanes of `mask`, `old` elsewhere.
+    ///
+    /// Cranelift blends in one instruction (`pblendvb`) where it sees that
+    /// the mask is whole lanes: the result of a comparison, of the blend's
+    /// own type. So the blend is of integer lanes, and a mask computed
+    /// otherwise (the lanes that run, `and` of bools) is compared with zero
+    /// first: two instructions where `and`, `andn` and `or` are three, and
+    /// one comparison serves every blend under the same mask in a block.
     fn blend(&mut self, mask: Value, new: Value, old: Value) -> Value {
         let ty = self.b.func.dfg.value_type(new);
-        let mask = if ty == types::I32X4 { mask } else { self.b.ins().bitcast(ty, MemFlagsData::new(), mask) };
-        self.b.ins().bitselect(mask, new, old)
+        let compared = self
+            .b
+            .func
+            .dfg
+            .value_def(mask)
+            .inst()
+            .is_some_and(|i| matches!(self.b.func.dfg.insts[i].opcode(), Opcode::Icmp | Opcode::Fcmp));
+        let mask = if compared {
+            mask
+        } else {
+            let zero = self.splat_i(0);
+            self.b.ins().icmp(IntCC::SignedLessThan, mask, zero)
+        };
+        let as_ints = |g: &mut Self, x: Value| {
+            if ty == types::I32X4 { x } else { g.b.ins().bitcast(types::I32X4, MemFlagsData::new(), x) }
+        };
+        let (new, old) = (as_ints(self, new), as_ints(self, old));
+        let x = self.b.ins().bitselect(mask, new, old);
+        if ty == types::I32X4 { x } else { self.b.ins().bitcast(ty, MemFlagsData::new(), x) }
     }
 
     /// `new` where the code runs, `old` elsewhere (no blend when every
