@@ -141,10 +141,11 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
         let last = last(&mut b);
         for (columns, record, words) in inputs(lp.globals, lp.args) {
             for k in words {
-                let (base, stride) = column(&mut b, ptr, columns, k);
+                let stride = column_field(&mut b, ptr, columns, k, 1);
                 let (read, next) = (b.create_block(), b.create_block());
                 b.ins().brif(stride, read, &[], next, &[]);
                 b.switch_to_block(read);
+                let base = column_field(&mut b, ptr, columns, k, 0);
                 let from = lane_words(&mut b, base, stride, lp.i, lanes, last);
                 for (l, from) in from.into_iter().enumerate() {
                     let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
@@ -177,8 +178,11 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
         for k in 0..shape.result_words {
             let (base, stride) = column(&mut b, ptr, lp.out, k);
             let to = lane_words(&mut b, base, stride, lp.i, lanes, last);
+            // One load of the word's vector; each lane is stored from it
+            // (`pextrd` to memory).
+            let words = b.ins().stack_load(ptr, types::I32X4, records.out, (16 * k) as i32);
             for (l, to) in to.into_iter().enumerate() {
-                let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
+                let x = b.ins().extractlane(words, l as u8);
                 b.ins().store(MemFlagsData::trusted(), x, to, 0);
             }
         }
@@ -212,11 +216,14 @@ enum GroupLanes {
 /// The base and the stride of column `k` of the column table `columns` (a
 /// [`ColumnPtr`](super::batch::ColumnPtr) per word).
 fn column(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize) -> (Value, Value) {
+    (column_field(b, ptr, columns, k, 0), column_field(b, ptr, columns, k, 1))
+}
+
+/// Field `field` of column `k` (0: the base, 1: the stride).
+fn column_field(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize, field: usize) -> Value {
     let table = MemFlagsData::trusted().with_readonly();
-    let at = (k * std::mem::size_of::<super::batch::ColumnPtr>()) as i32;
-    let base = b.ins().load(ptr, table, columns, at);
-    let stride = b.ins().load(ptr, table, columns, at + std::mem::size_of::<*const u32>() as i32);
-    (base, stride)
+    let at = k * std::mem::size_of::<super::batch::ColumnPtr>() + field * std::mem::size_of::<*const u32>();
+    b.ins().load(ptr, table, columns, at as i32)
 }
 
 /// The addresses of a column's words of the group's points, lane by lane;
