@@ -299,6 +299,9 @@ struct Wide<'a, 'b> {
     /// at the end, by the address of the table; the code reads them.
     padded: Vec<Box<[u32]>>,
     padded_index: HashMap<*const u32, usize>,
+    /// Sixteen bytes of stack for one vector of lookup indices
+    /// ([`Wide::table_indices`]), made at the first use.
+    indices: Option<StackSlot>,
 }
 
 /// Whether a byte shuffle is one instruction on `isa`: x86-64 without
@@ -350,6 +353,7 @@ impl<'a, 'b> Wide<'a, 'b> {
             paired: HashMap::new(),
             padded: Vec::new(),
             padded_index: HashMap::new(),
+            indices: None,
         };
         ir::for_each_inst(&func.body, &mut |inst| {
             if let Inst::Def(v, op) = inst {
@@ -520,6 +524,29 @@ impl<'a, 'b> Wide<'a, 'b> {
         }
     }
 
+    /// Each lane's `index & (len - 1)` as an address-sized integer. Lane by
+    /// lane, an extraction and a 32-bit `and` (x86-64 clears the upper half
+    /// there, so widening costs no instruction); for a table of 256 words
+    /// (noise's permutation) on x86-64 the index is its low byte: the
+    /// vector is stored once and each lane's first byte loaded
+    /// zero-extended, one instruction a lane where the other way is two.
+    fn table_indices(&mut self, index: Value, len: usize) -> [Value; LANES] {
+        // x86-64 only: its vectors' lanes are stored in order, little-endian.
+        if len == 256 && self.x86_shuffles {
+            let slot = *self.indices.get_or_insert_with(|| {
+                self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 4))
+            });
+            self.b.ins().stack_store(self.ptr, index, slot, 0);
+            let at = self.b.ins().stack_addr(self.ptr, slot, 0);
+            return std::array::from_fn(|l| self.b.ins().uload8(self.ptr, MemFlagsData::trusted(), at, 4 * l as i32));
+        }
+        std::array::from_fn(|l| {
+            let i = self.b.ins().extractlane(index, l as u8);
+            let i = self.b.ins().band_imm_u(i, len as i64 - 1);
+            self.b.ins().uextend(self.ptr, i)
+        })
+    }
+
     /// The address of `table` with its first word again after its last,
     /// copied once per table and kept with the code.
     fn padded_table(&mut self, table: &[u32]) -> i64 {
@@ -541,13 +568,11 @@ impl<'a, 'b> Wide<'a, 'b> {
         let base = self.b.ins().iconst(self.ptr, base);
         let readonly = MemFlagsData::new().with_notrap().with_readonly().with_can_move();
         let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let indices = self.table_indices(index, table.len());
         let halves: [Value; 2] = [0, 1].map(|h| {
             let mut pairs = None;
             for l in [2 * h, 2 * h + 1] {
-                let i = self.b.ins().extractlane(index, l as u8);
-                let i = self.b.ins().band_imm_u(i, table.len() as i64 - 1);
-                let wide = self.b.ins().uextend(self.ptr, i);
-                let offset = self.b.ins().ishl_imm_u(wide, 2);
+                let offset = self.b.ins().ishl_imm_u(indices[l], 2);
                 let addr = self.b.ins().iadd(base, offset);
                 let pair = self.b.ins().load(types::I64, readonly, addr, 0);
                 pairs = Some(match pairs {
@@ -954,11 +979,9 @@ impl<'a, 'b> Wide<'a, 'b> {
                 // costs no instruction.
                 let index = self.v(*index);
                 let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
+                let indices = self.table_indices(index, table.len());
                 self.gather(ty, |g, l| {
-                    let i = g.b.ins().extractlane(index, l as u8);
-                    let i = g.b.ins().band_imm_u(i, table.len() as i64 - 1);
-                    let wide = g.b.ins().uextend(g.ptr, i);
-                    let offset = g.b.ins().ishl_imm_u(wide, 2);
+                    let offset = g.b.ins().ishl_imm_u(indices[l], 2);
                     let addr = g.b.ins().iadd(base, offset);
                     g.b.ins().load(types::I32, readonly, addr, 0)
                 })
