@@ -158,6 +158,35 @@ fn noise_batches_give_the_bits_of_noise_point_by_point() {
     }
 }
 
+/// Noise at lattice cells on the edges of its tables: the permutation's
+/// first and last entries (cells 0 and 255, and -1 and 256, which wrap to
+/// them), the ends of its first 16-entry chunk (15, 16), each lane of a
+/// group at a different edge, in a batch whose last group is not whole.
+#[test]
+fn noise_batches_at_the_edges_of_the_tables_give_the_bits_point_by_point() {
+    let src = "float n1() { return noise(P.x); }
+               float n2() { return noise(vec2(P.x, P.y)); }
+               float n3() { return noise(P); }";
+    let program = program(src, ColorModel::Rgb);
+    let cells = [0.0f32, 15.0, 16.0, 255.0, -1.0, 256.0, 1.0, 254.0, -256.0, 511.0];
+    let mut rng = Rng(0xed9e);
+    let p: Vec<[f32; 3]> = (0..4 * 61 + 3)
+        .map(|_| [0, 1, 2].map(|_| cells[rng.next() as usize % cells.len()] + rng.range(0.0, 1.0)))
+        .collect();
+    let mut batch = ShadingBatch::new(p.len());
+    batch.set_vectors("P", &p).unwrap();
+    for name in ["n1", "n2", "n3"] {
+        let f = program.function(name).unwrap();
+        let mut out = vec![0u32; p.len()];
+        f.call_batch(Backend::Jit, &batch, &[], &mut out, Layout::WordMajor).unwrap();
+        for (i, got) in out.iter().enumerate() {
+            let mut want = [0u32];
+            f.call_words(Backend::Jit, &batch.point(i), &[], &mut want).unwrap();
+            assert_eq!(*got, want[0], "{name} at {:?}", p[i]);
+        }
+    }
+}
+
 #[test]
 fn typed_batches_give_the_values_of_typed_calls() {
     let program = program(GENERATORS, ColorModel::Rgb);

@@ -176,8 +176,11 @@ impl<'a> SurfaceBatch<'a> {
         }
     }
 
-    fn colors(&self, words: &[u32]) -> ColorBatch {
-        ColorBatch { lanes: self.lanes(), values: words.iter().map(|w| f32::from_bits(*w)).collect() }
+    /// The result words as colors, in the words' own allocation (a
+    /// collect from a vector's iterator into one of the same layout reuses
+    /// it): a batch's results are not copied again.
+    fn colors(&self, words: Vec<u32>) -> ColorBatch {
+        ColorBatch { lanes: self.lanes(), values: words.into_iter().map(f32::from_bits).collect() }
     }
 
     fn check_lanes(&self, name: &str, columns: &[Column]) -> Result<(), Error> {
@@ -198,7 +201,7 @@ impl<'a> SurfaceBatch<'a> {
         self.check_lanes("light", light)?;
         let (own, args) = (cat(&[&wi, light]), cat(&[&wi, light, &self.wo]));
         let out = self.method(Method::Reflection, &own, &args, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::refraction`] at every point.
@@ -206,7 +209,7 @@ impl<'a> SurfaceBatch<'a> {
         self.check_lanes("light", light)?;
         let args = cat(&[&wi, light, &self.eta, &self.wo]);
         let out = self.method(Method::Refraction, &[], &args, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::refraction_index`] at every point.
@@ -219,7 +222,7 @@ impl<'a> SurfaceBatch<'a> {
             return Ok(c);
         }
         let out = self.method(Method::RefractionIndex, &[], &[], self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::reflection_dir`] at every point.
@@ -241,7 +244,7 @@ impl<'a> SurfaceBatch<'a> {
         }
         let wo = self.wo;
         let out = self.method(Method::Emission, &[], &wo, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::albedo`] at every point: the fraction of light from `wo`
@@ -249,14 +252,14 @@ impl<'a> SurfaceBatch<'a> {
     pub fn albedo(&mut self) -> Result<ColorBatch, Error> {
         let wo = self.wo;
         let out = self.method(Method::Albedo, &[], &wo, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::ambient`] at every point.
     pub fn ambient(&mut self, light: &[Column<'_>]) -> Result<ColorBatch, Error> {
         self.check_lanes("light", light)?;
         let out = self.method(Method::Ambient, &[], light, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::absorption`] at every point.
@@ -278,7 +281,7 @@ impl<'a> SurfaceBatch<'a> {
         }
         let args = cat(&[light, &[distance]]);
         let out = self.method(Method::Absorption, &[], &args, self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::normal`] at every point.
@@ -289,7 +292,7 @@ impl<'a> SurfaceBatch<'a> {
     /// [`Surface::diffuse`] at every point.
     pub fn diffuse(&mut self) -> Result<ColorBatch, Error> {
         let out = self.method(Method::Diffuse, &[], &[], self.lanes())?;
-        Ok(self.colors(&out))
+        Ok(self.colors(out))
     }
 
     /// [`Surface::opaque`] at every point.
@@ -311,7 +314,7 @@ impl<'a> SurfaceBatch<'a> {
         let points = || out.chunks_exact(words);
         Ok(SampleBatch {
             wi: points().map(|p| vector(&p[SampleLayout::WI])).collect(),
-            weight: self.colors(&points().flat_map(|p| &p[layout.weight()]).copied().collect::<Vec<u32>>()),
+            weight: self.colors(points().flat_map(|p| &p[layout.weight()]).copied().collect::<Vec<u32>>()),
             pdf: points().map(|p| f32::from_bits(p[layout.pdf()])).collect(),
             delta: points().map(|p| f32::from_bits(p[layout.delta()]) > 0.0).collect(),
         })
@@ -338,7 +341,7 @@ impl<'a> SurfaceBatch<'a> {
         if let Some(out) = out {
             let points = || out.chunks_exact(words);
             return Ok(EvalPdfBatch {
-                value: self.colors(&points().flat_map(|p| &p[layout.value()]).copied().collect::<Vec<u32>>()),
+                value: self.colors(points().flat_map(|p| &p[layout.value()]).copied().collect::<Vec<u32>>()),
                 pdf: points().map(|p| f32::from_bits(p[layout.pdf()])).collect(),
             });
         }
@@ -388,7 +391,7 @@ impl<'a> SurfaceBatch<'a> {
             Some(out) => {
                 let points = || out.chunks_exact(words);
                 let weight = |range: std::ops::Range<usize>| {
-                    self.colors(&points().flat_map(|p| &p[range.clone()]).copied().collect::<Vec<u32>>())
+                    self.colors(points().flat_map(|p| &p[range.clone()]).copied().collect::<Vec<u32>>())
                 };
                 DeltaLobesBatch {
                     reflect_dir: points().map(|p| vector(&p[DeltaLobesLayout::REFLECT_DIR])).collect(),

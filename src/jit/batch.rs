@@ -48,6 +48,8 @@ pub type BatchFn = unsafe extern "C" fn(
 pub struct BatchCode {
     module: Option<JITModule>,
     entry: BatchFn,
+    /// Data the code reads by address (tables it copied), freed with it.
+    tables: Vec<Box<[u32]>>,
 }
 
 // SAFETY: as for `Jit`: after `finalize_definitions` the code is immutable
@@ -82,7 +84,13 @@ impl BatchCode {
         // SAFETY: the caller defined it with the platform C ABI taking five
         // pointer-sized values and returning nothing: exactly `BatchFn`.
         let entry = unsafe { std::mem::transmute::<*const u8, BatchFn>(code) };
-        Ok(BatchCode { module: Some(module), entry })
+        Ok(BatchCode { module: Some(module), entry, tables: Vec::new() })
+    }
+
+    /// The code, keeping `tables` alive as long as it is: it reads them.
+    pub(super) fn keeping(mut self, tables: Vec<Box<[u32]>>) -> BatchCode {
+        self.tables = tables;
+        self
     }
 
     pub fn entry(&self) -> BatchFn {
@@ -130,7 +138,7 @@ pub unsafe fn compile_batch(point: EntryFn, shape: &BatchShape) -> Result<BatchC
     );
     let point_sig = b.import_signature(point_sig);
 
-    let l = PointLoop::begin(&mut b, ptr);
+    let l = PointLoop::begin(&mut b, ptr, |_, _| {});
     let i = l.i;
     for &w in shape.globals_read {
         let from = column_word(&mut b, ptr, l.globals, w as usize, i);
@@ -172,14 +180,21 @@ pub(super) struct PointLoop {
 }
 
 impl PointLoop {
-    /// Emits the entry and the loop's test (`i < points`); leaves `b` in
-    /// the loop's body.
-    pub(super) fn begin(b: &mut FunctionBuilder, ptr: Type) -> PointLoop {
+    /// Emits the entry, `prologue` (given the entry's parameters: globals,
+    /// args, out, instance, points) and the loop's test (`i < points`);
+    /// leaves `b` in the loop's body.
+    pub(super) fn begin(
+        b: &mut FunctionBuilder,
+        ptr: Type,
+        prologue: impl FnOnce(&mut FunctionBuilder, [Value; 5]),
+    ) -> PointLoop {
         let (entry, header, body, exit) = (b.create_block(), b.create_block(), b.create_block(), b.create_block());
         b.append_block_params_for_function_params(entry);
         b.append_block_param(header, ptr);
         b.switch_to_block(entry);
-        let [globals, args, out, instance, points] = b.block_params(entry).try_into().expect("five parameters");
+        let params: [Value; 5] = b.block_params(entry).try_into().expect("five parameters");
+        let [globals, args, out, instance, points] = params;
+        prologue(b, params);
         let zero = b.ins().iconst(ptr, 0);
         b.ins().jump(header, &[zero.into()]);
         b.switch_to_block(header);

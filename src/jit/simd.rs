@@ -20,7 +20,7 @@
 //! a batch repeats its last point in the unused lanes; they compute that
 //! point again and write the same bits.
 
-use super::batch::{BatchCode, BatchShape, PointLoop, column_word};
+use super::batch::{BatchCode, BatchShape, PointLoop};
 use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa, safe_div};
 use crate::globals::GLOBAL_WORDS;
 use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
@@ -29,7 +29,7 @@ use crate::runtime::natives;
 use cranelift_codegen::Context;
 use cranelift_codegen::ir::condcodes::{FloatCC, IntCC};
 use cranelift_codegen::ir::{
-    AbiParam, Endianness, FuncRef, InstBuilder, MemFlagsData, StackSlot, StackSlotData, StackSlotKind, Type,
+    AbiParam, Endianness, FuncRef, InstBuilder, MemFlagsData, Opcode, StackSlot, StackSlotData, StackSlotKind, Type,
     UserFuncName, Value, types,
 };
 use cranelift_codegen::isa::TargetIsa;
@@ -98,53 +98,101 @@ pub fn compile_batch_simd(f: &ir::Function, shape: &BatchShape) -> Result<BatchC
     };
     let arrays: Vec<StackSlot> = f.arrays.iter().map(|(_, len)| slot(&mut b, *len.max(&1) as usize * LANES)).collect();
 
-    let lp = PointLoop::begin(&mut b, ptr);
-    let (i, points) = (lp.i, lp.points);
-    // Lane `l` shades point min(i + l, points - 1).
-    let last = b.ins().iadd_imm_s(points, -1);
-    let point: Vec<Value> = (0..LANES)
-        .map(|l| {
-            let p = b.ins().iadd_imm_u(i, l as i64);
-            b.ins().umin(p, last)
-        })
-        .collect();
-    // Gather: word k of lane l at (k * LANES + l) words into its record.
-    for (columns, record, words) in [
-        (lp.globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
-        (lp.args, records.args, (0..shape.arg_words).collect()),
-    ] {
-        for k in words {
-            for (l, &p) in point.iter().enumerate() {
-                let from = column_word(&mut b, ptr, columns, k, p);
-                let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
-                b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
+    let inputs = |globals: Value, args: Value| {
+        [
+            (globals, records.globals, shape.globals_read.iter().map(|&w| w as usize).collect::<Vec<_>>()),
+            (args, records.args, (0..shape.arg_words).collect()),
+        ]
+    };
+    // A column of stride 0 (one value for every point) is copied into its
+    // record once, before the loop, and not again for each group.
+    let lp = PointLoop::begin(&mut b, ptr, |b, [globals, args, _, _, points]| {
+        let any = b.ins().icmp_imm_u(IntCC::NotEqual, points, 0);
+        for (columns, record, words) in inputs(globals, args) {
+            for k in words {
+                let (base, stride) = column(b, ptr, columns, k);
+                let uniform = b.ins().icmp_imm_u(IntCC::Equal, stride, 0);
+                let uniform = b.ins().band(uniform, any);
+                let (copy, next) = (b.create_block(), b.create_block());
+                b.ins().brif(uniform, copy, &[], next, &[]);
+                b.switch_to_block(copy);
+                let x = b.ins().load(types::I32, MemFlagsData::trusted(), base, 0);
+                let x = b.ins().splat(types::I32X4, x);
+                b.ins().stack_store(ptr, x, record, (16 * k) as i32);
+                b.ins().jump(next, &[]);
+                b.switch_to_block(next);
             }
         }
+    });
+    // A whole group is the points i..i + LANES; the last group of a batch
+    // that is not a multiple of LANES repeats its last point in the lanes
+    // past the end. Both copy their words in and out apart, around one body.
+    let group = |b: &mut FunctionBuilder| {
+        let end = b.ins().iadd_imm_u(lp.i, LANES as i64);
+        let whole = b.ins().icmp(IntCC::UnsignedLessThanOrEqual, end, lp.points);
+        let (whole_b, part_b, join) = (b.create_block(), b.create_block(), b.create_block());
+        b.ins().brif(whole, whole_b, &[], part_b, &[]);
+        (whole_b, part_b, join)
+    };
+    let last = |b: &mut FunctionBuilder| b.ins().iadd_imm_s(lp.points, -1);
+    let (whole_b, part_b, body) = group(&mut b);
+    for (block, lanes) in [(whole_b, GroupLanes::Whole), (part_b, GroupLanes::UpTo)] {
+        b.switch_to_block(block);
+        let last = last(&mut b);
+        for (columns, record, words) in inputs(lp.globals, lp.args) {
+            for k in words {
+                let stride = column_field(&mut b, ptr, columns, k, 1);
+                let (read, next) = (b.create_block(), b.create_block());
+                b.ins().brif(stride, read, &[], next, &[]);
+                b.switch_to_block(read);
+                let base = column_field(&mut b, ptr, columns, k, 0);
+                let from = lane_words(&mut b, base, stride, lp.i, lanes, last);
+                for (l, from) in from.into_iter().enumerate() {
+                    let x = b.ins().load(types::I32, MemFlagsData::trusted(), from, 0);
+                    b.ins().stack_store(ptr, x, record, (4 * (k * LANES + l)) as i32);
+                }
+                b.ins().jump(next, &[]);
+                b.switch_to_block(next);
+            }
+        }
+        b.ins().jump(body, &[]);
     }
+    b.switch_to_block(body);
     let zeros = b.ins().iconst(types::I32, 0);
     let zeros = b.ins().splat(types::I32X4, zeros);
     for k in 0..shape.result_words {
         b.ins().stack_store(ptr, zeros, records.out, (16 * k) as i32);
     }
-
     let mut g = Wide::new(&mut b, f, natives_used, [texture[0], texture[1]], ptr, records, arrays, lp.instance);
     g.byte_shuffles = has_byte_shuffles(&*isa);
     g.x86_shuffles = g.byte_shuffles && isa.name() == "x64";
     g.body(&f.body);
+    let tables = std::mem::take(&mut g.padded);
 
     // Scatter: lanes in order, so a repeated last point is written last
     // by a lane that computed the same bits.
-    for k in 0..shape.result_words {
-        for (l, &p) in point.iter().enumerate() {
-            let x = b.ins().stack_load(ptr, types::I32, records.out, (4 * (k * LANES + l)) as i32);
-            let to = column_word(&mut b, ptr, lp.out, k, p);
-            b.ins().store(MemFlagsData::trusted(), x, to, 0);
+    let (whole_b, part_b, next) = group(&mut b);
+    for (block, lanes) in [(whole_b, GroupLanes::Whole), (part_b, GroupLanes::UpTo)] {
+        b.switch_to_block(block);
+        let last = last(&mut b);
+        for k in 0..shape.result_words {
+            let (base, stride) = column(&mut b, ptr, lp.out, k);
+            let to = lane_words(&mut b, base, stride, lp.i, lanes, last);
+            // One load of the word's vector; each lane is stored from it
+            // (`pextrd` to memory).
+            let words = b.ins().stack_load(ptr, types::I32X4, records.out, (16 * k) as i32);
+            for (l, to) in to.into_iter().enumerate() {
+                let x = b.ins().extractlane(words, l as u8);
+                b.ins().store(MemFlagsData::trusted(), x, to, 0);
+            }
         }
+        b.ins().jump(next, &[]);
     }
+    b.switch_to_block(next);
     lp.end(&mut b, LANES as i64);
     b.finalize(module.target_config());
 
-    BatchCode::define(module, id, &mut ctx, "a vector batch entry")
+    Ok(BatchCode::define(module, id, &mut ctx, "a vector batch entry")?.keeping(tables))
 }
 
 /// The stack records of one group of points: word `k` of lane `l` at word
@@ -154,6 +202,59 @@ struct Records {
     globals: StackSlot,
     args: StackSlot,
     out: StackSlot,
+}
+
+/// Which points the lanes of a group shade.
+#[derive(Clone, Copy)]
+enum GroupLanes {
+    /// Lane `l` shades point `i + l`, all inside the batch.
+    Whole,
+    /// Lane `l` shades point min(i + l, last): the batch's last group.
+    UpTo,
+}
+
+/// The base and the stride of column `k` of the column table `columns` (a
+/// [`ColumnPtr`](super::batch::ColumnPtr) per word).
+fn column(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize) -> (Value, Value) {
+    (column_field(b, ptr, columns, k, 0), column_field(b, ptr, columns, k, 1))
+}
+
+/// Field `field` of column `k` (0: the base, 1: the stride).
+fn column_field(b: &mut FunctionBuilder, ptr: Type, columns: Value, k: usize, field: usize) -> Value {
+    let table = MemFlagsData::trusted().with_readonly();
+    let at = k * std::mem::size_of::<super::batch::ColumnPtr>() + field * std::mem::size_of::<*const u32>();
+    b.ins().load(ptr, table, columns, at as i32)
+}
+
+/// The addresses of a column's words of the group's points, lane by lane;
+/// a whole group's lanes are a stride apart.
+fn lane_words(
+    b: &mut FunctionBuilder,
+    base: Value,
+    stride: Value,
+    i: Value,
+    lanes: GroupLanes,
+    last: Value,
+) -> [Value; LANES] {
+    match lanes {
+        GroupLanes::Whole => {
+            let offset = b.ins().imul(i, stride);
+            let first = b.ins().iadd(base, offset);
+            std::array::from_fn(|l| {
+                if l == 0 {
+                    return first;
+                }
+                let step = b.ins().imul_imm_s(stride, l as i64);
+                b.ins().iadd(first, step)
+            })
+        }
+        GroupLanes::UpTo => std::array::from_fn(|l| {
+            let p = b.ins().iadd_imm_u(i, l as i64);
+            let p = b.ins().umin(p, last);
+            let offset = b.ins().imul(p, stride);
+            b.ins().iadd(base, offset)
+        }),
+    }
 }
 
 /// The masks of a label: the lanes that left by `break` (and, for a loop,
@@ -189,6 +290,18 @@ struct Wide<'a, 'b> {
     byte_shuffles: bool,
     /// Whether those shuffles are x86's `pshufb` (SSSE3).
     x86_shuffles: bool,
+    /// The operation defining each value (to find lookups of adjacent words).
+    defs: HashMap<ir::Value, &'a Op>,
+    /// Lookups gathered together with the lookup of the next word, by the
+    /// value of the first: the second's value ([`Wide::pair_lookups`]).
+    paired: HashMap<ir::Value, ir::Value>,
+    /// Copies of the tables looked up in pairs with their first word again
+    /// at the end, by the address of the table; the code reads them.
+    padded: Vec<Box<[u32]>>,
+    padded_index: HashMap<*const u32, usize>,
+    /// Sixteen bytes of stack for one vector of lookup indices
+    /// ([`Wide::table_indices`]), made at the first use.
+    indices: Option<StackSlot>,
 }
 
 /// Whether a byte shuffle is one instruction on `isa`: x86-64 without
@@ -236,7 +349,17 @@ impl<'a, 'b> Wide<'a, 'b> {
             instance,
             byte_shuffles: false,
             x86_shuffles: false,
+            defs: HashMap::new(),
+            paired: HashMap::new(),
+            padded: Vec::new(),
+            padded_index: HashMap::new(),
+            indices: None,
         };
+        ir::for_each_inst(&func.body, &mut |inst| {
+            if let Inst::Def(v, op) = inst {
+                g.defs.insert(*v, op);
+            }
+        });
         let max = g.splat_i(MAX_CALL_ITERATIONS);
         g.b.def_var(budget, max);
         let all = g.splat_i(-1);
@@ -272,10 +395,34 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 
     /// `new` in the lanes of `mask`, `old` elsewhere.
+    ///
+    /// Cranelift blends in one instruction (`pblendvb`) where it sees that
+    /// the mask is whole lanes: the result of a comparison, of the blend's
+    /// own type. So the blend is of integer lanes, and a mask computed
+    /// otherwise (the lanes that run, `and` of bools) is compared with zero
+    /// first: two instructions where `and`, `andn` and `or` are three, and
+    /// one comparison serves every blend under the same mask in a block.
     fn blend(&mut self, mask: Value, new: Value, old: Value) -> Value {
         let ty = self.b.func.dfg.value_type(new);
-        let mask = if ty == types::I32X4 { mask } else { self.b.ins().bitcast(ty, MemFlagsData::new(), mask) };
-        self.b.ins().bitselect(mask, new, old)
+        let compared = self
+            .b
+            .func
+            .dfg
+            .value_def(mask)
+            .inst()
+            .is_some_and(|i| matches!(self.b.func.dfg.insts[i].opcode(), Opcode::Icmp | Opcode::Fcmp));
+        let mask = if compared {
+            mask
+        } else {
+            let zero = self.splat_i(0);
+            self.b.ins().icmp(IntCC::SignedLessThan, mask, zero)
+        };
+        let as_ints = |g: &mut Self, x: Value| {
+            if ty == types::I32X4 { x } else { g.b.ins().bitcast(types::I32X4, MemFlagsData::new(), x) }
+        };
+        let (new, old) = (as_ints(self, new), as_ints(self, old));
+        let x = self.b.ins().bitselect(mask, new, old);
+        if ty == types::I32X4 { x } else { self.b.ins().bitcast(ty, MemFlagsData::new(), x) }
     }
 
     /// `new` where the code runs, `old` elsewhere (no blend when every
@@ -295,9 +442,154 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 
     fn body(&mut self, body: &[Inst]) {
+        self.pair_lookups(body);
         for inst in body {
             self.inst(inst);
         }
+    }
+
+    /// Whether lookups in `table` are byte shuffles ([`Wide::shuffled_table`]).
+    fn shuffles(&self, table: &[u32]) -> bool {
+        self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS
+    }
+
+    /// Pairs each gathered lookup of `body` (at its top level) with a later
+    /// one of the next word of the same table, when the index's definitions
+    /// show it is the next ([`Wide::is_successor`]): noise's permutation
+    /// is looked up at i and i + 1 on every axis. A pair is gathered
+    /// together, a 64-bit load a lane ([`Wide::paired_gather`]).
+    fn pair_lookups(&mut self, body: &[Inst]) {
+        // How far after a lookup its partner is looked for (noise's are
+        // at most 8 lookups apart).
+        const WINDOW: usize = 16;
+        if !self.byte_shuffles {
+            return;
+        }
+        let lookups: Vec<(ir::Value, &'static [u32], ir::Value)> = body
+            .iter()
+            .filter_map(|inst| match inst {
+                Inst::Def(v, Op::Table { table, index }) if !self.shuffles(table) && table.len() >= 2 => {
+                    Some((*v, *table, *index))
+                }
+                _ => None,
+            })
+            .collect();
+        let mut taken = vec![false; lookups.len()];
+        for i in 0..lookups.len() {
+            let (first, table, index) = lookups[i];
+            if taken[i] {
+                continue;
+            }
+            let partner = (i + 1..lookups.len()).take(WINDOW).find(|&j| {
+                !taken[j] && std::ptr::eq(lookups[j].1, table) && self.is_successor(index, lookups[j].2, table.len(), 4)
+            });
+            if let Some(j) = partner {
+                taken[i] = true;
+                taken[j] = true;
+                self.paired.insert(first, lookups[j].0);
+            }
+        }
+    }
+
+    /// Whether `b` is `a + 1` modulo `len` (a power of two) by the form of
+    /// their definitions, looking `depth` definitions deep: `b = a + 1`,
+    /// `b = x & m` with `x` the successor and `m`'s low bits all ones, or
+    /// `a = p + q` and `b = p + r` with `r` the successor of `q`.
+    fn is_successor(&self, a: ir::Value, b: ir::Value, len: usize, depth: u32) -> bool {
+        if depth == 0 {
+            return false;
+        }
+        let constant = |v: ir::Value| match self.defs.get(&v) {
+            Some(Op::I32(c)) => Some(*c),
+            _ => None,
+        };
+        let keeps_index = |m: ir::Value| constant(m).is_some_and(|c| (c as u32 as usize) & (len - 1) == len - 1);
+        match self.defs.get(&b) {
+            Some(Op::Binary(BinOp::IAnd, x, y)) => {
+                (keeps_index(*y) && self.is_successor(a, *x, len, depth - 1))
+                    || (keeps_index(*x) && self.is_successor(a, *y, len, depth - 1))
+            }
+            Some(Op::Binary(BinOp::IAdd, x, y)) => {
+                if (*x == a && constant(*y) == Some(1)) || (*y == a && constant(*x) == Some(1)) {
+                    return true;
+                }
+                let Some(Op::Binary(BinOp::IAdd, p, q)) = self.defs.get(&a) else { return false };
+                [(p, q), (q, p)].into_iter().any(|(same, before)| {
+                    [(x, y), (y, x)]
+                        .into_iter()
+                        .any(|(shared, after)| same == shared && self.is_successor(*before, *after, len, depth - 1))
+                })
+            }
+            _ => false,
+        }
+    }
+
+    /// Each lane's `index & (len - 1)` as an address-sized integer. Lane by
+    /// lane, an extraction and a 32-bit `and` (x86-64 clears the upper half
+    /// there, so widening costs no instruction); for a table of 256 words
+    /// (noise's permutation) on x86-64 the index is its low byte: the
+    /// vector is stored once and each lane's first byte loaded
+    /// zero-extended, one instruction a lane where the other way is two.
+    fn table_indices(&mut self, index: Value, len: usize) -> [Value; LANES] {
+        // x86-64 only: its vectors' lanes are stored in order, little-endian.
+        if len == 256 && self.x86_shuffles {
+            let slot = *self.indices.get_or_insert_with(|| {
+                self.b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 4))
+            });
+            self.b.ins().stack_store(self.ptr, index, slot, 0);
+            let at = self.b.ins().stack_addr(self.ptr, slot, 0);
+            return std::array::from_fn(|l| self.b.ins().uload8(self.ptr, MemFlagsData::trusted(), at, 4 * l as i32));
+        }
+        std::array::from_fn(|l| {
+            let i = self.b.ins().extractlane(index, l as u8);
+            let i = self.b.ins().band_imm_u(i, len as i64 - 1);
+            self.b.ins().uextend(self.ptr, i)
+        })
+    }
+
+    /// The address of `table` with its first word again after its last,
+    /// copied once per table and kept with the code.
+    fn padded_table(&mut self, table: &[u32]) -> i64 {
+        let k = *self.padded_index.entry(table.as_ptr()).or_insert_with(|| {
+            let mut words = table.to_vec();
+            words.push(table[0]);
+            self.padded.push(words.into_boxed_slice());
+            self.padded.len() - 1
+        });
+        self.padded[k].as_ptr() as i64
+    }
+
+    /// `table[index & (len - 1)]` and `table[(index + 1) & (len - 1)]`:
+    /// one 64-bit load a lane from the padded copy of the table, the pairs
+    /// then split into the first words and the second words (two `shufps`),
+    /// where two gathers load and insert a word at a time.
+    fn paired_gather(&mut self, table: &[u32], index: Value) -> [Value; 2] {
+        let base = self.padded_table(table);
+        let base = self.b.ins().iconst(self.ptr, base);
+        let readonly = MemFlagsData::new().with_notrap().with_readonly().with_can_move();
+        let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let indices = self.table_indices(index, table.len());
+        let halves: [Value; 2] = [0, 1].map(|h| {
+            let mut pairs = None;
+            for l in [2 * h, 2 * h + 1] {
+                let offset = self.b.ins().ishl_imm_u(indices[l], 2);
+                let addr = self.b.ins().iadd(base, offset);
+                let pair = self.b.ins().load(types::I64, readonly, addr, 0);
+                pairs = Some(match pairs {
+                    None => self.b.ins().scalar_to_vector(types::I64X2, pair),
+                    Some(v) => self.b.ins().insertlane(v, pair, 1),
+                });
+            }
+            let pairs = pairs.expect("two lanes");
+            self.b.ins().bitcast(types::I8X16, little, pairs)
+        });
+        // Words 0..8 of the two halves: lane l's pair is words 2l and 2l + 1.
+        [0, 1].map(|second| {
+            let bytes: Vec<u8> = (0..4).flat_map(|l| (0..4).map(move |k| (4 * (2 * l + second) + k) as u8)).collect();
+            let mask = self.b.func.dfg.immediates.push(bytes.into());
+            let words = self.b.ins().shuffle(halves[0], halves[1], mask);
+            self.b.ins().bitcast(types::I32X4, little, words)
+        })
     }
 
     /// The address of word `index` (clamped into the array) of lane `l`'s
@@ -357,6 +649,17 @@ impl<'a, 'b> Wide<'a, 'b> {
     fn inst(&mut self, inst: &Inst) {
         let trusted = MemFlagsData::trusted();
         match inst {
+            // The second of a pair, gathered with the first.
+            Inst::Def(v, _) if self.values[v.0 as usize].is_some() => {}
+            Inst::Def(v, Op::Table { table, index }) if self.paired.contains_key(v) => {
+                let second = self.paired[v];
+                let index = self.v(*index);
+                let [x, y] = self.paired_gather(table, index);
+                for (value, words) in [(*v, x), (second, y)] {
+                    let ty = self.func.value_type(value);
+                    self.values[value.0 as usize] = Some(self.words_as(ty, words));
+                }
+            }
             Inst::Def(v, op) => {
                 let ty = self.func.value_type(*v);
                 let x = self.op(op, ty);
@@ -594,6 +897,35 @@ impl<'a, 'b> Wide<'a, 'b> {
         words.unwrap_or_else(|| self.splat_i(0))
     }
 
+    /// `table[index & (len - 1)]` for a table of small whole floats
+    /// ([`small_whole_floats`]: `bytes` are its values as bytes): one
+    /// byte shuffle puts each lane's value in its top byte, an arithmetic
+    /// shift extends its sign and a conversion makes it the float, exactly
+    /// (noise's gradients: one shuffle where [`Wide::shuffled_table`] needs
+    /// two, and no merging of bytes).
+    fn shuffled_small_whole_floats(&mut self, bytes: &[u8], index: Value) -> Value {
+        let mask = self.splat_i(bytes.len() as i64 - 1);
+        let index = self.b.ins().band(index, mask);
+        let shifted = self.b.ins().ishl_imm_u(index, 24);
+        // The three low bytes select nothing (0x80 shuffles in a zero).
+        let out_of_range = self.splat_i(0x0080_8080);
+        let selectors = self.b.ins().bor(shifted, out_of_range);
+        let little = MemFlagsData::new().with_endianness(Endianness::Little);
+        let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
+        let mut plane = [0u8; 16];
+        plane[..bytes.len()].copy_from_slice(bytes);
+        let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
+        let plane = self.b.ins().vconst(types::I8X16, constant);
+        let top = if self.x86_shuffles {
+            self.b.ins().x86_pshufb(plane, selectors)
+        } else {
+            self.b.ins().swizzle(plane, selectors)
+        };
+        let top = self.b.ins().bitcast(types::I32X4, little, top);
+        let ints = self.b.ins().sshr_imm_u(top, 24);
+        self.b.ins().fcvt_from_sint(types::F32X4, ints)
+    }
+
     /// Four words as a vector of `ty`.
     fn words_as(&mut self, ty: Scalar, x: Value) -> Value {
         match ty {
@@ -630,22 +962,26 @@ impl<'a, 'b> Wide<'a, 'b> {
                 }
             }
             Op::Get(var) => self.b.use_var(self.vars[var.0 as usize]),
-            Op::Table { table, index } if self.byte_shuffles && table.len() <= SHUFFLED_TABLE_WORDS => {
+            Op::Table { table, index } if self.shuffles(table) => {
                 let index = self.v(*index);
+                if ty == Scalar::F32
+                    && let Some(bytes) = small_whole_floats(table)
+                {
+                    return self.shuffled_small_whole_floats(&bytes, index);
+                }
                 let words = self.shuffled_table(table, index);
                 self.words_as(ty, words)
             }
             Op::Table { table, index } => {
-                // The index masked in one vector operation, then a load
-                // per lane (an address mode each: base + index * 4).
-                let mask = self.splat_i(table.len() as i64 - 1);
+                // A load per lane (an address mode each: base + index * 4).
+                // Each lane's index is masked as a 32-bit integer: x86-64
+                // clears the upper half there, so widening it to an address
+                // costs no instruction.
                 let index = self.v(*index);
-                let index = self.b.ins().band(index, mask);
                 let base = self.b.ins().iconst(self.ptr, table.as_ptr() as i64);
+                let indices = self.table_indices(index, table.len());
                 self.gather(ty, |g, l| {
-                    let i = g.b.ins().extractlane(index, l as u8);
-                    let wide = g.b.ins().uextend(g.ptr, i);
-                    let offset = g.b.ins().ishl_imm_u(wide, 2);
+                    let offset = g.b.ins().ishl_imm_u(indices[l], 2);
                     let addr = g.b.ins().iadd(base, offset);
                     g.b.ins().load(types::I32, readonly, addr, 0)
                 })
@@ -755,6 +1091,18 @@ impl<'a, 'b> Wide<'a, 'b> {
     }
 }
 
+/// The values of a table whose every word is a whole float from -128 to
+/// 127 (`0.0`, not `-0.0`), as bytes; `None` for any other table.
+fn small_whole_floats(table: &[u32]) -> Option<Vec<u8>> {
+    table
+        .iter()
+        .map(|&w| {
+            let k = i8::try_from(f32::from_bits(w) as i32).ok()?;
+            (f32::from(k).to_bits() == w).then_some(k as u8)
+        })
+        .collect()
+}
+
 /// Whether `body` can send lanes to a label outside it (so lanes that
 /// entered may not all come out of its end).
 fn escapes(body: &[Inst]) -> bool {
@@ -777,6 +1125,26 @@ fn escapes(body: &[Inst]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Noise's 1D and 3D gradient tables are small whole floats (one
+    /// shuffle a lookup), its 2D diagonals (1/sqrt 2) are not; nor is a
+    /// table with a value past a byte, a negative zero or a NaN.
+    #[test]
+    fn small_whole_floats_are_the_tables_a_byte_holds_exactly() {
+        use crate::runtime::{GRAD1_WORDS, GRAD2_WORDS, GRAD3_WORDS};
+        for table in [&GRAD1_WORDS[..], &GRAD3_WORDS[0], &GRAD3_WORDS[1], &GRAD3_WORDS[2]] {
+            let bytes = small_whole_floats(table).expect("whole floats");
+            for (b, w) in bytes.iter().zip(table) {
+                assert_eq!(f32::from(*b as i8).to_bits(), *w);
+            }
+        }
+        assert_eq!(small_whole_floats(&GRAD2_WORDS[0]), None);
+        let words = |xs: &[f32]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        assert_eq!(small_whole_floats(&words(&[-128.0, 127.0, 0.0, -1.0])), Some(vec![0x80, 0x7f, 0, 0xff]));
+        for bad in [0.5, 128.0, -129.0, -0.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(small_whole_floats(&words(&[1.0, bad])), None, "{bad}");
+        }
+    }
 
     /// The flag is read by its Cranelift name: a misspelt name would
     /// quietly gather every table (`tests/batch.rs` checks the bits).
