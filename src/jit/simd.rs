@@ -878,16 +878,7 @@ impl<'a, 'b> Wide<'a, 'b> {
             let out_of_range = self.splat_i(i64::from((0x8080_8080u32 & !(0xff << (8 * k))) as i32));
             let selectors = self.b.ins().bor(shifted, out_of_range);
             let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
-            let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
-            let plane = self.b.ins().vconst(types::I8X16, constant);
-            // `x86_pshufb` zeroes where a selector's top bit is set, as
-            // ours are; `swizzle` adds a saturating add to give any index
-            // above 15 that meaning (x86-64's lowering of it).
-            let bytes = if self.x86_shuffles {
-                self.b.ins().x86_pshufb(plane, selectors)
-            } else {
-                self.b.ins().swizzle(plane, selectors)
-            };
+            let bytes = self.byte_shuffle(plane, selectors);
             let bytes = self.b.ins().bitcast(types::I32X4, little, bytes);
             words = Some(match words {
                 Some(w) => self.b.ins().bor(w, bytes),
@@ -895,6 +886,21 @@ impl<'a, 'b> Wide<'a, 'b> {
             });
         }
         words.unwrap_or_else(|| self.splat_i(0))
+    }
+
+    /// The bytes of the constant `plane` that `selectors` (an `i8x16`)
+    /// pick, zero where a selector's top bit is set.
+    fn byte_shuffle(&mut self, plane: [u8; 16], selectors: Value) -> Value {
+        let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
+        let plane = self.b.ins().vconst(types::I8X16, constant);
+        // `x86_pshufb` zeroes where a selector's top bit is set, as
+        // ours are; `swizzle` adds a saturating add to give any index
+        // above 15 that meaning (x86-64's lowering of it).
+        if self.x86_shuffles {
+            self.b.ins().x86_pshufb(plane, selectors)
+        } else {
+            self.b.ins().swizzle(plane, selectors)
+        }
     }
 
     /// `table[index & (len - 1)]` for a table of small whole floats
@@ -914,13 +920,7 @@ impl<'a, 'b> Wide<'a, 'b> {
         let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
         let mut plane = [0u8; 16];
         plane[..bytes.len()].copy_from_slice(bytes);
-        let constant = self.b.func.dfg.constants.insert(plane.to_vec().into());
-        let plane = self.b.ins().vconst(types::I8X16, constant);
-        let top = if self.x86_shuffles {
-            self.b.ins().x86_pshufb(plane, selectors)
-        } else {
-            self.b.ins().swizzle(plane, selectors)
-        };
+        let top = self.byte_shuffle(plane, selectors);
         let top = self.b.ins().bitcast(types::I32X4, little, top);
         let ints = self.b.ins().sshr_imm_u(top, 24);
         self.b.ins().fcvt_from_sint(types::F32X4, ints)
