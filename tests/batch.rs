@@ -136,26 +136,32 @@ fn generator_batches_give_the_bits_of_calls_point_by_point() {
 /// gradient tables up by byte shuffles (`jit::simd`), 2D's diagonals with
 /// all four bytes set, and its permutation by loads. At 4096 points every
 /// gradient of every table is reached.
-#[test]
-fn noise_batches_give_the_bits_of_noise_point_by_point() {
+/// 1D, 2D and 3D noise of the JIT's batch entry at points `p`, in
+/// `layout`, give the bits of `reference`'s point-by-point call.
+fn noise_batches_agree(p: &[[f32; 3]], layout: Layout, reference: Backend) {
     let src = "float n1() { return noise(P.x); }
                float n2() { return noise(vec2(P.x, P.y)); }
                float n3() { return noise(P); }";
     let program = program(src, ColorModel::Rgb);
-    let mut rng = Rng(0x9015e);
-    let p: Vec<[f32; 3]> = (0..4096).map(|_| [0, 1, 2].map(|_| rng.range(-300.0, 300.0))).collect();
     let mut batch = ShadingBatch::new(p.len());
-    batch.set_vectors("P", &p).unwrap();
+    batch.set_vectors("P", p).unwrap();
     for name in ["n1", "n2", "n3"] {
         let f = program.function(name).unwrap();
         let mut out = vec![0u32; p.len()];
-        f.call_batch(Backend::Jit, &batch, &[], &mut out, Layout::PointMajor).unwrap();
+        f.call_batch(Backend::Jit, &batch, &[], &mut out, layout).unwrap();
         for (i, got) in out.iter().enumerate() {
             let mut want = [0u32];
-            f.call_words(Backend::Interpreter, &batch.point(i), &[], &mut want).unwrap();
+            f.call_words(reference, &batch.point(i), &[], &mut want).unwrap();
             assert_eq!(*got, want[0], "{name} at {:?}", p[i]);
         }
     }
+}
+
+#[test]
+fn noise_batches_give_the_bits_of_noise_point_by_point() {
+    let mut rng = Rng(0x9015e);
+    let p: Vec<[f32; 3]> = (0..4096).map(|_| [0, 1, 2].map(|_| rng.range(-300.0, 300.0))).collect();
+    noise_batches_agree(&p, Layout::PointMajor, Backend::Interpreter);
 }
 
 /// Noise at lattice cells on the edges of its tables: the permutation's
@@ -164,27 +170,12 @@ fn noise_batches_give_the_bits_of_noise_point_by_point() {
 /// group at a different edge, in a batch whose last group is not whole.
 #[test]
 fn noise_batches_at_the_edges_of_the_tables_give_the_bits_point_by_point() {
-    let src = "float n1() { return noise(P.x); }
-               float n2() { return noise(vec2(P.x, P.y)); }
-               float n3() { return noise(P); }";
-    let program = program(src, ColorModel::Rgb);
     let cells = [0.0f32, 15.0, 16.0, 255.0, -1.0, 256.0, 1.0, 254.0, -256.0, 511.0];
     let mut rng = Rng(0xed9e);
     let p: Vec<[f32; 3]> = (0..4 * 61 + 3)
         .map(|_| [0, 1, 2].map(|_| cells[rng.next() as usize % cells.len()] + rng.range(0.0, 1.0)))
         .collect();
-    let mut batch = ShadingBatch::new(p.len());
-    batch.set_vectors("P", &p).unwrap();
-    for name in ["n1", "n2", "n3"] {
-        let f = program.function(name).unwrap();
-        let mut out = vec![0u32; p.len()];
-        f.call_batch(Backend::Jit, &batch, &[], &mut out, Layout::WordMajor).unwrap();
-        for (i, got) in out.iter().enumerate() {
-            let mut want = [0u32];
-            f.call_words(Backend::Jit, &batch.point(i), &[], &mut want).unwrap();
-            assert_eq!(*got, want[0], "{name} at {:?}", p[i]);
-        }
-    }
+    noise_batches_agree(&p, Layout::WordMajor, Backend::Jit);
 }
 
 #[test]
