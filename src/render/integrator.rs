@@ -284,8 +284,9 @@ impl<'s, const N: usize> Tracer<'s, N> {
             }
             let (eta, _) = self.eta(&sh, &NO_MEDIA);
             let dt = object.material.at(sh.g, v3(sh.wo), &eta, &mut self.scratch).refraction_dir();
-            // Light refracted into glass, even unbent, does not reach the light.
-            if !self.passes_straight(&sh, Vec3::from(dt)) {
+            // Light refracted into glass, even unbent, does not reach the
+            // light (`eta` is the surface's own index here).
+            if Vec3::from(dt).dot(-sh.wo) < DELTA_CONE || !self.is_unit_index(&eta) {
                 return true;
             }
             through *= self.refraction(&sh, Vec3::from(dt), &ones, &eta);

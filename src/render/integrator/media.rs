@@ -120,7 +120,12 @@ impl<'s, const N: usize> Tracer<'s, N> {
             return false;
         }
         let own = refraction_index(sh.object, sh.g, &self.ones, &mut self.scratch);
-        own.0[..self.lanes].iter().all(|e| *e == 1.0)
+        self.is_unit_index(&own)
+    }
+
+    /// Whether an index is 1 in every lane of this render.
+    pub(super) fn is_unit_index(&self, eta: &Spectrum<N>) -> bool {
+        eta.0[..self.lanes].iter().all(|e| *e == 1.0)
     }
 
     /// The relative index of refraction at `sh` (reached through `media`)
