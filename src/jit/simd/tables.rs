@@ -258,12 +258,12 @@ impl Wide<'_, '_> {
     /// (noise's gradients: one shuffle where [`Wide::shuffled_table`] needs
     /// two, and no merging of bytes).
     fn shuffled_small_whole_floats(&mut self, bytes: &[u8], index: Value) -> Value {
-        let mask = self.splat_i(bytes.len() as i64 - 1);
-        let index = self.b.ins().band(index, mask);
+        // The index's low bits in the top byte, the selector that counts;
+        // the three low bytes are zero and pick the plane's byte 0, which
+        // the shift below drops.
         let shifted = self.b.ins().ishl_imm_u(index, 24);
-        // The three low bytes select nothing (0x80 shuffles in a zero).
-        let out_of_range = self.splat_i(0x0080_8080);
-        let selectors = self.b.ins().bor(shifted, out_of_range);
+        let mask = self.splat_i((bytes.len() as i64 - 1) << 24);
+        let selectors = self.b.ins().band(shifted, mask);
         let little = MemFlagsData::new().with_endianness(Endianness::Little);
         let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
         let mut plane = [0u8; 16];
