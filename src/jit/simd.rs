@@ -23,7 +23,7 @@
 use super::batch::{BatchCode, BatchShape, PointLoop};
 use super::{LARGE_FUNCTION, SPECTRUM_TEXTURE_SYMBOL, TEXTURE_SYMBOL, native_isa, safe_div};
 use crate::globals::GLOBAL_WORDS;
-use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS};
+use crate::ir::semantics::{MAX_CALL_ITERATIONS, MAX_LOOP_ITERATIONS, loop_trips};
 use crate::ir::{self, BinOp, Inst, Label, Op, Scalar, UnOp};
 use crate::runtime::natives;
 use cranelift_codegen::Context;
@@ -271,6 +271,10 @@ struct Wide<'a, 'b> {
     vars: Vec<Variable>,
     /// Per lane: loop iterations the point's call may still run.
     budget: Variable,
+    /// Whether every lane has the same budget left: no loop has run under
+    /// a mask yet (the code runs in order: a loop runs under a mask or
+    /// once per call, not inside another loop, [`Wide::uniform_trips`]).
+    budget_uniform: bool,
     /// The lanes the code being emitted runs for.
     exec: Variable,
     /// False while `exec` is known to hold every lane (straight-line code
@@ -330,6 +334,7 @@ impl<'a, 'b> Wide<'a, 'b> {
             values: vec![None; func.values.len()],
             vars: Vec::new(),
             budget,
+            budget_uniform: true,
             exec,
             masked: false,
             labels: HashMap::new(),
@@ -617,6 +622,61 @@ impl<'a, 'b> Wide<'a, 'b> {
         trips
     }
 
+    /// The trips of a loop that every lane runs alike, when it is one: all
+    /// lanes run it, its bounds are constants, every lane has the same
+    /// budget, and its body neither leaves early (`break`, `continue`) nor
+    /// holds a loop (which could spend the lanes' budgets unevenly before
+    /// the next iteration).
+    fn uniform_trips(&self, start: ir::Value, end: ir::Value, body: &[Inst]) -> Option<(i32, i64)> {
+        fn plain(body: &[Inst]) -> bool {
+            body.iter().all(|inst| match inst {
+                Inst::Loop { .. } | Inst::Break(_) | Inst::Continue(_) => false,
+                Inst::If { then_body, else_body, .. } => plain(then_body) && plain(else_body),
+                Inst::Block { body, .. } => plain(body),
+                _ => true,
+            })
+        }
+        let constant = |v: ir::Value| match self.defs.get(&v) {
+            Some(Op::I32(c)) => Some(*c),
+            _ => None,
+        };
+        let (start, end) = (constant(start)?, constant(end)?);
+        (!self.masked && self.budget_uniform && plain(body)).then(|| (start, loop_trips(start, end)))
+    }
+
+    /// A loop every lane runs alike ([`Wide::uniform_trips`]): one scalar
+    /// counter, the body unmasked (no blends), the budget tested in one
+    /// lane.
+    fn uniform_loop(&mut self, counter: ir::Var, start: i32, trips: i64, body: &[Inst]) {
+        let k = self.b.declare_var(types::I32);
+        let zero = self.b.ins().iconst(types::I32, 0);
+        self.b.def_var(k, zero);
+        let (header, body_b, exit) = (self.b.create_block(), self.b.create_block(), self.b.create_block());
+        self.b.ins().jump(header, &[]);
+
+        self.b.switch_to_block(header);
+        let (kv, left) = (self.b.use_var(k), self.b.use_var(self.budget));
+        let in_range = self.b.ins().icmp_imm_s(IntCC::SignedLessThan, kv, trips);
+        let left_one = self.b.ins().extractlane(left, 0);
+        let funded = self.b.ins().icmp_imm_s(IntCC::SignedGreaterThan, left_one, 0);
+        let more = self.b.ins().band(in_range, funded);
+        self.b.ins().brif(more, body_b, &[], exit, &[]);
+
+        self.b.switch_to_block(body_b);
+        let one = self.splat_i(1);
+        let spent = self.b.ins().isub(left, one);
+        self.b.def_var(self.budget, spent);
+        let i = self.b.ins().iadd_imm_s(kv, i64::from(start));
+        let i = self.b.ins().splat(types::I32X4, i);
+        self.b.def_var(self.vars[counter.0 as usize], i);
+        self.body(body);
+        let next = self.b.ins().iadd_imm_s(kv, 1);
+        self.b.def_var(k, next);
+        self.b.ins().jump(header, &[]);
+
+        self.b.switch_to_block(exit);
+    }
+
     /// A loop: all lanes iterate together while any has trips and budget
     /// left; a lane's `k`-th iteration runs under its mask.
     fn wide_loop(
@@ -628,6 +688,10 @@ impl<'a, 'b> Wide<'a, 'b> {
         end: ir::Value,
         body: &[Inst],
     ) {
+        if let Some((first, trips)) = self.uniform_trips(start, end, body) {
+            return self.uniform_loop(counter, first, trips, body);
+        }
+        self.budget_uniform = false;
         let (s, e) = (self.v(start), self.v(end));
         let trips = self.trips(s, e);
         let entry_masked = self.masked;
