@@ -215,6 +215,34 @@ fn loops_of_constant_trips_give_the_bits_point_by_point() {
     batches_agree(src, &["octaves", "spent", "uneven", "branchy"], &p, Layout::PointMajor, Backend::Jit);
 }
 
+/// Float to int conversions at the edges of their range: saturated at
+/// 2^31 and beyond, NaN to 0, the largest floats below 2^31 and at -2^31
+/// exact (the four-lane entry converts in a sequence of its own on x86-64).
+#[test]
+fn float_to_int_batches_give_the_bits_point_by_point() {
+    let edges = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        2147483648.0,
+        2147483520.0,
+        -2147483648.0,
+        -2147483904.0,
+        1e20,
+        -1e20,
+        0.5,
+        -0.5,
+        -0.0,
+        3.7,
+        -3.7,
+    ];
+    let p: Vec<[f32; 3]> = (0..edges.len() + 3).map(|i| [0, 1, 2].map(|k| edges[(i + 5 * k) % edges.len()])).collect();
+    let src = "int ix() { return int(P.x); }
+               int iy() { return int(P.y * 2.0); }
+               int iz() { return int(floor(P.z)); }";
+    batches_agree(src, &["ix", "iy", "iz"], &p, Layout::PointMajor, Backend::Interpreter);
+}
+
 #[test]
 fn noise_batches_give_the_bits_of_noise_point_by_point() {
     let mut rng = Rng(0x9015e);
