@@ -258,12 +258,17 @@ impl Wide<'_, '_> {
     /// (noise's gradients: one shuffle where [`Wide::shuffled_table`] needs
     /// two, and no merging of bytes).
     fn shuffled_small_whole_floats(&mut self, bytes: &[u8], index: Value) -> Value {
-        // The index's low bits in the top byte, the selector that counts;
-        // the three low bytes are zero and pick the plane's byte 0, which
-        // the shift below drops.
-        let shifted = self.b.ins().ishl_imm_u(index, 24);
-        let mask = self.splat_i((bytes.len() as i64 - 1) << 24);
-        let selectors = self.b.ins().band(shifted, mask);
+        // The index's low bits (`index & (len - 1)`, len a power of two)
+        // in the top byte by two shifts, the selector that counts (no mask,
+        // no register for one); the three low bytes are zero and pick the
+        // plane's byte 0, which the shift below drops.
+        let bits = bytes.len().trailing_zeros();
+        let selectors = if bits == 0 {
+            self.splat_i(0)
+        } else {
+            let high = self.b.ins().ishl_imm_u(index, i64::from(32 - bits));
+            self.b.ins().ushr_imm_u(high, i64::from(8 - bits))
+        };
         let little = MemFlagsData::new().with_endianness(Endianness::Little);
         let selectors = self.b.ins().bitcast(types::I8X16, little, selectors);
         let mut plane = [0u8; 16];
