@@ -142,10 +142,17 @@ fn noise_batches_agree(p: &[[f32; 3]], layout: Layout, reference: Backend) {
     let src = "float n1() { return noise(P.x); }
                float n2() { return noise(vec2(P.x, P.y)); }
                float n3() { return noise(P); }";
+    batches_agree(src, &["n1", "n2", "n3"], p, layout, reference);
+}
+
+/// The functions `names` of `src` (no arguments, one word of result) give
+/// in the JIT's batch entry at points `p`, in `layout`, the bits of
+/// `reference`'s point-by-point call.
+fn batches_agree(src: &str, names: &[&str], p: &[[f32; 3]], layout: Layout, reference: Backend) {
     let program = program(src, ColorModel::Rgb);
     let mut batch = ShadingBatch::new(p.len());
     batch.set_vectors("P", p).unwrap();
-    for name in ["n1", "n2", "n3"] {
+    for name in names {
         let f = program.function(name).unwrap();
         let mut out = vec![0u32; p.len()];
         f.call_batch(Backend::Jit, &batch, &[], &mut out, layout).unwrap();
@@ -155,6 +162,85 @@ fn noise_batches_agree(p: &[[f32; 3]], layout: Layout, reference: Backend) {
             assert_eq!(*got, want[0], "{name} at {:?}", p[i]);
         }
     }
+}
+
+/// Loops of constant trips: at the top, where every lane runs them alike
+/// (the four-lane entry runs them without masks), until the call's budget
+/// of iterations is spent (4 x 65,536, the same in every lane, and the
+/// loops after it run no trip); after loops of per-point trips that spent
+/// the lanes' budgets unevenly (the constant loops then stop lane by lane);
+/// under a branch, around one, and left by `break`.
+#[test]
+fn loops_of_constant_trips_give_the_bits_point_by_point() {
+    let src = "
+        float octaves() {
+            float s = 0;
+            float a = 0.5;
+            vector q = P;
+            for o in 0..6 {
+                s += a * noise(q) + float(o) * 0.01;
+                q = q * 2.03;
+                a *= 0.5;
+            }
+            return s;
+        }
+        float spent() {
+            float s = P.x;
+            for i in 0..65536 { s = s * 0.999 + 0.5; }
+            for i in 0..65536 { s = s * 0.999 + 0.25; }
+            for i in 0..65536 { s = s * 0.999 + 0.125; }
+            for i in 0..65536 { s = s * 0.999 + 1.0; }
+            for i in 0..3 { s += 7; }
+            int n = int(abs(P.y) * 3.0);
+            for j in 0..n { s += 2; }
+            return s;
+        }
+        float uneven() {
+            float s = 0;
+            int n = int(abs(P.x) * 200.0) % 60000;
+            for i in 0..4 { for j in 0..n { s += 1; } }
+            for k in 0..65536 { s += 0.5; }
+            for k in 0..65536 { s += 0.25; }
+            return s;
+        }
+        float branchy() {
+            float s = 0;
+            if P.x > 0 { for i in 0..5 { s += float(i); } }
+            for i in 0..7 { if P.y > float(i * 40) { s += 1; } else { s -= 0.5; } }
+            for i in 0..9 { if float(i * 60) > P.z + 300 { break; } s += 0.25; }
+            return s;
+        }";
+    let mut rng = Rng(0x100b5);
+    let p: Vec<[f32; 3]> = (0..4 * 9 + 3).map(|_| [0, 1, 2].map(|_| rng.range(-300.0, 300.0))).collect();
+    batches_agree(src, &["octaves", "spent", "uneven", "branchy"], &p, Layout::PointMajor, Backend::Jit);
+}
+
+/// Float to int conversions at the edges of their range: saturated at
+/// 2^31 and beyond, NaN to 0, the largest floats below 2^31 and at -2^31
+/// exact (the four-lane entry converts in a sequence of its own on x86-64).
+#[test]
+fn float_to_int_batches_give_the_bits_point_by_point() {
+    let edges = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        2147483648.0,
+        2147483520.0,
+        -2147483648.0,
+        -2147483904.0,
+        1e20,
+        -1e20,
+        0.5,
+        -0.5,
+        -0.0,
+        3.7,
+        -3.7,
+    ];
+    let p: Vec<[f32; 3]> = (0..edges.len() + 3).map(|i| [0, 1, 2].map(|k| edges[(i + 5 * k) % edges.len()])).collect();
+    let src = "int ix() { return int(P.x); }
+               int iy() { return int(P.y * 2.0); }
+               int iz() { return int(floor(P.z)); }";
+    batches_agree(src, &["ix", "iy", "iz"], &p, Layout::PointMajor, Backend::Interpreter);
 }
 
 #[test]
