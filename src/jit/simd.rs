@@ -626,6 +626,14 @@ impl<'a, 'b> Wide<'a, 'b> {
         trips
     }
 
+    /// The value of `v` when it is defined as an integer constant.
+    fn int_constant(&self, v: ir::Value) -> Option<i32> {
+        match self.defs.get(&v) {
+            Some(Op::I32(c)) => Some(*c),
+            _ => None,
+        }
+    }
+
     /// The trips of a loop that every lane runs alike, when it is one: all
     /// lanes run it, its bounds are constants, every lane has the same
     /// budget, and its body neither leaves early (`break`, `continue`) nor
@@ -640,11 +648,7 @@ impl<'a, 'b> Wide<'a, 'b> {
                 _ => true,
             })
         }
-        let constant = |v: ir::Value| match self.defs.get(&v) {
-            Some(Op::I32(c)) => Some(*c),
-            _ => None,
-        };
-        let (start, end) = (constant(start)?, constant(end)?);
+        let (start, end) = (self.int_constant(start)?, self.int_constant(end)?);
         (!self.masked && self.budget_uniform && plain(body)).then(|| (start, loop_trips(start, end)))
     }
 

@@ -108,10 +108,7 @@ impl Wide<'_, '_> {
         if depth == 0 {
             return false;
         }
-        let constant = |v: ir::Value| match self.defs.get(&v) {
-            Some(Op::I32(c)) => Some(*c),
-            _ => None,
-        };
+        let constant = |v: ir::Value| self.int_constant(v);
         let keeps_index = |m: ir::Value| constant(m).is_some_and(|c| (c as u32 as usize) & (len - 1) == len - 1);
         match self.defs.get(&b) {
             Some(Op::Binary(BinOp::IAnd, x, y)) => {
